@@ -1,0 +1,513 @@
+//! The kinematic tree: joints in depth-first order, body inertias, frames and geometry.
+
+use nalgebra::{DVector, Matrix3, UnitQuaternion, Vector3};
+
+use crate::spatial::{Inertia, Motion, Se3};
+
+/// The kind of a joint, with its motion subspace `S` in the joint (child) frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum JointKind {
+    /// Index 0 of every model: the world. No degrees of freedom.
+    Universe,
+    /// A 6-dof free-flyer (floating base). `q = [x, y, z, qx, qy, qz, qw]` (placement of the
+    /// child frame in the parent frame, scalar-last unit quaternion); `v = [v, ω]` is the
+    /// child's twist expressed in the child frame; `S = 𝟙₆`.
+    FreeFlyer,
+    /// Rotation by `q` about the unit `axis`: `S = (0, axis)`.
+    Revolute {
+        /// Unit rotation axis in the joint frame.
+        axis: Vector3<f64>,
+    },
+    /// Translation by `q` along the unit `axis`: `S = (axis, 0)`.
+    Prismatic {
+        /// Unit translation axis in the joint frame.
+        axis: Vector3<f64>,
+    },
+}
+
+impl JointKind {
+    /// Dimension of the joint's configuration.
+    #[inline]
+    pub fn nq(&self) -> usize {
+        match self {
+            JointKind::Universe => 0,
+            JointKind::FreeFlyer => 7,
+            JointKind::Revolute { .. } | JointKind::Prismatic { .. } => 1,
+        }
+    }
+
+    /// Dimension of the joint's velocity (degrees of freedom).
+    #[inline]
+    pub fn nv(&self) -> usize {
+        match self {
+            JointKind::Universe => 0,
+            JointKind::FreeFlyer => 6,
+            JointKind::Revolute { .. } | JointKind::Prismatic { .. } => 1,
+        }
+    }
+
+    /// The joint transform `M_J(q)` (child frame in the frame the joint is placed in).
+    #[inline]
+    pub fn transform(&self, q: &[f64]) -> Se3 {
+        match self {
+            JointKind::Universe => Se3::identity(),
+            JointKind::FreeFlyer => {
+                let quat = nalgebra::Quaternion::new(q[6], q[3], q[4], q[5]);
+                let unit = UnitQuaternion::from_quaternion(quat);
+                Se3::from_quaternion(&unit, Vector3::new(q[0], q[1], q[2]))
+            }
+            JointKind::Revolute { axis } => {
+                Se3 { rotation: axis_rotation(axis, q[0]), translation: Vector3::zeros() }
+            }
+            JointKind::Prismatic { axis } => Se3::from_translation(axis * q[0]),
+        }
+    }
+
+    /// Column `k` of the motion subspace `S` (for 1-dof joints, `k = 0`).
+    #[inline]
+    pub fn subspace_column(&self, k: usize) -> Motion {
+        match self {
+            JointKind::Universe => Motion::zero(),
+            JointKind::FreeFlyer => {
+                let mut m = Motion::zero();
+                if k < 3 {
+                    m.linear[k] = 1.0;
+                } else {
+                    m.angular[k - 3] = 1.0;
+                }
+                m
+            }
+            JointKind::Revolute { axis } => Motion::new(Vector3::zeros(), *axis),
+            JointKind::Prismatic { axis } => Motion::new(*axis, Vector3::zeros()),
+        }
+    }
+
+    /// The joint velocity `v_J = S q̇` in the child frame.
+    #[inline]
+    pub fn motion(&self, qd: &[f64]) -> Motion {
+        match self {
+            JointKind::Universe => Motion::zero(),
+            JointKind::FreeFlyer => {
+                Motion::new(Vector3::new(qd[0], qd[1], qd[2]), Vector3::new(qd[3], qd[4], qd[5]))
+            }
+            JointKind::Revolute { axis } => Motion::new(Vector3::zeros(), axis * qd[0]),
+            JointKind::Prismatic { axis } => Motion::new(axis * qd[0], Vector3::zeros()),
+        }
+    }
+}
+
+/// Rotation by `angle` about the unit `axis` (Rodrigues), with exact matrices for the
+/// coordinate axes.
+#[inline]
+pub(crate) fn axis_rotation(axis: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
+    let (s, c) = angle.sin_cos();
+    let (x, y, z) = (axis.x, axis.y, axis.z);
+    let t = 1.0 - c;
+    Matrix3::new(
+        t * x * x + c,
+        t * x * y - s * z,
+        t * x * z + s * y,
+        t * x * y + s * z,
+        t * y * y + c,
+        t * y * z - s * x,
+        t * x * z - s * y,
+        t * y * z + s * x,
+        t * z * z + c,
+    )
+}
+
+/// One joint of the tree and the body it moves.
+#[derive(Clone, Debug)]
+pub struct Joint {
+    /// Joint name (from the URDF; `"universe"` for index 0, `"root_joint"` for a free-flyer
+    /// added by the loader).
+    pub name: String,
+    /// Kind and axis.
+    pub kind: JointKind,
+    /// Index of the parent joint (`0` for joints attached to the world; `parent < index`).
+    pub parent: usize,
+    /// Placement of the joint frame in the parent joint's frame at `q = 0`.
+    pub placement: Se3,
+    /// First index of this joint in `q`.
+    pub idx_q: usize,
+    /// First index of this joint in `v`.
+    pub idx_v: usize,
+}
+
+impl Joint {
+    /// Dimension of the joint's configuration.
+    #[inline]
+    pub fn nq(&self) -> usize {
+        self.kind.nq()
+    }
+    /// Degrees of freedom.
+    #[inline]
+    pub fn nv(&self) -> usize {
+        self.kind.nv()
+    }
+}
+
+/// A named frame rigidly attached to a joint (every URDF link becomes one).
+#[derive(Clone, Debug)]
+pub struct Frame {
+    /// Frame name (the URDF link name for link frames).
+    pub name: String,
+    /// Joint whose body the frame moves with.
+    pub parent_joint: usize,
+    /// Placement of the frame in the joint frame.
+    pub placement: Se3,
+    /// Inertia of the link this frame stands for, in the frame's own coordinates (zero for
+    /// massless links and for frames that are not links).
+    pub link_inertia: Inertia,
+    /// Whether the frame is a URDF link (as opposed to an operational frame added later).
+    pub is_link: bool,
+}
+
+/// A geometric primitive, in the frame of its [`Geometry`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum Shape {
+    /// Box with the given full side lengths (m).
+    Box {
+        /// Side lengths along x, y, z.
+        size: Vector3<f64>,
+    },
+    /// Cylinder along the local z axis.
+    Cylinder {
+        /// Radius (m).
+        radius: f64,
+        /// Full length (m).
+        length: f64,
+    },
+    /// Capsule along the local z axis: a cylinder of `length` capped by two hemispheres.
+    Capsule {
+        /// Radius (m).
+        radius: f64,
+        /// Length of the cylindrical part (m).
+        length: f64,
+    },
+    /// Sphere.
+    Sphere {
+        /// Radius (m).
+        radius: f64,
+    },
+    /// A mesh file; dynamics never reads it (resolution is the renderer's concern).
+    Mesh {
+        /// The filename as written in the URDF.
+        filename: String,
+        /// Scale factors.
+        scale: Vector3<f64>,
+    },
+}
+
+/// What a geometry is used for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GeometryRole {
+    /// A `<collision>` element.
+    Collision,
+    /// A `<visual>` element.
+    Visual,
+}
+
+/// A collision or visual shape attached to a link.
+#[derive(Clone, Debug)]
+pub struct Geometry {
+    /// Name (the URDF element's name, or `<link>_collision_<k>` / `<link>_visual_<k>`).
+    pub name: String,
+    /// Index of the link's frame in [`Model::frames`].
+    pub frame: usize,
+    /// Joint whose body the shape moves with.
+    pub parent_joint: usize,
+    /// Placement of the shape in the joint frame.
+    pub placement: Se3,
+    /// The primitive.
+    pub shape: Shape,
+    /// Collision or visual.
+    pub role: GeometryRole,
+    /// RGBA colour from the URDF material, if any.
+    pub rgba: Option<[f64; 4]>,
+}
+
+/// A rigid-body tree: the description every algorithm reads and never changes.
+///
+/// Joints are stored in depth-first order (`parent < child`, and every subtree occupies a
+/// contiguous range of joints and of `v`); index 0 is the world (`universe`). Each joint
+/// moves one body, whose inertia (links merged across fixed joints) is `inertias[i]`,
+/// expressed in the joint frame. See the crate documentation for the `q`/`v` conventions.
+#[derive(Clone, Debug)]
+pub struct Model {
+    /// Robot name.
+    pub name: String,
+    /// Where the model came from (file path or a label), used in error messages.
+    pub source: String,
+    /// Joints, index 0 being the universe.
+    pub joints: Vec<Joint>,
+    /// Body inertias, one per joint, in the joint frame (index 0: what is welded to the world).
+    pub inertias: Vec<Inertia>,
+    /// Frames: every link, plus any frame added with [`Model::add_frame`].
+    pub frames: Vec<Frame>,
+    /// Collision and visual geometry.
+    pub geometries: Vec<Geometry>,
+    /// Gravity in the world frame (default `(0, 0, −9.81)` m/s²).
+    pub gravity: Vector3<f64>,
+    /// Configuration dimension.
+    pub nq: usize,
+    /// Velocity dimension (degrees of freedom).
+    pub nv: usize,
+    /// Lower position limit per `q` entry (`−∞` where unlimited).
+    pub lower_position_limit: DVector<f64>,
+    /// Upper position limit per `q` entry (`+∞` where unlimited).
+    pub upper_position_limit: DVector<f64>,
+    /// Velocity limit per `v` entry (`+∞` where none is given).
+    pub velocity_limit: DVector<f64>,
+    /// Effort limit per `v` entry (`+∞` where none is given).
+    pub effort_limit: DVector<f64>,
+    /// Viscous damping per `v` entry (N·m·s/rad or N·s/m), from `<dynamics damping>`.
+    pub damping: DVector<f64>,
+    /// Coulomb friction per `v` entry (N·m or N), from `<dynamics friction>`.
+    pub friction: DVector<f64>,
+    /// Rotor inertia reflected to each `v` entry (armature; 0 unless set by the user).
+    pub armature: DVector<f64>,
+    // Derived tree structure, filled by `finalize`.
+    pub(crate) parent_v: Vec<Option<usize>>,
+    pub(crate) nv_subtree_from_row: Vec<usize>,
+    pub(crate) supports: Vec<Vec<usize>>,
+    pub(crate) joint_of_v: Vec<usize>,
+}
+
+impl Model {
+    /// An empty model: just the universe.
+    pub fn new(name: impl Into<String>) -> Self {
+        let mut m = Model {
+            name: name.into(),
+            source: String::new(),
+            joints: vec![Joint {
+                name: "universe".into(),
+                kind: JointKind::Universe,
+                parent: 0,
+                placement: Se3::identity(),
+                idx_q: 0,
+                idx_v: 0,
+            }],
+            inertias: vec![Inertia::zero()],
+            frames: Vec::new(),
+            geometries: Vec::new(),
+            gravity: Vector3::new(0.0, 0.0, -9.81),
+            nq: 0,
+            nv: 0,
+            lower_position_limit: DVector::zeros(0),
+            upper_position_limit: DVector::zeros(0),
+            velocity_limit: DVector::zeros(0),
+            effort_limit: DVector::zeros(0),
+            damping: DVector::zeros(0),
+            friction: DVector::zeros(0),
+            armature: DVector::zeros(0),
+            parent_v: Vec::new(),
+            nv_subtree_from_row: Vec::new(),
+            supports: vec![vec![0]],
+            joint_of_v: Vec::new(),
+        };
+        m.finalize();
+        m
+    }
+
+    /// Number of joints including the universe.
+    #[inline]
+    pub fn njoints(&self) -> usize {
+        self.joints.len()
+    }
+
+    /// Whether joint 1 is a free-flyer attached to the world (a floating-base robot).
+    pub fn has_floating_base(&self) -> bool {
+        self.joints.len() > 1 && self.joints[1].kind == JointKind::FreeFlyer && self.joints[1].parent == 0
+    }
+
+    /// Index of the joint with the given name.
+    pub fn joint_index(&self, name: &str) -> Option<usize> {
+        self.joints.iter().position(|j| j.name == name)
+    }
+
+    /// Index of the frame with the given name.
+    pub fn frame_index(&self, name: &str) -> Option<usize> {
+        self.frames.iter().position(|f| f.name == name)
+    }
+
+    /// Joints on the path from the world to `joint`, root first, `joint` last (0 excluded).
+    #[inline]
+    pub fn support(&self, joint: usize) -> &[usize] {
+        &self.supports[joint][1..]
+    }
+
+    /// The `v` index of the parent degree of freedom of `v` index `k` (the previous dof of
+    /// the same joint, or the last dof of the parent joint), `None` at a root.
+    #[inline]
+    pub fn parent_dof(&self, k: usize) -> Option<usize> {
+        self.parent_v[k]
+    }
+
+    /// Number of degrees of freedom in the subtree that starts at `v` index `k` (inclusive),
+    /// which occupy the contiguous range `k..k + n`.
+    #[inline]
+    pub fn nv_subtree(&self, k: usize) -> usize {
+        self.nv_subtree_from_row[k]
+    }
+
+    /// The joint that owns `v` index `k`.
+    #[inline]
+    pub fn joint_of_dof(&self, k: usize) -> usize {
+        self.joint_of_v[k]
+    }
+
+    /// Total mass moved by the joints (what is welded to the world is excluded).
+    pub fn total_mass(&self) -> f64 {
+        self.inertias[1..].iter().map(|i| i.mass).sum()
+    }
+
+    /// The neutral configuration: zero joint positions, identity base orientation.
+    pub fn neutral_configuration(&self) -> DVector<f64> {
+        let mut q = DVector::zeros(self.nq);
+        for j in &self.joints[1..] {
+            if j.kind == JointKind::FreeFlyer {
+                q[j.idx_q + 6] = 1.0;
+            }
+        }
+        q
+    }
+
+    /// Adds a frame rigidly attached to the frame `parent_frame`, at `placement` in it.
+    /// Returns its index.
+    #[track_caller]
+    pub fn add_frame(&mut self, name: impl Into<String>, parent_frame: usize, placement: Se3) -> usize {
+        assert!(
+            parent_frame < self.frames.len(),
+            "add_frame: parent frame {parent_frame} out of range (model has {} frames)",
+            self.frames.len()
+        );
+        let parent = &self.frames[parent_frame];
+        self.frames.push(Frame {
+            name: name.into(),
+            parent_joint: parent.parent_joint,
+            placement: parent.placement.mul(&placement),
+            link_inertia: Inertia::zero(),
+            is_link: false,
+        });
+        self.frames.len() - 1
+    }
+
+    /// Recomputes every body inertia from the frames' link inertias (merging links across
+    /// fixed joints). Call after editing [`Frame::link_inertia`].
+    pub fn recompute_body_inertias(&mut self) {
+        for y in &mut self.inertias {
+            *y = Inertia::zero();
+        }
+        for f in &self.frames {
+            if f.link_inertia.mass > 0.0 || f.link_inertia.rotational != Matrix3::zeros() {
+                let y = f.placement.act_inertia(&f.link_inertia);
+                self.inertias[f.parent_joint] = self.inertias[f.parent_joint].add(&y);
+            }
+        }
+    }
+
+    /// Appends a joint under `parent` and returns its index. Joints must be added in
+    /// depth-first order (each subtree complete before the next sibling starts), which
+    /// [`Model::finalize`] checks.
+    #[track_caller]
+    pub fn add_joint(
+        &mut self,
+        name: impl Into<String>,
+        kind: JointKind,
+        parent: usize,
+        placement: Se3,
+    ) -> usize {
+        assert!(
+            parent < self.joints.len(),
+            "add_joint: parent {parent} out of range (model has {} joints)",
+            self.joints.len()
+        );
+        let idx_q = self.nq;
+        let idx_v = self.nv;
+        self.joints.push(Joint { name: name.into(), kind, parent, placement, idx_q, idx_v });
+        self.inertias.push(Inertia::zero());
+        self.nq += kind.nq();
+        self.nv += kind.nv();
+        let grow = |v: &mut DVector<f64>, n: usize, value: f64| {
+            let old = v.len();
+            *v = v.clone().resize_vertically(n, value);
+            debug_assert!(v.len() >= old);
+        };
+        let (nq, nv) = (self.nq, self.nv);
+        grow(&mut self.lower_position_limit, nq, f64::NEG_INFINITY);
+        grow(&mut self.upper_position_limit, nq, f64::INFINITY);
+        grow(&mut self.velocity_limit, nv, f64::INFINITY);
+        grow(&mut self.effort_limit, nv, f64::INFINITY);
+        grow(&mut self.damping, nv, 0.0);
+        grow(&mut self.friction, nv, 0.0);
+        grow(&mut self.armature, nv, 0.0);
+        self.finalize();
+        self.joints.len() - 1
+    }
+
+    /// Recomputes the derived tree structure (supports, dof parents, subtree sizes).
+    ///
+    /// # Panics
+    /// If the joints are not in depth-first order (a programming error of the caller).
+    #[track_caller]
+    pub fn finalize(&mut self) {
+        let n = self.joints.len();
+        self.supports = Vec::with_capacity(n);
+        self.supports.push(vec![0]);
+        for i in 1..n {
+            let p = self.joints[i].parent;
+            assert!(p < i, "joint {i} has parent {p}: parents must come first");
+            let mut s = self.supports[p].clone();
+            s.push(i);
+            self.supports.push(s);
+        }
+        // Depth-first order: the subtree of each joint is the contiguous range that follows it.
+        let mut subtree_end = vec![0usize; n];
+        for i in (1..n).rev() {
+            subtree_end[i] = subtree_end[i].max(i + 1);
+            let p = self.joints[i].parent;
+            subtree_end[p] = subtree_end[p].max(subtree_end[i]);
+        }
+        for i in 1..n {
+            for k in (i + 1)..subtree_end[i] {
+                assert!(
+                    self.supports[k].contains(&i),
+                    "joints are not in depth-first order: joint {k} ('{}') lies inside the \
+                     subtree range of joint {i} ('{}') but is not its descendant",
+                    self.joints[k].name,
+                    self.joints[i].name
+                );
+            }
+        }
+        self.parent_v = vec![None; self.nv];
+        self.nv_subtree_from_row = vec![0; self.nv];
+        self.joint_of_v = vec![0; self.nv];
+        for i in 1..n {
+            let j = &self.joints[i];
+            let nvj = j.nv();
+            let end_v = if subtree_end[i] < n { self.joints[subtree_end[i]].idx_v } else { self.nv };
+            for k in 0..nvj {
+                let row = j.idx_v + k;
+                self.joint_of_v[row] = i;
+                self.nv_subtree_from_row[row] = end_v - row;
+                self.parent_v[row] = if k > 0 {
+                    Some(row - 1)
+                } else {
+                    // Last dof of the nearest ancestor that has dofs.
+                    let mut p = j.parent;
+                    loop {
+                        if p == 0 {
+                            break None;
+                        }
+                        let pj = &self.joints[p];
+                        if pj.nv() > 0 {
+                            break Some(pj.idx_v + pj.nv() - 1);
+                        }
+                        p = pj.parent;
+                    }
+                };
+            }
+        }
+    }
+}

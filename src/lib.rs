@@ -1,0 +1,9 @@
+//! # Centaur
+//!
+//! Legged-robot locomotion that joins model-based control and reinforcement learning.
+//! This facade re-exports the workspace crates.
+
+pub use centaur_dynamics as dynamics;
+pub use centaur_envs as envs;
+pub use centaur_mpc as mpc;
+pub use centaur_rl as rl;
