@@ -101,9 +101,17 @@ def build(prefix: Path, cxx: str, build_dir: Path, extra: list[str], force: bool
         return out, False
     build_dir.mkdir(parents=True, exist_ok=True)
     cmd = compile_command(prefix, cxx, out, extra)
+    log = out.with_suffix(".log")
     print("building:", shlex.join(cmd), file=sys.stderr)
-    print("(Pinocchio's headers take a few minutes to compile)", file=sys.stderr)
-    subprocess.run(cmd, check=True)
+    print(f"(Pinocchio's headers take a few minutes to compile; compiler output in {log})",
+          file=sys.stderr)
+    # Eigen's AVX-512 paths trigger many harmless -Wstringop-overread warnings
+    # inside Pinocchio's headers: keep them in the log, show it only on failure.
+    with open(log, "w") as fh:
+        proc = subprocess.run(cmd, stdout=fh, stderr=subprocess.STDOUT)
+    if proc.returncode != 0:
+        sys.stderr.write(log.read_text()[-6000:])
+        sys.exit(f"compilation failed (exit code {proc.returncode}), see {log}")
     return out, True
 
 
