@@ -123,6 +123,15 @@ fn main() -> ExitCode {
             }
         })
     };
+    // Not part of the JSON contract: centre of mass alone (composite inertias), for profiling.
+    if only.as_deref() == Some("com") {
+        let com = median_ns(rounds, || {
+            for q in &qs {
+                black_box(centaur_dynamics::center_of_mass(&model, &mut data, q.as_slice()));
+            }
+        });
+        eprintln!("center_of_mass: {com:.1} ns");
+    }
     println!(
         "{{\"fk\": {fk:.1}, \"jacobians\": {jacobians:.1}, \"rnea\": {rnea_ns:.1}, \"crba\": {crba_ns:.1}, \
          \"aba\": {aba_ns:.1}, \"centroidal\": {centroidal:.1}, \"nq\": {}, \"nv\": {}}}",

@@ -54,6 +54,8 @@ pub struct Data {
     pub kinetic_energy: f64,
     /// Potential energy from [`crate::potential_energy`].
     pub potential_energy: f64,
+    // CRBA workspace: composite inertia times each world subspace column.
+    pub(crate) f_crb: Matrix6xX<f64>,
     // ABA workspace.
     pub(crate) y_aba: Vec<Matrix6<f64>>,
     pub(crate) p_aba: Vec<Force>,
@@ -96,6 +98,7 @@ impl Data {
             jacobian_com: Matrix3xX::zeros(nv),
             kinetic_energy: 0.0,
             potential_energy: 0.0,
+            f_crb: Matrix6xX::zeros(nv),
             y_aba: vec![Matrix6::zeros(); n],
             p_aba: vec![Force::zero(); n],
             c_aba: vec![Motion::zero(); n],

@@ -272,6 +272,9 @@ pub struct Model {
     pub(crate) nv_subtree_from_row: Vec<usize>,
     pub(crate) supports: Vec<Vec<usize>>,
     pub(crate) joint_of_v: Vec<usize>,
+    /// Flattened ancestor lists: `dof_support(k)` = `dof_supports[starts[k]..starts[k + 1]]`.
+    pub(crate) dof_supports: Vec<usize>,
+    pub(crate) dof_support_starts: Vec<usize>,
 }
 
 impl Model {
@@ -305,6 +308,8 @@ impl Model {
             nv_subtree_from_row: Vec::new(),
             supports: vec![vec![0]],
             joint_of_v: Vec::new(),
+            dof_supports: Vec::new(),
+            dof_support_starts: vec![0],
         };
         m.finalize();
         m
@@ -349,6 +354,13 @@ impl Model {
     #[inline]
     pub fn nv_subtree(&self, k: usize) -> usize {
         self.nv_subtree_from_row[k]
+    }
+
+    /// The degrees of freedom that support dof `k`: `k` itself, then its parent dof, and so
+    /// on to the root (the rows `r` with `M[r, k]` possibly non-zero and `r ≤ k`).
+    #[inline]
+    pub fn dof_support(&self, k: usize) -> &[usize] {
+        &self.dof_supports[self.dof_support_starts[k]..self.dof_support_starts[k + 1]]
     }
 
     /// The joint that owns `v` index `k`.
@@ -508,6 +520,17 @@ impl Model {
                     }
                 };
             }
+        }
+        self.dof_supports.clear();
+        self.dof_support_starts = Vec::with_capacity(self.nv + 1);
+        self.dof_support_starts.push(0);
+        for k in 0..self.nv {
+            let mut r = Some(k);
+            while let Some(row) = r {
+                self.dof_supports.push(row);
+                r = self.parent_v[row];
+            }
+            self.dof_support_starts.push(self.dof_supports.len());
         }
     }
 }

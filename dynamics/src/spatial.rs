@@ -19,6 +19,15 @@ pub fn skew(a: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0)
 }
 
+/// `R S Rᵀ` for a symmetric `S`, computing only the upper triangle of the product.
+#[inline]
+pub fn rotate_symmetric(r: &Matrix3<f64>, s: &Matrix3<f64>) -> Matrix3<f64> {
+    let t = r * s;
+    let e = |i: usize, j: usize| t[(i, 0)] * r[(j, 0)] + t[(i, 1)] * r[(j, 1)] + t[(i, 2)] * r[(j, 2)];
+    let (a, b, c, d, f, g) = (e(0, 0), e(0, 1), e(0, 2), e(1, 1), e(1, 2), e(2, 2));
+    Matrix3::new(a, b, c, b, d, f, c, f, g)
+}
+
 /// A rigid transform `aMb = (R, p)`: `x_a = R x_b + p`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Se3 {
@@ -468,6 +477,27 @@ impl Default for OriginInertia {
 }
 
 impl OriginInertia {
+    /// The inertia `y` (given in frame *b*) expressed at the origin of frame *a*, for
+    /// `m = aMb`: `c_a = R c + p`, `I_O = R I_c Rᵀ + m(|c_a|² 𝟙 − c_a c_aᵀ)`.
+    #[inline]
+    pub fn from_placed_inertia(m: &Se3, y: &Inertia) -> Self {
+        let c = m.act_point(&y.lever);
+        let mut rot = rotate_symmetric(&m.rotation, &y.rotational);
+        let (mx, my, mz) = (y.mass * c.x, y.mass * c.y, y.mass * c.z);
+        let (xx, yy, zz) = (mx * c.x, my * c.y, mz * c.z);
+        rot[(0, 0)] += yy + zz;
+        rot[(1, 1)] += xx + zz;
+        rot[(2, 2)] += xx + yy;
+        let (xy, xz, yz) = (mx * c.y, mx * c.z, my * c.z);
+        rot[(0, 1)] -= xy;
+        rot[(1, 0)] -= xy;
+        rot[(0, 2)] -= xz;
+        rot[(2, 0)] -= xz;
+        rot[(1, 2)] -= yz;
+        rot[(2, 1)] -= yz;
+        Self { mass: y.mass, first_moment: Vector3::new(mx, my, mz), rotational: rot }
+    }
+
     /// Nothing.
     #[inline]
     pub fn zero() -> Self {

@@ -70,6 +70,16 @@ def cmeel_prefix(arg: str | None) -> Path:
     return Path(sysconfig.get_paths()["platlib"]) / "cmeel.prefix"
 
 
+def pinocchio_version(prefix: Path) -> str | None:
+    """PINOCCHIO_VERSION from the headers the harness is compiled against."""
+    config = prefix / "include" / "pinocchio" / "config.hpp"
+    for line in config.read_text().splitlines() if config.exists() else []:
+        parts = line.replace("#", " ").split()
+        if parts[:2] == ["define", "PINOCCHIO_VERSION"] and len(parts) == 3:
+            return parts[2].strip('"')
+    return None
+
+
 def compile_command(prefix: Path, cxx: str, out: Path, extra: list[str]) -> list[str]:
     inc, lib = prefix / "include", prefix / "lib"
     for needed, package in ((inc / "eigen3" / "Eigen" / "Core", "cmeel-eigen"),
@@ -216,6 +226,7 @@ def main() -> int:
 
     if args.json:
         doc = {"date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+               "pinocchio_version": pinocchio_version(prefix),
                "pinocchio_binary": str(binary),
                "compile_flags": OPT_FLAGS + ABI_DEFINES,
                "rounds": args.rounds, "robots": results}
