@@ -87,6 +87,9 @@
 //! # Ok(()) }
 //! ```
 
+/// Re-exported so that users name the exact nalgebra version the API uses.
+pub use nalgebra;
+
 pub mod spatial;
 
 mod aba;

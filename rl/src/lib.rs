@@ -1,7 +1,11 @@
 //! # centaur-rl
 //!
-//! Reinforcement learning for continuous control: the `Env` / `VecEnv` API, small neural
-//! networks with analytic gradients, and PPO, A2C, SAC (v1 and v2), TD3 and DDPG, one file
-//! per algorithm.
-//!
-//! Status: not yet implemented (issue 4). This crate holds only its documentation so far.
+//! Reinforcement learning for continuous control: the [`Env`] / [`VecEnv`] API shared by
+//! every environment, and (issue 4) small neural networks with analytic gradients and
+//! PPO, A2C, SAC (v1 and v2), TD3 and DDPG, one file per algorithm.
+
+pub mod env;
+pub mod rng;
+
+pub use env::{BoxSpace, Env, EnvError, EpisodeRecord, MAX_REWARD_TERMS, Step, StepInfo, VecEnv, VecStep};
+pub use rng::{Rng, RngState};

@@ -1,0 +1,449 @@
+//! The environment API: [`Env`] (one episode at a time, Gymnasium semantics) and
+//! [`VecEnv`] (N environments stepped in parallel with auto-reset).
+//!
+//! Observations and actions are `f32` (the networks' type); rewards are `f64` so that
+//! returns summed over long episodes keep their precision. Nothing here allocates per step:
+//! callers pass output buffers.
+
+use crate::rng::Rng;
+
+/// A box `[low, high]` of `f32` vectors (Gymnasium's `Box`). Bounds may be infinite.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BoxSpace {
+    /// Lower bounds.
+    pub low: Vec<f32>,
+    /// Upper bounds.
+    pub high: Vec<f32>,
+}
+
+impl BoxSpace {
+    /// A box with the given bounds.
+    #[track_caller]
+    pub fn new(low: Vec<f32>, high: Vec<f32>) -> Self {
+        assert!(low.len() == high.len(), "BoxSpace: low has {} entries, high {}", low.len(), high.len());
+        BoxSpace { low, high }
+    }
+
+    /// `[-bound, bound]^dim`.
+    pub fn symmetric(dim: usize, bound: f32) -> Self {
+        BoxSpace { low: vec![-bound; dim], high: vec![bound; dim] }
+    }
+
+    /// `(-∞, ∞)^dim`.
+    pub fn unbounded(dim: usize) -> Self {
+        Self::symmetric(dim, f32::INFINITY)
+    }
+
+    /// Dimension.
+    pub fn dim(&self) -> usize {
+        self.low.len()
+    }
+
+    /// Whether every bound is finite.
+    pub fn is_bounded(&self) -> bool {
+        self.low.iter().chain(&self.high).all(|b| b.is_finite())
+    }
+
+    /// Whether `x` lies in the box.
+    pub fn contains(&self, x: &[f32]) -> bool {
+        x.len() == self.dim()
+            && x.iter().zip(self.low.iter().zip(&self.high)).all(|(v, (l, h))| *l <= *v && *v <= *h)
+    }
+
+    /// Clips `x` into the box in place.
+    pub fn clip(&self, x: &mut [f32]) {
+        for (v, (l, h)) in x.iter_mut().zip(self.low.iter().zip(&self.high)) {
+            *v = v.clamp(*l, *h);
+        }
+    }
+
+    /// A uniform sample (bounded boxes; unbounded coordinates get a standard normal).
+    pub fn sample(&self, rng: &mut Rng, out: &mut [f32]) {
+        for (o, (l, h)) in out.iter_mut().zip(self.low.iter().zip(&self.high)) {
+            *o = if l.is_finite() && h.is_finite() {
+                rng.range(*l as f64, *h as f64) as f32
+            } else {
+                rng.normal() as f32
+            };
+        }
+    }
+}
+
+/// Most reward terms an environment reports in [`StepInfo::reward_terms`].
+pub const MAX_REWARD_TERMS: usize = 8;
+
+/// What a step reports besides the reward (Gymnasium's `info`), fixed-size so that stepping
+/// allocates nothing.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepInfo {
+    /// The terms whose (weighted) sum is the reward, named by [`Env::reward_term_names`].
+    pub reward_terms: [f64; MAX_REWARD_TERMS],
+    /// Forward velocity of the robot over the step (m/s), as the env's reward defines it.
+    pub forward_velocity: f64,
+    /// Mechanical energy spent by the actuators during the step, `Σ |τ·q̇| dt` (J).
+    pub energy: f64,
+    /// Foot contacts as a bit mask (bit k: foot k touches the ground).
+    pub foot_contacts: u32,
+    /// The simulation became non-finite or exploded; the episode was ended (`terminated`)
+    /// and the observation is the last finite one.
+    pub unstable: bool,
+}
+
+/// The outcome of [`Env::step`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Step {
+    /// Reward for the transition.
+    pub reward: f64,
+    /// The episode ended in a terminal state (fall, unhealthy, blow-up): do not bootstrap.
+    pub terminated: bool,
+    /// The episode was cut by the time limit: the observation is not terminal, bootstrap.
+    pub truncated: bool,
+    /// Extra information.
+    pub info: StepInfo,
+}
+
+impl Step {
+    /// Whether the episode is over (terminated or truncated).
+    pub fn done(&self) -> bool {
+        self.terminated || self.truncated
+    }
+}
+
+/// Why an environment refused a call.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum EnvError {
+    /// The action vector has the wrong length.
+    #[error("action has {got} entries, the action space has {expected}")]
+    ActionLength {
+        /// Action-space dimension.
+        expected: usize,
+        /// Length received.
+        got: usize,
+    },
+    /// An action entry is NaN or infinite.
+    #[error("action[{index}] is {value}, expected a finite number")]
+    NonFiniteAction {
+        /// Entry index.
+        index: usize,
+        /// The value received.
+        value: f32,
+    },
+    /// The observation buffer has the wrong length.
+    #[error("observation buffer has {got} entries, the observation space has {expected}")]
+    ObservationLength {
+        /// Observation-space dimension.
+        expected: usize,
+        /// Length received.
+        got: usize,
+    },
+    /// `step` was called before `reset`, or after the episode ended without a reset.
+    #[error("step called on an environment that needs reset (call reset first)")]
+    NeedsReset,
+    /// Environments given to a [`VecEnv`] disagree on their spaces.
+    #[error("environment {index} has different spaces from environment 0")]
+    MismatchedSpaces {
+        /// Index of the first mismatching environment.
+        index: usize,
+    },
+    /// A [`VecEnv`] needs at least one environment.
+    #[error("a VecEnv needs at least one environment")]
+    Empty,
+    /// An environment-specific failure (e.g. an invalid configuration).
+    #[error("{0}")]
+    Other(String),
+}
+
+/// Checks an action's length and finiteness (what every env does first).
+pub fn check_action(space: &BoxSpace, action: &[f32]) -> Result<(), EnvError> {
+    if action.len() != space.dim() {
+        return Err(EnvError::ActionLength { expected: space.dim(), got: action.len() });
+    }
+    if let Some((index, &value)) = action.iter().enumerate().find(|(_, a)| !a.is_finite()) {
+        return Err(EnvError::NonFiniteAction { index, value });
+    }
+    Ok(())
+}
+
+/// Checks an observation buffer's length.
+pub fn check_observation(space: &BoxSpace, obs: &[f32]) -> Result<(), EnvError> {
+    if obs.len() != space.dim() {
+        return Err(EnvError::ObservationLength { expected: space.dim(), got: obs.len() });
+    }
+    Ok(())
+}
+
+/// A continuous-control environment with Gymnasium semantics.
+///
+/// * [`Env::reset`] starts an episode and writes its first observation; `seed = Some(s)`
+///   reseeds the environment's generator (like `reset(seed=s)`), `None` continues its stream.
+/// * [`Env::step`] applies an action for one control period and writes the next
+///   observation. When the episode ends the observation written is the final one: for a
+///   truncated episode it is the state to bootstrap from.
+/// * Actions outside [`Env::action_space`] are clipped (each env documents it); actions of
+///   the wrong length or with NaN/∞ are refused with an [`EnvError`] and change nothing.
+pub trait Env: Send {
+    /// A short name, e.g. `"minitaur"`.
+    fn name(&self) -> &str;
+    /// The observation space.
+    fn observation_space(&self) -> &BoxSpace;
+    /// The action space.
+    fn action_space(&self) -> &BoxSpace;
+    /// Episode length limit (steps), after which `truncated` is set.
+    fn max_episode_steps(&self) -> usize;
+    /// Control period (s) of one step.
+    fn dt(&self) -> f64;
+    /// Names of the entries of [`StepInfo::reward_terms`], in order.
+    fn reward_term_names(&self) -> &'static [&'static str] {
+        &[]
+    }
+    /// Starts an episode; writes the first observation into `obs`.
+    fn reset(&mut self, seed: Option<u64>, obs: &mut [f32]) -> Result<(), EnvError>;
+    /// Advances one control period with `action`; writes the next observation into `obs`.
+    fn step(&mut self, action: &[f32], obs: &mut [f32]) -> Result<Step, EnvError>;
+}
+
+/// A finished episode, reported by [`VecEnv::step`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EpisodeRecord {
+    /// Index of the environment.
+    pub env: usize,
+    /// Undiscounted return.
+    pub ret: f64,
+    /// Length in steps.
+    pub length: usize,
+    /// Ended by termination (rather than truncation).
+    pub terminated: bool,
+}
+
+/// The results of one [`VecEnv::step`], in buffers reused across steps.
+#[derive(Clone, Debug)]
+pub struct VecStep {
+    /// Next observations, `n × obs_dim` (after auto-reset for finished environments).
+    pub obs: Vec<f32>,
+    /// Rewards, one per environment.
+    pub rewards: Vec<f64>,
+    /// Terminated flags.
+    pub terminated: Vec<bool>,
+    /// Truncated flags.
+    pub truncated: Vec<bool>,
+    /// For environments whose episode just ended: the final observation (valid where
+    /// `terminated[i] || truncated[i]`), so that truncated episodes can bootstrap.
+    pub final_obs: Vec<f32>,
+    /// Per-environment step information.
+    pub infos: Vec<StepInfo>,
+    /// Episodes that finished during this step.
+    pub episodes: Vec<EpisodeRecord>,
+}
+
+struct Slot {
+    env: Box<dyn Env>,
+    ret: f64,
+    length: usize,
+    /// Outcome of the last step: the episode it finished, or the error it raised.
+    finished: Option<EpisodeRecord>,
+    error: Option<EnvError>,
+}
+
+impl Slot {
+    /// One environment's share of [`VecEnv::step`].
+    fn step(
+        &mut self,
+        a: &[f32],
+        o: &mut [f32],
+        fo: &mut [f32],
+        out: (&mut f64, &mut bool, &mut bool, &mut StepInfo),
+    ) {
+        self.finished = None;
+        self.error = None;
+        let s = match self.env.step(a, o) {
+            Ok(s) => s,
+            Err(e) => {
+                self.error = Some(e);
+                return;
+            }
+        };
+        self.ret += s.reward;
+        self.length += 1;
+        *out.0 = s.reward;
+        *out.1 = s.terminated;
+        *out.2 = s.truncated;
+        *out.3 = s.info;
+        if s.done() {
+            fo.copy_from_slice(o);
+            self.finished =
+                Some(EpisodeRecord { env: 0, ret: self.ret, length: self.length, terminated: s.terminated });
+            self.ret = 0.0;
+            self.length = 0;
+            if let Err(e) = self.env.reset(None, o) {
+                self.error = Some(e);
+            }
+        }
+    }
+}
+
+/// `n` environments stepped together, in parallel across threads, with auto-reset.
+///
+/// Environment `i` is reset with seed `seed + i` by [`VecEnv::reset`] and afterwards with
+/// its own continuing stream, so results depend only on the seed — never on the number of
+/// threads (each environment is stepped by exactly one thread, into its own slices).
+pub struct VecEnv {
+    slots: Vec<Slot>,
+    obs_dim: usize,
+    act_dim: usize,
+    pool: Option<rayon::ThreadPool>,
+    obs_space: BoxSpace,
+    act_space: BoxSpace,
+}
+
+impl VecEnv {
+    /// Wraps environments that share their spaces; `threads = 1` steps them in the calling
+    /// thread.
+    pub fn new(envs: Vec<Box<dyn Env>>, threads: usize) -> Result<VecEnv, EnvError> {
+        let first = envs.first().ok_or(EnvError::Empty)?;
+        let obs_space = first.observation_space().clone();
+        let act_space = first.action_space().clone();
+        for (index, e) in envs.iter().enumerate() {
+            if e.observation_space() != &obs_space || e.action_space() != &act_space {
+                return Err(EnvError::MismatchedSpaces { index });
+            }
+        }
+        let threads = threads.clamp(1, envs.len());
+        let pool = if threads > 1 {
+            Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .map_err(|e| EnvError::Other(format!("cannot start {threads} threads: {e}")))?,
+            )
+        } else {
+            None
+        };
+        Ok(VecEnv {
+            obs_dim: obs_space.dim(),
+            act_dim: act_space.dim(),
+            slots: envs
+                .into_iter()
+                .map(|env| Slot { env, ret: 0.0, length: 0, finished: None, error: None })
+                .collect(),
+            pool,
+            obs_space,
+            act_space,
+        })
+    }
+
+    /// Number of environments.
+    pub fn len(&self) -> usize {
+        self.slots.len()
+    }
+
+    /// Always false (a VecEnv has at least one environment).
+    pub fn is_empty(&self) -> bool {
+        self.slots.is_empty()
+    }
+
+    /// The shared observation space.
+    pub fn observation_space(&self) -> &BoxSpace {
+        &self.obs_space
+    }
+
+    /// The shared action space.
+    pub fn action_space(&self) -> &BoxSpace {
+        &self.act_space
+    }
+
+    /// The first environment (for its name, dt, reward-term names…).
+    pub fn env(&self, i: usize) -> &dyn Env {
+        self.slots[i].env.as_ref()
+    }
+
+    /// Buffers sized for this VecEnv.
+    pub fn make_step_buffers(&self) -> VecStep {
+        let n = self.len();
+        VecStep {
+            obs: vec![0.0; n * self.obs_dim],
+            rewards: vec![0.0; n],
+            terminated: vec![false; n],
+            truncated: vec![false; n],
+            final_obs: vec![0.0; n * self.obs_dim],
+            infos: vec![StepInfo::default(); n],
+            episodes: Vec::with_capacity(n),
+        }
+    }
+
+    /// Resets every environment (`env i` with seed `seed + i`); writes `n × obs_dim`
+    /// observations.
+    #[track_caller]
+    pub fn reset(&mut self, seed: u64, obs: &mut [f32]) -> Result<(), EnvError> {
+        assert!(
+            obs.len() == self.len() * self.obs_dim,
+            "VecEnv::reset: obs buffer has {} entries, expected {}",
+            obs.len(),
+            self.len() * self.obs_dim
+        );
+        for (i, (slot, o)) in self.slots.iter_mut().zip(obs.chunks_mut(self.obs_dim)).enumerate() {
+            slot.env.reset(Some(seed.wrapping_add(i as u64)), o)?;
+            slot.ret = 0.0;
+            slot.length = 0;
+        }
+        Ok(())
+    }
+
+    /// Steps every environment with its slice of `actions` (`n × act_dim`). Finished
+    /// episodes are reset at once (continuing each environment's random stream); their
+    /// final observation goes to `out.final_obs` and their record to `out.episodes`.
+    #[track_caller]
+    pub fn step(&mut self, actions: &[f32], out: &mut VecStep) -> Result<(), EnvError> {
+        let n = self.len();
+        assert!(
+            actions.len() == n * self.act_dim,
+            "VecEnv::step: {} actions, expected {} × {}",
+            actions.len(),
+            n,
+            self.act_dim
+        );
+        assert!(out.obs.len() == n * self.obs_dim, "VecEnv::step: buffers sized for another VecEnv");
+        let (od, ad) = (self.obs_dim, self.act_dim);
+        let VecStep { obs, rewards, terminated, truncated, final_obs, infos, episodes } = out;
+        episodes.clear();
+        match &self.pool {
+            None => {
+                for (i, slot) in self.slots.iter_mut().enumerate() {
+                    let r = i * od..(i + 1) * od;
+                    slot.step(
+                        &actions[i * ad..(i + 1) * ad],
+                        &mut obs[r.clone()],
+                        &mut final_obs[r],
+                        (&mut rewards[i], &mut terminated[i], &mut truncated[i], &mut infos[i]),
+                    );
+                }
+            }
+            Some(pool) => {
+                use rayon::prelude::*;
+                pool.install(|| {
+                    self.slots
+                        .par_iter_mut()
+                        .zip(actions.par_chunks(ad))
+                        .zip(obs.par_chunks_mut(od))
+                        .zip(final_obs.par_chunks_mut(od))
+                        .zip(rewards.par_iter_mut())
+                        .zip(terminated.par_iter_mut())
+                        .zip(truncated.par_iter_mut())
+                        .zip(infos.par_iter_mut())
+                        .for_each(|(((((((slot, a), o), fo), r), te), tr), inf)| {
+                            slot.step(a, o, fo, (r, te, tr, inf))
+                        });
+                });
+            }
+        }
+        for (i, slot) in self.slots.iter_mut().enumerate() {
+            if let Some(e) = slot.error.take() {
+                return Err(e);
+            }
+            if let Some(mut rec) = slot.finished.take() {
+                rec.env = i;
+                episodes.push(rec);
+            }
+        }
+        Ok(())
+    }
+}
