@@ -293,6 +293,10 @@ pub struct VecEnv {
     pool: Option<rayon::ThreadPool>,
     obs_space: BoxSpace,
     act_space: BoxSpace,
+    /// The latest observations (`n × obs_dim`), valid while `started`.
+    current_obs: Vec<f32>,
+    /// Whether `reset` succeeded and no step has failed since.
+    started: bool,
 }
 
 impl VecEnv {
@@ -318,7 +322,10 @@ impl VecEnv {
         } else {
             None
         };
+        let n = envs.len();
         Ok(VecEnv {
+            current_obs: vec![0.0; n * obs_space.dim()],
+            started: false,
             obs_dim: obs_space.dim(),
             act_dim: act_space.dim(),
             slots: envs
@@ -351,6 +358,13 @@ impl VecEnv {
         &self.act_space
     }
 
+    /// The latest observations (`n × obs_dim`: after [`VecEnv::reset`], then after each
+    /// [`VecEnv::step`], auto-reset included), or `None` before the first reset or after a
+    /// failed call. Learners use it to continue on a live VecEnv without resetting it.
+    pub fn observations(&self) -> Option<&[f32]> {
+        self.started.then_some(&self.current_obs[..])
+    }
+
     /// The first environment (for its name, dt, reward-term names…).
     pub fn env(&self, i: usize) -> &dyn Env {
         self.slots[i].env.as_ref()
@@ -380,11 +394,14 @@ impl VecEnv {
             obs.len(),
             self.len() * self.obs_dim
         );
+        self.started = false;
         for (i, (slot, o)) in self.slots.iter_mut().zip(obs.chunks_mut(self.obs_dim)).enumerate() {
             slot.env.reset(Some(seed.wrapping_add(i as u64)), o)?;
             slot.ret = 0.0;
             slot.length = 0;
         }
+        self.current_obs.copy_from_slice(obs);
+        self.started = true;
         Ok(())
     }
 
@@ -437,6 +454,7 @@ impl VecEnv {
         }
         for (i, slot) in self.slots.iter_mut().enumerate() {
             if let Some(e) = slot.error.take() {
+                self.started = false;
                 return Err(e);
             }
             if let Some(mut rec) = slot.finished.take() {
@@ -444,6 +462,7 @@ impl VecEnv {
                 episodes.push(rec);
             }
         }
+        self.current_obs.copy_from_slice(obs);
         Ok(())
     }
 }
