@@ -1,0 +1,397 @@
+//! Gait schedules in the style of the MIT Cheetah controller (Di Carlo et al. 2018,
+//! `OffsetDurationGait`): every leg `i` has a phase offset `oᵢ` and a stance fraction (duty
+//! factor) `dᵢ` of a common period `T`. With the global phase `φ ∈ [0, 1)` the leg's own
+//! phase is `ψᵢ = (φ − oᵢ) mod 1`; the leg is in stance while `ψᵢ < dᵢ` (stance progress
+//! `ψᵢ / dᵢ`) and in swing otherwise (swing progress `(ψᵢ − dᵢ) / (1 − dᵢ)`).
+//!
+//! Leg order is the robot's contact-leg order: for quadrupeds front-left, front-right,
+//! hind-left, hind-right (Solo's FL, FR, HL, HR); for bipeds left, right.
+//!
+//! Transitions ([`GaitScheduler`]): a new gait takes over at the next cycle boundary
+//! (`φ` wrapping to 0), the moment at which, in every table below, each leg is either
+//! starting its stance or in a phase both gaits agree on as closely as the tables allow;
+//! leaving [`Gait::Stand`] happens at once with `φ = 0`. Speed changes are rate-limited by
+//! [`ramp`].
+
+/// Largest number of legs a gait table describes.
+pub const MAX_LEGS: usize = 4;
+
+/// A named gait.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum Gait {
+    /// All legs in stance.
+    #[default]
+    Stand,
+    /// Quadruped: lateral-sequence static walk (hind-left, front-left, hind-right,
+    /// front-right; three feet always down). Biped: alternating walk with double support.
+    Walk,
+    /// Diagonal pairs together (FL+HR, FR+HL).
+    Trot,
+    /// Lateral pairs together (FL+HL, FR+HR).
+    Pace,
+    /// Front pair, then hind pair.
+    Bound,
+    /// All four legs together, with a flight phase.
+    Pronk,
+    /// Rotary gallop (MIT Cheetah offsets).
+    Gallop,
+}
+
+impl Gait {
+    /// Every gait, for tests and command-line parsing.
+    pub const ALL: [Gait; 7] =
+        [Gait::Stand, Gait::Walk, Gait::Trot, Gait::Pace, Gait::Bound, Gait::Pronk, Gait::Gallop];
+
+    /// Lower-case name (`"trot"`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Gait::Stand => "stand",
+            Gait::Walk => "walk",
+            Gait::Trot => "trot",
+            Gait::Pace => "pace",
+            Gait::Bound => "bound",
+            Gait::Pronk => "pronk",
+            Gait::Gallop => "gallop",
+        }
+    }
+
+    /// Parses [`Gait::name`].
+    pub fn from_name(name: &str) -> Option<Gait> {
+        Gait::ALL.iter().copied().find(|g| g.name() == name)
+    }
+
+    /// Whether the gait is defined for a robot with `n_legs` legs (2 or 4).
+    pub fn supported(&self, n_legs: usize) -> bool {
+        GaitPattern::new(*self, n_legs).is_some()
+    }
+}
+
+/// Offsets, duty factors and period of one gait.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GaitPattern {
+    /// The gait.
+    pub gait: Gait,
+    /// Number of legs used (entries past it are ignored).
+    pub n_legs: usize,
+    /// Phase offset `oᵢ ∈ [0, 1)` of each leg.
+    pub offsets: [f64; MAX_LEGS],
+    /// Stance fraction `dᵢ ∈ (0, 1]` of each leg.
+    pub duty: [f64; MAX_LEGS],
+    /// Cycle period `T` (s).
+    pub period: f64,
+}
+
+impl GaitPattern {
+    /// The table entry of `gait` for `n_legs` legs (`None` if the gait is not defined for
+    /// that many legs). Quadruped values follow the MIT Cheetah tables (10 segments per
+    /// cycle: trot offsets 0/5/5/0 with durations 5, bound 5/5/0/0 and 4, pronk 0 and 4,
+    /// pace 5/0/5/0 and 5, gallop 0/2/7/9 and 4), re-ordered from MIT's FR, FL, HR, HL to
+    /// FL, FR, HL, HR; the walk is a static lateral-sequence walk with duty 0.75.
+    pub fn new(gait: Gait, n_legs: usize) -> Option<GaitPattern> {
+        let p = |offsets: [f64; 4], duty: [f64; 4], period: f64| GaitPattern {
+            gait,
+            n_legs,
+            offsets,
+            duty,
+            period,
+        };
+        match (n_legs, gait) {
+            (4, Gait::Stand) => Some(p([0.0; 4], [1.0; 4], 0.5)),
+            // Lateral sequence HL (0), FL (0.25), HR (0.5), FR (0.75).
+            (4, Gait::Walk) => Some(p([0.25, 0.75, 0.0, 0.5], [0.75; 4], 0.8)),
+            (4, Gait::Trot) => Some(p([0.0, 0.5, 0.5, 0.0], [0.5; 4], 0.3)),
+            (4, Gait::Pace) => Some(p([0.0, 0.5, 0.0, 0.5], [0.5; 4], 0.3)),
+            (4, Gait::Bound) => Some(p([0.0, 0.0, 0.5, 0.5], [0.4; 4], 0.3)),
+            (4, Gait::Pronk) => Some(p([0.0; 4], [0.4; 4], 0.3)),
+            // MIT: FR 0, FL 0.2, HR 0.7, HL 0.9.
+            (4, Gait::Gallop) => Some(p([0.2, 0.0, 0.9, 0.7], [0.4; 4], 0.4)),
+            (2, Gait::Stand) => Some(p([0.0; 4], [1.0; 4], 0.5)),
+            // Duty 0.6: two double-support phases of 10 % of the cycle each.
+            (2, Gait::Walk) => Some(p([0.0, 0.5, 0.0, 0.0], [0.6, 0.6, 1.0, 1.0], 0.8)),
+            _ => None,
+        }
+    }
+
+    /// The leg's own phase `ψᵢ = (φ − oᵢ) mod 1`.
+    #[inline]
+    pub fn leg_phase(&self, phase: f64, leg: usize) -> f64 {
+        wrap01(phase - self.offsets[leg])
+    }
+
+    /// Whether leg `leg` is in stance at global phase `phase`.
+    #[inline]
+    pub fn in_stance(&self, phase: f64, leg: usize) -> bool {
+        self.leg_phase(phase, leg) < self.duty[leg]
+    }
+
+    /// Stance progress in `[0, 1)` (`None` in swing).
+    #[inline]
+    pub fn stance_progress(&self, phase: f64, leg: usize) -> Option<f64> {
+        let psi = self.leg_phase(phase, leg);
+        (psi < self.duty[leg]).then(|| psi / self.duty[leg])
+    }
+
+    /// Swing progress in `[0, 1)` (`None` in stance).
+    #[inline]
+    pub fn swing_progress(&self, phase: f64, leg: usize) -> Option<f64> {
+        let psi = self.leg_phase(phase, leg);
+        (psi >= self.duty[leg]).then(|| (psi - self.duty[leg]) / (1.0 - self.duty[leg]))
+    }
+
+    /// Stance duration `dᵢ T` (s).
+    #[inline]
+    pub fn stance_duration(&self, leg: usize) -> f64 {
+        self.duty[leg] * self.period
+    }
+
+    /// Swing duration `(1 − dᵢ) T` (s).
+    #[inline]
+    pub fn swing_duration(&self, leg: usize) -> f64 {
+        (1.0 - self.duty[leg]) * self.period
+    }
+}
+
+/// `x mod 1` in `[0, 1)`.
+#[inline]
+pub fn wrap01(x: f64) -> f64 {
+    let r = x - x.floor();
+    if r >= 1.0 { 0.0 } else { r }
+}
+
+/// Moves `current` toward `target` by at most `max_step` (a rate limiter: with
+/// `max_step = a_max · dt` it ramps a commanded speed at acceleration `a_max`).
+#[inline]
+pub fn ramp(current: f64, target: f64, max_step: f64) -> f64 {
+    current + (target - current).clamp(-max_step, max_step)
+}
+
+/// Global gait phase with phase-consistent gait switching.
+#[derive(Clone, Debug)]
+pub struct GaitScheduler {
+    n_legs: usize,
+    period_scale: f64,
+    pattern: GaitPattern,
+    pending: Option<GaitPattern>,
+    phase: f64,
+    last_t: Option<f64>,
+}
+
+impl GaitScheduler {
+    /// A scheduler for `n_legs` legs (2 or 4), standing, with every period multiplied by
+    /// `period_scale`.
+    ///
+    /// # Panics
+    /// If `n_legs` is neither 2 nor 4 (a programming error; the controller validates it).
+    #[track_caller]
+    pub fn new(n_legs: usize, period_scale: f64) -> Self {
+        let mut pattern = GaitPattern::new(Gait::Stand, n_legs)
+            .unwrap_or_else(|| panic!("GaitScheduler: {n_legs} legs (expected 2 or 4)"));
+        pattern.period *= period_scale;
+        Self { n_legs, period_scale, pattern, pending: None, phase: 0.0, last_t: None }
+    }
+
+    /// The pattern in force.
+    pub fn pattern(&self) -> &GaitPattern {
+        &self.pattern
+    }
+
+    /// The gait that will take over at the next cycle boundary, if any.
+    pub fn pending(&self) -> Option<Gait> {
+        self.pending.map(|p| p.gait)
+    }
+
+    /// Global phase `φ ∈ [0, 1)`.
+    pub fn phase(&self) -> f64 {
+        self.phase
+    }
+
+    /// Number of legs.
+    pub fn n_legs(&self) -> usize {
+        self.n_legs
+    }
+
+    /// Back to standing at phase 0 and forget the clock.
+    pub fn reset(&mut self) {
+        *self = Self::new(self.n_legs, self.period_scale);
+    }
+
+    /// Advances the phase to time `t` and requests `gait`. A gait not defined for this
+    /// number of legs is ignored (the current one continues). Time going backwards or
+    /// jumping more than 0.1 s restarts the clock without advancing. Returns whether the
+    /// gait in force changed.
+    pub fn update(&mut self, t: f64, gait: Gait) -> bool {
+        let dt = match self.last_t {
+            Some(t0) if t >= t0 && t - t0 <= 0.1 => t - t0,
+            _ => 0.0,
+        };
+        self.last_t = Some(t);
+        if gait != self.pattern.gait {
+            if let Some(mut p) = GaitPattern::new(gait, self.n_legs) {
+                p.period *= self.period_scale;
+                self.pending = Some(p);
+            }
+        } else {
+            self.pending = None;
+        }
+        let mut changed = false;
+        if self.pattern.gait == Gait::Stand
+            && let Some(p) = self.pending.take()
+        {
+            self.pattern = p;
+            self.phase = 0.0;
+            return true;
+        }
+        let next = self.phase + dt / self.pattern.period;
+        if next >= 1.0 {
+            if let Some(p) = self.pending.take() {
+                // Switch at the boundary; carry the remaining time into the new period.
+                let rest = (next - 1.0) * self.pattern.period;
+                self.pattern = p;
+                self.phase = wrap01(rest / p.period);
+                changed = true;
+            } else {
+                self.phase = wrap01(next);
+            }
+        } else {
+            self.phase = next;
+        }
+        changed
+    }
+
+    /// The predicted contact flags at `t + k·dt` for `k = 0..out.len()`, taking a pending
+    /// switch at the next boundary into account.
+    pub fn contact_schedule(&self, dt: f64, out: &mut [[bool; MAX_LEGS]]) {
+        for (k, row) in out.iter_mut().enumerate() {
+            let (p, phase) = self.predict(k as f64 * dt);
+            for (leg, c) in row.iter_mut().enumerate() {
+                *c = leg < self.n_legs && p.in_stance(phase, leg);
+            }
+        }
+    }
+
+    /// The pattern and phase in force `tau` seconds ahead.
+    pub fn predict(&self, tau: f64) -> (GaitPattern, f64) {
+        let next = self.phase + tau / self.pattern.period;
+        match self.pending {
+            Some(p) if self.pattern.gait == Gait::Stand => (p, wrap01(tau / p.period)),
+            Some(p) if next >= 1.0 => (p, wrap01((next - 1.0) * self.pattern.period / p.period)),
+            _ => (self.pattern, wrap01(next)),
+        }
+    }
+
+    /// Time (s) until leg `leg` next touches down (0 if it is in stance).
+    pub fn time_to_touchdown(&self, leg: usize) -> f64 {
+        let p = &self.pattern;
+        let psi = p.leg_phase(self.phase, leg);
+        if psi < p.duty[leg] { 0.0 } else { (1.0 - psi) * p.period }
+    }
+
+    /// Time (s) left in the current stance of leg `leg` (0 if it is in swing).
+    pub fn stance_time_left(&self, leg: usize) -> f64 {
+        let p = &self.pattern;
+        let psi = p.leg_phase(self.phase, leg);
+        if psi < p.duty[leg] { (p.duty[leg] - psi) * p.period } else { 0.0 }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn trot_pairs_are_diagonal() {
+        let p = GaitPattern::new(Gait::Trot, 4).unwrap();
+        // φ = 0.1: FL ψ = 0.1 < 0.5 stance; FR ψ = (0.1 − 0.5) mod 1 = 0.6 swing;
+        // HL ψ = 0.6 swing; HR ψ = 0.1 stance.
+        let s: Vec<bool> = (0..4).map(|l| p.in_stance(0.1, l)).collect();
+        assert_eq!(s, vec![true, false, false, true]);
+        // Swing progress of FR: (0.6 − 0.5) / 0.5 = 0.2.
+        assert!((p.swing_progress(0.1, 1).unwrap() - 0.2).abs() < 1e-12);
+        // Stance progress of FL: 0.1 / 0.5 = 0.2.
+        assert!((p.stance_progress(0.1, 0).unwrap() - 0.2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn walk_keeps_three_feet_down() {
+        let p = GaitPattern::new(Gait::Walk, 4).unwrap();
+        for i in 0..100 {
+            let phi = i as f64 / 100.0;
+            let n = (0..4).filter(|&l| p.in_stance(phi, l)).count();
+            assert!(n >= 3, "phase {phi}: {n} feet down");
+        }
+    }
+
+    #[test]
+    fn gallop_matches_mit_offsets() {
+        // MIT 10 segments, FR 0, FL 2, HR 7, HL 9, duration 4: at φ = 0.35
+        // FR ψ = 0.35 < 0.4 stance, FL ψ = 0.15 stance, HR ψ = 0.65 swing, HL ψ = 0.45 swing.
+        let p = GaitPattern::new(Gait::Gallop, 4).unwrap();
+        let s: Vec<bool> = (0..4).map(|l| p.in_stance(0.35, l)).collect();
+        assert_eq!(s, vec![true, true, false, false]);
+    }
+
+    #[test]
+    fn biped_walk_has_double_support() {
+        let p = GaitPattern::new(Gait::Walk, 2).unwrap();
+        // φ = 0.05: L ψ = 0.05 stance, R ψ = 0.55 stance (duty 0.6) → double support.
+        assert!(p.in_stance(0.05, 0) && p.in_stance(0.05, 1));
+        // φ = 0.3: L stance, R ψ = 0.8 swing.
+        assert!(p.in_stance(0.3, 0) && !p.in_stance(0.3, 1));
+        assert!(!Gait::Trot.supported(2));
+    }
+
+    #[test]
+    fn wrap_and_ramp() {
+        assert_eq!(wrap01(1.25), 0.25);
+        assert!((wrap01(-0.25) - 0.75).abs() < 1e-15);
+        assert_eq!(ramp(0.0, 1.0, 0.1), 0.1);
+        assert_eq!(ramp(0.95, 1.0, 0.1), 1.0);
+        assert_eq!(ramp(0.0, -1.0, 0.1), -0.1);
+    }
+
+    #[test]
+    fn switch_happens_at_cycle_boundary() {
+        let mut s = GaitScheduler::new(4, 1.0);
+        assert!(s.update(0.0, Gait::Trot), "leaving stand is immediate");
+        assert_eq!(s.pattern().gait, Gait::Trot);
+        // Trot period 0.3 s: at t = 0.15, φ = 0.5.
+        s.update(0.075, Gait::Trot);
+        s.update(0.15, Gait::Pace);
+        assert!((s.phase() - 0.5).abs() < 1e-12);
+        assert_eq!(s.pattern().gait, Gait::Trot);
+        assert_eq!(s.pending(), Some(Gait::Pace));
+        // The schedule predicts the switch: 0.18 s ahead is φ = 0.1 of the pace (FL, HL down).
+        let (p, ph) = s.predict(0.18);
+        assert_eq!(p.gait, Gait::Pace);
+        assert!((ph - 0.1).abs() < 1e-9);
+        s.update(0.225, Gait::Pace);
+        assert!(s.update(0.30, Gait::Pace), "boundary reached at t = 0.3");
+        assert_eq!(s.pattern().gait, Gait::Pace);
+        assert!(s.phase() < 1e-9);
+    }
+
+    #[test]
+    fn schedule_over_horizon() {
+        let mut s = GaitScheduler::new(4, 1.0);
+        s.update(0.0, Gait::Trot);
+        let mut out = [[false; 4]; 10];
+        s.contact_schedule(0.03, &mut out);
+        // k = 0..4 → φ = 0, 0.1, …, 0.4: FL, HR down; k = 5..9 → φ ≥ 0.5: FR, HL down.
+        for (k, row) in out.iter().enumerate() {
+            let first = k < 5;
+            assert_eq!(*row, [first, !first, !first, first], "k = {k}");
+        }
+        assert!((s.stance_time_left(0) - 0.15).abs() < 1e-12);
+        assert!((s.time_to_touchdown(1) - 0.15).abs() < 1e-12);
+    }
+
+    #[test]
+    fn time_jumps_do_not_advance() {
+        let mut s = GaitScheduler::new(4, 1.0);
+        s.update(0.0, Gait::Trot);
+        s.update(5.0, Gait::Trot);
+        assert_eq!(s.phase(), 0.0);
+        s.update(4.0, Gait::Trot);
+        assert_eq!(s.phase(), 0.0);
+    }
+}
