@@ -1,0 +1,407 @@
+//! Controller configuration: typed structs with documented defaults, presets as named
+//! constructors, and `validate()` returning a typed [`ConfigError`].
+
+use crate::convex_mpc::MpcConfig;
+use crate::gait::Gait;
+use crate::robot::{BaseSpec, ContactSpec, LoopClosureSpec, RobotSpec};
+use crate::wbc::WbcConfig;
+
+/// A configuration that cannot be used.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum ConfigError {
+    /// A number outside its documented range.
+    #[error("{field} = {value} is out of range ({range})")]
+    OutOfRange {
+        /// The field.
+        field: &'static str,
+        /// Its value.
+        value: f64,
+        /// The allowed range.
+        range: &'static str,
+    },
+    /// A frame or joint name that the model does not have.
+    #[error("the model has no {kind} named '{name}'")]
+    UnknownName {
+        /// "frame" or "joint".
+        kind: &'static str,
+        /// The name.
+        name: String,
+    },
+    /// Fields that do not fit together.
+    #[error("inconsistent configuration: {0}")]
+    Inconsistent(String),
+    /// Clarabel rejected the problem set-up.
+    #[error("solver setup failed: {0}")]
+    Solver(String),
+}
+
+/// How joint torques are computed from the MPC forces.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ControlMode {
+    /// The whole-body QP ([`crate::wbc`]).
+    #[default]
+    WholeBody,
+    /// The cheap path: stance legs `τ = −J_cᵀ f_MPC`, swing legs Cartesian PD
+    /// `τ = J_cᵀ (K_p e + K_d ė)` (passive joints handled through the loop closures).
+    Cheap,
+}
+
+/// Everything the [`crate::LocomotionController`] needs besides the model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ControllerConfig {
+    /// The robot description.
+    pub robot: RobotSpec,
+    /// Convex MPC.
+    pub mpc: MpcConfig,
+    /// Whole-body QP.
+    pub wbc: WbcConfig,
+    /// Torque computation (default: whole-body QP).
+    pub mode: ControlMode,
+    /// Time between MPC solves (s); the plan is followed in between (default: 0.02).
+    pub mpc_period: f64,
+    /// Swing apex height above the lift-off/touch-down points (m) (default: 0.06).
+    pub swing_height: f64,
+    /// Swing-foot task gains `k_p` (1/s²) and `k_d` (1/s) (default: 400, 40).
+    pub swing_gains: (f64, f64),
+    /// Cheap-path Cartesian swing stiffness (N/m) and damping (N·s/m) (default: 300, 10).
+    pub cheap_swing_gains: (f64, f64),
+    /// Body position gains `k_p` (1/s²) per axis for the WBC body task (default: [0, 0, 100]:
+    /// only the height is held; horizontal position is free, velocity is tracked).
+    pub body_kp_pos: [f64; 3],
+    /// Body velocity gains `k_d` (1/s) (default: [20, 20, 20]).
+    pub body_kd_vel: [f64; 3],
+    /// Body orientation gains `k_p` (1/s²) about x, y, z (default: [150, 150, 100]).
+    pub body_kp_ori: [f64; 3],
+    /// Body angular-velocity gains `k_d` (1/s) (default: [20, 20, 20]).
+    pub body_kd_ang: [f64; 3],
+    /// Posture task gains `k_p`, `k_d` (default: 50, 10).
+    pub posture_gains: (f64, f64),
+    /// Joint PD gains sent with swing-leg targets (N·m/rad, N·m·s/rad) (default: 0, 0:
+    /// torques only; set them for position-controlled joints).
+    pub swing_joint_gains: (f64, f64),
+    /// Joint PD gains sent with stance-leg targets (default: 0, 0).
+    pub stance_joint_gains: (f64, f64),
+    /// Posture PD gains of the invalid-state fallback (default: 20, 0.5).
+    pub fallback_joint_gains: (f64, f64),
+    /// Extra velocity-feedback gain of the foothold (s) (default: 0; the capture-point term
+    /// is always on).
+    pub raibert_kv: f64,
+    /// Rate limit of the commanded linear speed (m/s²) (default: 1.0).
+    pub max_acceleration: f64,
+    /// Rate limit of the commanded yaw rate (rad/s²) (default: 2.0).
+    pub max_yaw_acceleration: f64,
+    /// Multiplies every gait period (default: 1.0).
+    pub gait_period_scale: f64,
+    /// Damping `λ` of the damped-least-squares IK (m) (default: 0.02).
+    pub ik_damping: f64,
+    /// Decay per failed MPC solve of the last feasible forces (default: 0.9).
+    pub fallback_decay: f64,
+}
+
+impl ControllerConfig {
+    fn with_robot(robot: RobotSpec) -> Self {
+        Self {
+            robot,
+            mpc: MpcConfig::trot(),
+            wbc: WbcConfig::default(),
+            mode: ControlMode::WholeBody,
+            mpc_period: 0.02,
+            swing_height: 0.06,
+            swing_gains: (400.0, 40.0),
+            cheap_swing_gains: (300.0, 10.0),
+            body_kp_pos: [0.0, 0.0, 100.0],
+            body_kd_vel: [20.0, 20.0, 20.0],
+            body_kp_ori: [150.0, 150.0, 100.0],
+            body_kd_ang: [20.0, 20.0, 20.0],
+            posture_gains: (50.0, 10.0),
+            swing_joint_gains: (0.0, 0.0),
+            stance_joint_gains: (0.0, 0.0),
+            fallback_joint_gains: (20.0, 0.5),
+            raibert_kv: 0.0,
+            max_acceleration: 1.0,
+            max_yaw_acceleration: 2.0,
+            gait_period_scale: 1.0,
+            ik_damping: 0.02,
+            fallback_decay: 0.9,
+        }
+    }
+
+    /// Solo12 (`assets/solo12/solo12.urdf`, floating): MIT-Cheetah-style MPC + WBC, feet at
+    /// the `*_FOOT` frames, standing pose HFE ±0.8, KFE ∓1.6, effort limit 2.7 N·m
+    /// (0.025 N·m/A × 12 A × gear 9; the URDF says 1000).
+    pub fn solo12() -> Self {
+        let legs = ["FL", "FR", "HL", "HR"];
+        let contacts = legs
+            .iter()
+            .enumerate()
+            .map(|(i, l)| ContactSpec { frame: format!("{l}_FOOT"), offset: [0.0; 3], leg: i })
+            .collect();
+        let mut nominal = Vec::new();
+        for l in legs {
+            let s = if l.starts_with('F') { 1.0 } else { -1.0 };
+            nominal.push((format!("{l}_HFE"), 0.8 * s));
+            nominal.push((format!("{l}_KFE"), -1.6 * s));
+        }
+        let mut c = Self::with_robot(RobotSpec {
+            base: BaseSpec::Floating,
+            body_frame: "base_link".into(),
+            contacts,
+            n_legs: 4,
+            passive_joints: vec![],
+            effort_limit: Some(2.7),
+            nominal_joints: nominal,
+            loop_closures: vec![],
+        });
+        c.swing_height = 0.05;
+        c
+    }
+
+    /// Ant (`assets/mujoco/ant.urdf`, floating, 2 dof per leg, gear 150). Feet: the far end
+    /// of each `*_ankle_geom` capsule, `pos ± half-length · axis` = (±0.4, ±0.4, 0) in the
+    /// `ankle_k_body` frames (sidecar: pos (0.2, 0.2, 0), half-length 0.2828 along
+    /// (1, 1, 0)/√2). Legs FL = leg 1 (+x, +y), FR = leg 4 (+x, −y), HL = leg 2 (−x, +y),
+    /// HR = leg 3 (−x, −y). Standing pose: the XML's custom `init_qpos` (ankles ±1 rad).
+    /// The 2-dof legs cannot push in every direction; the WBC's torque limits and the
+    /// no-slip task sort out what is reachable.
+    pub fn ant() -> Self {
+        let contacts = vec![
+            ContactSpec { frame: "ankle_1_body".into(), offset: [0.4, 0.4, 0.0], leg: 0 },
+            ContactSpec { frame: "ankle_4_body".into(), offset: [0.4, -0.4, 0.0], leg: 1 },
+            ContactSpec { frame: "ankle_2_body".into(), offset: [-0.4, 0.4, 0.0], leg: 2 },
+            ContactSpec { frame: "ankle_3_body".into(), offset: [-0.4, -0.4, 0.0], leg: 3 },
+        ];
+        let nominal = vec![
+            ("ankle_1".to_string(), 1.0),
+            ("ankle_2".to_string(), -1.0),
+            ("ankle_3".to_string(), -1.0),
+            ("ankle_4".to_string(), 1.0),
+        ];
+        let mut c = Self::with_robot(RobotSpec {
+            base: BaseSpec::Floating,
+            body_frame: "torso".into(),
+            contacts,
+            n_legs: 4,
+            passive_joints: vec![],
+            effort_limit: None,
+            nominal_joints: nominal,
+            loop_closures: vec![],
+        });
+        c.swing_height = 0.08;
+        c
+    }
+
+    /// Walker2d (`assets/mujoco/walker2d.urdf`, fixed base with planar root joints):
+    /// the **planar** MPC variant ([`MpcConfig::biped_planar`]) + WBC, biped walk. Each foot
+    /// has two contact points, the bottoms of the ends of its capsule: (−0.2, 0, 0.04) and
+    /// (0, 0, 0.04) in the `foot`/`foot_left` frames (capsule centre (−0.1, 0, 0.1),
+    /// half-length 0.1 along −x, radius 0.06).
+    pub fn walker2d() -> Self {
+        let mut contacts = Vec::new();
+        for (leg, f) in ["foot_left", "foot"].iter().enumerate() {
+            contacts.push(ContactSpec { frame: f.to_string(), offset: [-0.2, 0.0, 0.04], leg });
+            contacts.push(ContactSpec { frame: f.to_string(), offset: [0.0, 0.0, 0.04], leg });
+        }
+        let mut c = Self::with_robot(RobotSpec {
+            base: BaseSpec::Planar {
+                x_joint: "rootx".into(),
+                z_joint: "rootz".into(),
+                pitch_joint: "rooty".into(),
+            },
+            body_frame: "torso".into(),
+            contacts,
+            n_legs: 2,
+            passive_joints: vec![],
+            effort_limit: None,
+            nominal_joints: vec![],
+            loop_closures: vec![],
+        });
+        c.mpc = MpcConfig::biped_planar();
+        c.swing_height = 0.08;
+        c
+    }
+
+    /// Humanoid (`assets/mujoco/humanoid.urdf`, floating, 17 hinges, no ankles): balance on
+    /// two point feet (the bottoms of the foot spheres, (0, 0, 0.025) in `left_foot` /
+    /// `right_foot`) with the standing MPC and the WBC, which uses the hips and trunk to
+    /// move the CoM (hip strategy) since point feet give no ankle torque.
+    pub fn humanoid() -> Self {
+        let contacts = vec![
+            ContactSpec { frame: "left_foot".into(), offset: [0.0, 0.0, 0.025], leg: 0 },
+            ContactSpec { frame: "right_foot".into(), offset: [0.0, 0.0, 0.025], leg: 1 },
+        ];
+        let mut c = Self::with_robot(RobotSpec {
+            base: BaseSpec::Floating,
+            body_frame: "torso".into(),
+            contacts,
+            n_legs: 2,
+            passive_joints: vec![],
+            effort_limit: None,
+            nominal_joints: vec![],
+            loop_closures: vec![],
+        });
+        c.mpc = MpcConfig::stand();
+        c.mpc.horizon = 16;
+        c.mpc.dt = 0.05;
+        c.swing_height = 0.08;
+        c
+    }
+
+    /// Minitaur (`assets/minitaur/minitaur.urdf`, floating, 8 motors, 8 passive knees, four
+    /// closed 5-bar legs). Contact = the toe, pivot (0, 0.005, 0.2) of `lower_leg_*R_link`;
+    /// each loop is closed by keeping the `lower_leg_*L_link` pivot (0, 0.01, 0.2) on it
+    /// along the two in-plane directions (x, z of the R lower leg; its y is the knee axis),
+    /// as in the Rapier notes. Motor effort limit 3.5 N·m (the motor model's saturation).
+    /// Standing pose: PyBullet's reset (motors ∓π/2, knees ±2.1834 by motor direction).
+    pub fn minitaur() -> Self {
+        let legs = ["front_left", "front_right", "back_left", "back_right"];
+        let mut contacts = Vec::new();
+        let mut closures = Vec::new();
+        let mut nominal = Vec::new();
+        for (i, l) in legs.iter().enumerate() {
+            contacts.push(ContactSpec {
+                frame: format!("lower_leg_{l}R_link"),
+                offset: [0.0, 0.005, 0.2],
+                leg: i,
+            });
+            closures.push(LoopClosureSpec {
+                frame_a: format!("lower_leg_{l}R_link"),
+                point_a: [0.0, 0.005, 0.2],
+                frame_b: format!("lower_leg_{l}L_link"),
+                point_b: [0.0, 0.01, 0.2],
+                directions: vec![[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
+            });
+            let dir = if l.ends_with("left") { -1.0 } else { 1.0 };
+            for side in ["L", "R"] {
+                nominal.push((format!("motor_{l}{side}_joint"), dir * std::f64::consts::FRAC_PI_2));
+                nominal.push((format!("knee_{l}{side}_link"), -dir * 2.1834));
+            }
+        }
+        let passive = nominal.iter().filter(|(n, _)| n.starts_with("knee")).map(|(n, _)| n.clone()).collect();
+        let mut c = Self::with_robot(RobotSpec {
+            base: BaseSpec::Floating,
+            body_frame: "base_chassis_link".into(),
+            contacts,
+            n_legs: 4,
+            passive_joints: passive,
+            effort_limit: Some(3.5),
+            nominal_joints: nominal,
+            loop_closures: closures,
+        });
+        c.swing_height = 0.04;
+        c
+    }
+
+    /// The configuration for `name` ("solo12", "ant", "walker2d", "humanoid", "minitaur").
+    pub fn preset(name: &str) -> Option<Self> {
+        match name {
+            "solo12" => Some(Self::solo12()),
+            "ant" => Some(Self::ant()),
+            "walker2d" => Some(Self::walker2d()),
+            "humanoid" => Some(Self::humanoid()),
+            "minitaur" => Some(Self::minitaur()),
+            _ => None,
+        }
+    }
+
+    /// Checks every number and the sub-configurations.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.mpc.validate()?;
+        self.wbc.validate()?;
+        let finite_nonneg = [
+            ("mpc_period", self.mpc_period),
+            ("swing_height", self.swing_height),
+            ("swing_gains.0", self.swing_gains.0),
+            ("swing_gains.1", self.swing_gains.1),
+            ("cheap_swing_gains.0", self.cheap_swing_gains.0),
+            ("cheap_swing_gains.1", self.cheap_swing_gains.1),
+            ("posture_gains.0", self.posture_gains.0),
+            ("posture_gains.1", self.posture_gains.1),
+            ("swing_joint_gains.0", self.swing_joint_gains.0),
+            ("swing_joint_gains.1", self.swing_joint_gains.1),
+            ("stance_joint_gains.0", self.stance_joint_gains.0),
+            ("stance_joint_gains.1", self.stance_joint_gains.1),
+            ("fallback_joint_gains.0", self.fallback_joint_gains.0),
+            ("fallback_joint_gains.1", self.fallback_joint_gains.1),
+            ("raibert_kv", self.raibert_kv),
+            ("max_acceleration", self.max_acceleration),
+            ("max_yaw_acceleration", self.max_yaw_acceleration),
+            ("ik_damping", self.ik_damping),
+        ];
+        for (field, v) in finite_nonneg {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(ConfigError::OutOfRange { field, value: v, range: "finite, >= 0" });
+            }
+        }
+        for (field, arr) in [
+            ("body_kp_pos", self.body_kp_pos),
+            ("body_kd_vel", self.body_kd_vel),
+            ("body_kp_ori", self.body_kp_ori),
+            ("body_kd_ang", self.body_kd_ang),
+        ] {
+            if let Some(v) = arr.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
+                return Err(ConfigError::OutOfRange { field, value: *v, range: "finite, >= 0" });
+            }
+        }
+        if !(self.gait_period_scale.is_finite() && self.gait_period_scale > 0.0) {
+            return Err(ConfigError::OutOfRange {
+                field: "gait_period_scale",
+                value: self.gait_period_scale,
+                range: "> 0",
+            });
+        }
+        if !(0.0..=1.0).contains(&self.fallback_decay) {
+            return Err(ConfigError::OutOfRange {
+                field: "fallback_decay",
+                value: self.fallback_decay,
+                range: "0..=1",
+            });
+        }
+        if self.robot.n_legs != 2 && self.robot.n_legs != 4 {
+            return Err(ConfigError::OutOfRange {
+                field: "robot.n_legs",
+                value: self.robot.n_legs as f64,
+                range: "2 or 4",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// What the robot should do.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Command {
+    /// Forward velocity in the heading frame (m/s).
+    pub forward_velocity: f64,
+    /// Lateral velocity, positive to the left (m/s).
+    pub lateral_velocity: f64,
+    /// Yaw rate (rad/s).
+    pub yaw_rate: f64,
+    /// CoM height above the ground (m); `None` keeps the nominal standing height.
+    pub body_height: Option<f64>,
+    /// Gait (ignored if not defined for the robot's number of legs).
+    pub gait: Gait,
+}
+
+impl Default for Command {
+    fn default() -> Self {
+        Self {
+            forward_velocity: 0.0,
+            lateral_velocity: 0.0,
+            yaw_rate: 0.0,
+            body_height: None,
+            gait: Gait::Stand,
+        }
+    }
+}
+
+impl Command {
+    /// Stand still.
+    pub fn stand() -> Self {
+        Self::default()
+    }
+
+    /// Move forward at `speed` with `gait`.
+    pub fn forward(speed: f64, gait: Gait) -> Self {
+        Self { forward_velocity: speed, gait, ..Self::default() }
+    }
+}

@@ -1,0 +1,677 @@
+//! Whole-body QP (weighted tasks, torques eliminated).
+//!
+//! Decision variables `x = [q̈, f, λ]`: generalized accelerations, the ground reaction force
+//! of every stance contact (world axes) and the loop-closure forces. With
+//! `M q̈ + h = Sᵀ τ + J_cᵀ f + J_lᵀ λ` (`h = C q̇ + g` from [`centaur_dynamics::nonlinear_effects`]):
+//!
+//! ```text
+//! minimise  Σ_tasks w ‖A x − b‖² + ε ‖x‖²
+//!   tasks:  body        J_b q̈ + J̇_b q̇ = a_b,des              (6 rows, linear and angular weights)
+//!           stance feet J_c q̈ + J̇_c q̇ = 0                    (soft, high weight)
+//!           swing feet  J_c q̈ + J̇_c q̇ = a_c,des
+//!           posture     q̈_j = k_p (q_nom − q) − k_d q̇          (non-base joints)
+//!           forces      f = f_MPC                              (stance contacts)
+//! subject to
+//!   unactuated rows (base, passive joints):  (M q̈ + h − J_cᵀ f − J_lᵀ λ)_u = 0
+//!   loop closures:  J_l q̈ = −J̇_l q̇ − k_p e − k_d ė
+//!   torque limits:  |(M q̈ + h − J_cᵀ f − J_lᵀ λ)_a| ≤ τ_max
+//!   friction:       pyramid rows (or SOC with the Clarabel backend), f_z ≤ f_max
+//! ```
+//!
+//! Stance contacts are a weighted task rather than an equality: with `f = 0, τ = 0`,
+//! `q̈ = M⁻¹(J_lᵀλ − h)` satisfies every constraint (free fall), so the QP is feasible for
+//! every state by construction; a robot whose feet must slip shows up as a residual, not as
+//! an infeasible problem. Torques follow as `τ = (M q̈ + h − J_cᵀ f − J_lᵀ λ)_a`.
+//!
+//! Two backends solve the same problem: [`QpBackend::Dense`] (Goldfarb–Idnani on dense
+//! Cholesky, [`crate::qp::DenseQp`]) and [`QpBackend::Clarabel`] (one interior-point solver
+//! per stance pattern, built at construction with the structural sparsity of the model and
+//! updated in place).
+
+use centaur_dynamics::Model;
+use centaur_dynamics::nalgebra::{DMatrix, DVector, Matrix3xX, Matrix6xX, Vector3, Vector6};
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SupportedConeT};
+
+use crate::friction::FrictionModel;
+use crate::qp::{DenseQp, DenseQpData, QpStatus};
+use crate::robot::LeggedRobot;
+
+/// Which solver the whole-body QP uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum QpBackend {
+    /// Goldfarb–Idnani dual active set on dense matrices (linear friction only).
+    #[default]
+    Dense,
+    /// Clarabel interior point (exact cones allowed).
+    Clarabel,
+}
+
+/// Whole-body QP settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WbcConfig {
+    /// Solver (default: dense).
+    pub backend: QpBackend,
+    /// Friction model (default: inscribed pyramid; `Cone` needs the Clarabel backend).
+    pub friction: FrictionModel,
+    /// Friction coefficient (default: 0.6).
+    pub mu: f64,
+    /// Largest normal force per contact as a multiple of the weight (default: 1.0).
+    pub max_normal_force_ratio: f64,
+    /// Weight of the body linear-acceleration task (default: 10).
+    pub w_body_linear: f64,
+    /// Weight of the body angular-acceleration task (default: 10).
+    pub w_body_angular: f64,
+    /// Weight of the stance no-slip task (default: 1000).
+    pub w_stance: f64,
+    /// Weight of the swing-foot task (default: 20).
+    pub w_swing: f64,
+    /// Weight of the posture task (default: 0.05).
+    pub w_posture: f64,
+    /// Weight of tracking the MPC forces, per N² (default: 0.01).
+    pub w_force: f64,
+    /// Regularisation `ε` on every variable (default: 1e-6).
+    pub regularization: f64,
+    /// Baumgarte stiffness of loop closures (1/s²) (default: 400).
+    pub closure_kp: f64,
+    /// Baumgarte damping of loop closures (1/s) (default: 40).
+    pub closure_kd: f64,
+    /// Clarabel tolerance (default: 1e-8).
+    pub tolerance: f64,
+}
+
+impl Default for WbcConfig {
+    fn default() -> Self {
+        Self {
+            backend: QpBackend::Dense,
+            friction: FrictionModel::InscribedPyramid,
+            mu: 0.6,
+            max_normal_force_ratio: 1.0,
+            w_body_linear: 10.0,
+            w_body_angular: 10.0,
+            w_stance: 1000.0,
+            w_swing: 20.0,
+            w_posture: 0.05,
+            w_force: 0.01,
+            regularization: 1e-6,
+            closure_kp: 400.0,
+            closure_kd: 40.0,
+            tolerance: 1e-8,
+        }
+    }
+}
+
+impl WbcConfig {
+    /// Checks ranges and the backend/friction combination.
+    pub fn validate(&self) -> Result<(), crate::ConfigError> {
+        use crate::ConfigError as E;
+        let checks = [
+            ("wbc.mu", self.mu, self.mu >= 0.0),
+            ("wbc.max_normal_force_ratio", self.max_normal_force_ratio, self.max_normal_force_ratio > 0.0),
+            ("wbc.w_body_linear", self.w_body_linear, self.w_body_linear >= 0.0),
+            ("wbc.w_body_angular", self.w_body_angular, self.w_body_angular >= 0.0),
+            ("wbc.w_stance", self.w_stance, self.w_stance >= 0.0),
+            ("wbc.w_swing", self.w_swing, self.w_swing >= 0.0),
+            ("wbc.w_posture", self.w_posture, self.w_posture >= 0.0),
+            ("wbc.w_force", self.w_force, self.w_force >= 0.0),
+            ("wbc.regularization", self.regularization, self.regularization > 0.0),
+            ("wbc.closure_kp", self.closure_kp, self.closure_kp >= 0.0),
+            ("wbc.closure_kd", self.closure_kd, self.closure_kd >= 0.0),
+            ("wbc.tolerance", self.tolerance, self.tolerance > 0.0),
+        ];
+        for (field, value, ok) in checks {
+            if !(ok && value.is_finite()) {
+                return Err(E::OutOfRange { field, value, range: "finite, see the field's doc" });
+            }
+        }
+        if self.backend == QpBackend::Dense && !self.friction.is_pyramid() {
+            return Err(E::Inconsistent("the dense whole-body solver needs a pyramid friction model".into()));
+        }
+        Ok(())
+    }
+}
+
+/// Kinematic and dynamic quantities of the current state, written by the caller.
+#[derive(Clone, Debug)]
+pub struct WbcInput {
+    /// `M(q)`.
+    pub mass_matrix: DMatrix<f64>,
+    /// `h = C q̇ + g`.
+    pub nle: DVector<f64>,
+    /// Linear Jacobian (world axes) of each contact point.
+    pub j_contact: Vec<Matrix3xX<f64>>,
+    /// `J̇ q̇` of each contact point.
+    pub jdqd_contact: Vec<Vector3<f64>>,
+    /// Body-frame Jacobian (LocalWorldAligned).
+    pub j_body: Matrix6xX<f64>,
+    /// `J̇ q̇` of the body frame.
+    pub jdqd_body: Vector6<f64>,
+    /// Loop-closure rows `dᵀ(J_a − J_b)`.
+    pub j_closure: DMatrix<f64>,
+    /// Right-hand side of the closure rows.
+    pub closure_rhs: DVector<f64>,
+    /// Stance flag per contact.
+    pub stance: Vec<bool>,
+    /// MPC force per contact (world axes).
+    pub f_ref: Vec<Vector3<f64>>,
+    /// Desired body acceleration `[linear; angular]` (world axes).
+    pub a_body: Vector6<f64>,
+    /// Desired acceleration of each swing contact.
+    pub a_swing: Vec<Vector3<f64>>,
+    /// Desired acceleration of each non-base joint (order of `LeggedRobot::joint_v`).
+    pub qdd_posture: Vec<f64>,
+    /// Weight `m g` (for the normal-force limit).
+    pub weight: f64,
+}
+
+/// Solution of the whole-body QP.
+#[derive(Clone, Debug)]
+pub struct WbcOutput {
+    /// Generalized accelerations.
+    pub qdd: DVector<f64>,
+    /// Contact forces (zero for swing contacts).
+    pub forces: Vec<Vector3<f64>>,
+    /// Torques of the actuated joints.
+    pub tau: Vec<f64>,
+}
+
+struct ClarabelWbc {
+    solver: DefaultSolver<f64>,
+    /// (row, col) of every stored entry of P (upper triangle) in nzval order.
+    p_entries: Vec<(usize, usize)>,
+    /// (row, col) of every stored entry of the dense rows of A in nzval order (SOC rows
+    /// keep their constant values: `usize::MAX` marks them).
+    a_entries: Vec<(usize, usize)>,
+    p_val: Vec<f64>,
+    a_val: Vec<f64>,
+    b: Vec<f64>,
+    q_buf: Vec<f64>,
+    n_soc: usize,
+}
+
+/// The whole-body controller QP with its buffers.
+pub struct WholeBodyQp {
+    cfg: WbcConfig,
+    nv: usize,
+    nc: usize,
+    nl: usize,
+    actuated_v: Vec<usize>,
+    unactuated_v: Vec<usize>,
+    joint_v: Vec<usize>,
+    effort: Vec<f64>,
+    contact_leg: Vec<usize>,
+    /// Inputs of the next solve.
+    pub input: WbcInput,
+    /// Result of the last successful solve.
+    pub output: WbcOutput,
+    qp: DenseQpData,
+    dense: DenseQp,
+    clarabel: Vec<Option<ClarabelWbc>>,
+    stance_index: Vec<usize>,
+    row_buf: Vec<f64>,
+    status: QpStatus,
+    iterations: u32,
+}
+
+impl std::fmt::Debug for WholeBodyQp {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("WholeBodyQp").field("cfg", &self.cfg).field("status", &self.status).finish()
+    }
+}
+
+/// Dofs (v indices) that move `frame`: the support of its joint.
+fn frame_support(model: &Model, frame: usize) -> Vec<bool> {
+    let mut s = vec![false; model.nv];
+    let j = model.frames[frame].parent_joint;
+    for &a in model.support(j) {
+        let jj = &model.joints[a];
+        for k in 0..jj.nv() {
+            s[jj.idx_v + k] = true;
+        }
+    }
+    s
+}
+
+impl WholeBodyQp {
+    /// Buffers and solvers for `robot`.
+    pub fn new(robot: &LeggedRobot, cfg: &WbcConfig) -> Result<Self, crate::ConfigError> {
+        cfg.validate()?;
+        let model = &robot.model;
+        let nv = model.nv;
+        let nc = robot.n_contacts();
+        let nl = robot.n_closure_rows;
+        let na = robot.n_actuated();
+        let n_max = nv + 3 * nc + nl;
+        let p_max = robot.unactuated_v.len() + nl;
+        let m_max = 2 * na + 6 * nc;
+        let input = WbcInput {
+            mass_matrix: DMatrix::zeros(nv, nv),
+            nle: DVector::zeros(nv),
+            j_contact: vec![Matrix3xX::zeros(nv); nc],
+            jdqd_contact: vec![Vector3::zeros(); nc],
+            j_body: Matrix6xX::zeros(nv),
+            jdqd_body: Vector6::zeros(),
+            j_closure: DMatrix::zeros(nl, nv),
+            closure_rhs: DVector::zeros(nl),
+            stance: vec![true; nc],
+            f_ref: vec![Vector3::zeros(); nc],
+            a_body: Vector6::zeros(),
+            a_swing: vec![Vector3::zeros(); nc],
+            qdd_posture: vec![0.0; robot.joint_v.len()],
+            weight: robot.mass * 9.81,
+        };
+        let output =
+            WbcOutput { qdd: DVector::zeros(nv), forces: vec![Vector3::zeros(); nc], tau: vec![0.0; na] };
+        let mut w = WholeBodyQp {
+            cfg: cfg.clone(),
+            nv,
+            nc,
+            nl,
+            actuated_v: robot.actuated_v.clone(),
+            unactuated_v: robot.unactuated_v.clone(),
+            joint_v: robot.joint_v.clone(),
+            effort: robot.effort.clone(),
+            contact_leg: robot.contact_leg.clone(),
+            input,
+            output,
+            qp: DenseQpData::new(n_max, p_max, m_max),
+            dense: DenseQp::new(n_max, p_max + m_max),
+            clarabel: Vec::new(),
+            stance_index: vec![0; nc],
+            row_buf: vec![0.0; nv],
+            status: QpStatus::NotRun,
+            iterations: 0,
+        };
+        if cfg.backend == QpBackend::Clarabel {
+            for mask in 0..(1usize << robot.n_legs) {
+                let stance: Vec<bool> = robot.contact_leg.iter().map(|&l| mask & (1 << l) != 0).collect();
+                let cw = w.build_clarabel(robot, &stance)?;
+                w.clarabel.push(Some(cw));
+            }
+        }
+        Ok(w)
+    }
+
+    /// Status of the last solve.
+    pub fn status(&self) -> QpStatus {
+        self.status
+    }
+
+    /// Iterations (dense: active-set changes; Clarabel: interior-point iterations).
+    pub fn iterations(&self) -> u32 {
+        self.iterations
+    }
+
+    /// Configuration.
+    pub fn config(&self) -> &WbcConfig {
+        &self.cfg
+    }
+
+    /// Column of the force of stance contact `c` (after `assemble`).
+    fn fcol(&self, c: usize) -> usize {
+        self.nv + 3 * self.stance_index[c]
+    }
+
+    /// Builds the dense problem from `self.input`. Returns (n, n_stance).
+    fn assemble(&mut self) -> (usize, usize) {
+        let nv = self.nv;
+        let nc = self.nc;
+        let nl = self.nl;
+        let mut ns = 0;
+        for c in 0..nc {
+            self.stance_index[c] = ns;
+            if self.input.stance[c] {
+                ns += 1;
+            }
+        }
+        let n = nv + 3 * ns + nl;
+        let lcol = nv + 3 * ns;
+        let p = self.unactuated_v.len() + nl;
+        let pyr = self.cfg.friction.is_pyramid();
+        let m = 2 * self.actuated_v.len() + ns * if pyr { 5 } else { 1 };
+        self.qp.reset(n, p, m);
+        let inp = &self.input;
+        let cfg = &self.cfg;
+        let qp = &mut self.qp;
+        // Tasks: H += w aᵀa, g −= w b a for each row a·x ≈ b over the q̈ block.
+        let add_row = |qp: &mut DenseQpData, a: &[f64], b: f64, w: f64| {
+            if w == 0.0 {
+                return;
+            }
+            let n = qp.n;
+            for c in 0..nv {
+                let ac = a[c];
+                if ac == 0.0 {
+                    continue;
+                }
+                qp.g[c] -= w * b * ac;
+                for r in 0..nv {
+                    qp.h[c * n + r] += w * a[r] * ac;
+                }
+            }
+        };
+        let mut row = std::mem::take(&mut self.row_buf);
+        for d in 0..6 {
+            for c in 0..nv {
+                row[c] = inp.j_body[(d, c)];
+            }
+            let w = if d < 3 { cfg.w_body_linear } else { cfg.w_body_angular };
+            add_row(qp, &row, inp.a_body[d] - inp.jdqd_body[d], w);
+        }
+        for c in 0..nc {
+            let (target, w) =
+                if inp.stance[c] { (Vector3::zeros(), cfg.w_stance) } else { (inp.a_swing[c], cfg.w_swing) };
+            for d in 0..3 {
+                for k in 0..nv {
+                    row[k] = inp.j_contact[c][(d, k)];
+                }
+                add_row(qp, &row, target[d] - inp.jdqd_contact[c][d], w);
+            }
+        }
+        self.row_buf = row;
+        for (k, &iv) in self.joint_v.iter().enumerate() {
+            qp.h[iv * n + iv] += cfg.w_posture;
+            qp.g[iv] -= cfg.w_posture * inp.qdd_posture[k];
+        }
+        for c in 0..nc {
+            if inp.stance[c] {
+                let col = nv + 3 * self.stance_index[c];
+                for d in 0..3 {
+                    qp.h[(col + d) * n + col + d] += cfg.w_force;
+                    qp.g[col + d] -= cfg.w_force * inp.f_ref[c][d];
+                }
+            }
+        }
+        for i in 0..n {
+            qp.h[i * n + i] += cfg.regularization;
+        }
+        // Dynamics rows: (M q̈ − J_cᵀ f − J_lᵀ λ)_j  with constant h_j.
+        let dyn_row = |qp_row: &mut [f64], j: usize, sign: f64| {
+            for k in 0..nv {
+                qp_row[k] = sign * inp.mass_matrix[(j, k)];
+            }
+            let mut s = 0;
+            for c in 0..nc {
+                if inp.stance[c] {
+                    let col = nv + 3 * s;
+                    for d in 0..3 {
+                        qp_row[col + d] = -sign * inp.j_contact[c][(d, j)];
+                    }
+                    s += 1;
+                }
+            }
+            for l in 0..nl {
+                qp_row[lcol + l] = -sign * inp.j_closure[(l, j)];
+            }
+        };
+        for (i, &j) in self.unactuated_v.iter().enumerate() {
+            dyn_row(qp.e_row(i), j, 1.0);
+            qp.e[i] = -inp.nle[j];
+        }
+        let pu = self.unactuated_v.len();
+        for l in 0..nl {
+            let r = qp.e_row(pu + l);
+            for k in 0..nv {
+                r[k] = inp.j_closure[(l, k)];
+            }
+            qp.e[pu + l] = inp.closure_rhs[l];
+        }
+        let mut ir = 0;
+        for (a, &j) in self.actuated_v.iter().enumerate() {
+            let tmax = self.effort[a];
+            dyn_row(qp.c_row(ir), j, 1.0);
+            qp.d[ir] = tmax - inp.nle[j];
+            dyn_row(qp.c_row(ir + 1), j, -1.0);
+            qp.d[ir + 1] = tmax + inp.nle[j];
+            ir += 2;
+        }
+        let fmax = cfg.max_normal_force_ratio * inp.weight;
+        let mu_p = cfg.friction.pyramid_mu(cfg.mu);
+        for c in 0..nc {
+            if !inp.stance[c] {
+                continue;
+            }
+            let col = nv + 3 * self.stance_index[c];
+            qp.c_row(ir)[col + 2] = 1.0;
+            qp.d[ir] = fmax;
+            ir += 1;
+            if pyr {
+                for a in crate::friction::pyramid_rows(mu_p) {
+                    let r = qp.c_row(ir);
+                    r[col..col + 3].copy_from_slice(&a);
+                    ir += 1;
+                }
+            }
+        }
+        debug_assert_eq!(ir, m);
+        (n, ns)
+    }
+
+    /// Assembles and solves; on success fills [`WholeBodyQp::output`].
+    pub fn solve(&mut self) -> QpStatus {
+        let (n, _ns) = self.assemble();
+        let status = match self.cfg.backend {
+            QpBackend::Dense => {
+                let s = self.dense.solve(&mut self.qp);
+                self.iterations = self.dense.iterations() as u32;
+                s
+            }
+            QpBackend::Clarabel => self.solve_clarabel(),
+        };
+        self.status = status;
+        if status.is_ok() {
+            let x: &[f64] = match self.cfg.backend {
+                QpBackend::Dense => self.dense.solution(),
+                QpBackend::Clarabel => {
+                    let mask = self.leg_mask();
+                    &self.clarabel[mask].as_ref().expect("built").solver.solution.x
+                }
+            };
+            let x = &x[..n];
+            if x.iter().any(|v| !v.is_finite()) {
+                self.status = QpStatus::NumericalError;
+                return self.status;
+            }
+            self.output.qdd.as_mut_slice().copy_from_slice(&x[..self.nv]);
+            for c in 0..self.nc {
+                self.output.forces[c] = if self.input.stance[c] {
+                    let col = self.fcol(c);
+                    Vector3::new(x[col], x[col + 1], x[col + 2])
+                } else {
+                    Vector3::zeros()
+                };
+            }
+            // τ_a = row_a · x + h_a (the torque-limit row without its bound).
+            for (a, _) in self.actuated_v.iter().enumerate() {
+                let r = &self.qp.c_mat[(2 * a) * n..(2 * a + 1) * n];
+                let j = self.actuated_v[a];
+                self.output.tau[a] = r.iter().zip(x).map(|(p, q)| p * q).sum::<f64>() + self.input.nle[j];
+            }
+        }
+        self.status
+    }
+
+    fn leg_mask(&self) -> usize {
+        let mut mask = 0;
+        for c in 0..self.nc {
+            if self.input.stance[c] {
+                mask |= 1 << self.contact_leg[c];
+            }
+        }
+        mask
+    }
+
+    fn build_clarabel(
+        &mut self,
+        robot: &LeggedRobot,
+        stance: &[bool],
+    ) -> Result<ClarabelWbc, crate::ConfigError> {
+        let model = &robot.model;
+        let nv = self.nv;
+        let nc = self.nc;
+        // Structural pattern: supports of every Jacobian, mass-matrix couplings.
+        let sup_c: Vec<Vec<bool>> = robot.contact_frames.iter().map(|&f| frame_support(model, f)).collect();
+        let sup_b = frame_support(model, robot.body_frame);
+        let mut sup_l: Vec<bool> = vec![false; nv];
+        for cl in &robot.closures {
+            for f in [cl.frame_a, cl.frame_b] {
+                for (k, s) in frame_support(model, f).into_iter().enumerate() {
+                    sup_l[k] |= s;
+                }
+            }
+        }
+        let m_nz =
+            |i: usize, j: usize| model.dof_support(i).contains(&j) || model.dof_support(j).contains(&i);
+        // Fill the input with a pattern: ones wherever an entry may be non-zero.
+        let inp = &mut self.input;
+        for i in 0..nv {
+            for j in 0..nv {
+                inp.mass_matrix[(i, j)] = if m_nz(i, j) { 1.0 } else { 0.0 };
+            }
+        }
+        for c in 0..nc {
+            for k in 0..nv {
+                for d in 0..3 {
+                    inp.j_contact[c][(d, k)] = if sup_c[c][k] { 1.0 } else { 0.0 };
+                }
+            }
+        }
+        for k in 0..nv {
+            for d in 0..6 {
+                inp.j_body[(d, k)] = if sup_b[k] { 1.0 } else { 0.0 };
+            }
+            for l in 0..self.nl {
+                inp.j_closure[(l, k)] = if sup_l[k] { 1.0 } else { 0.0 };
+            }
+        }
+        for (k, v) in inp.qdd_posture.iter_mut().enumerate() {
+            *v = k as f64;
+        }
+        inp.stance.copy_from_slice(stance);
+        let (n, ns) = self.assemble();
+        let qp = &self.qp;
+        let mut p_entries = Vec::new();
+        for c in 0..n {
+            for r in 0..=c {
+                if qp.h[c * n + r] != 0.0 || r == c {
+                    p_entries.push((r, c));
+                }
+            }
+        }
+        let rows = qp.p + qp.m;
+        let pyr = self.cfg.friction.is_pyramid();
+        let n_soc = if pyr { 0 } else { ns };
+        let mut a_entries = Vec::new();
+        for c in 0..n {
+            for r in 0..rows {
+                let v = if r < qp.p { qp.e_mat[r * n + c] } else { qp.c_mat[(r - qp.p) * n + c] };
+                if v != 0.0 {
+                    a_entries.push((r, c));
+                }
+            }
+        }
+        // SOC rows after the dense rows: s = (μ f_z, f_x, f_y) = −A f with b = 0.
+        let mut soc = Vec::new();
+        for s in 0..n_soc {
+            let col = nv + 3 * s;
+            soc.push((rows + 3 * s, col + 2, -self.cfg.mu));
+            soc.push((rows + 3 * s + 1, col, -1.0));
+            soc.push((rows + 3 * s + 2, col + 1, -1.0));
+        }
+        let m_total = rows + 3 * n_soc;
+        let (pr, pc): (Vec<usize>, Vec<usize>) = p_entries.iter().copied().unzip();
+        let p_val: Vec<f64> = p_entries.iter().map(|&(r, c)| qp.h[c * n + r]).collect();
+        let p = CscMatrix::new_from_triplets(n, n, pr.clone(), pc.clone(), p_val.clone());
+        let mut ar: Vec<usize> = a_entries.iter().map(|e| e.0).collect();
+        let mut ac: Vec<usize> = a_entries.iter().map(|e| e.1).collect();
+        let mut av: Vec<f64> = vec![1.0; a_entries.len()];
+        for &(r, c, v) in &soc {
+            ar.push(r);
+            ac.push(c);
+            av.push(v);
+        }
+        let a = CscMatrix::new_from_triplets(m_total, n, ar.clone(), ac.clone(), av);
+        // Sort entries in nzval order.
+        let pos_p = crate::convex_mpc::triplet_positions(&p, &pr, &pc);
+        let mut p_sorted = vec![(0, 0); p_entries.len()];
+        for (t, &k) in pos_p.iter().enumerate() {
+            p_sorted[k] = p_entries[t];
+        }
+        let pos_a = crate::convex_mpc::triplet_positions(&a, &ar, &ac);
+        let mut a_sorted = vec![(usize::MAX, 0); ar.len()];
+        for (t, &k) in pos_a.iter().enumerate() {
+            a_sorted[k] = if t < a_entries.len() { a_entries[t] } else { (usize::MAX, t - a_entries.len()) };
+        }
+        let mut cones = Vec::new();
+        if qp.p > 0 {
+            cones.push(SupportedConeT::ZeroConeT(qp.p));
+        }
+        cones.push(SupportedConeT::NonnegativeConeT(qp.m));
+        for _ in 0..n_soc {
+            cones.push(SupportedConeT::SecondOrderConeT(3));
+        }
+        let settings = DefaultSettings::<f64> {
+            verbose: false,
+            presolve_enable: false,
+            tol_gap_abs: self.cfg.tolerance,
+            tol_gap_rel: self.cfg.tolerance,
+            tol_feas: self.cfg.tolerance,
+            max_iter: 50,
+            max_threads: 1,
+            ..Default::default()
+        };
+        let b = vec![0.0; m_total];
+        let solver = DefaultSolver::new(&p, &qp.g[..n], &a, &b, &cones, settings)
+            .map_err(|e| crate::ConfigError::Solver(format!("{e}")))?;
+        let soc_vals: Vec<f64> = soc.iter().map(|s| s.2).collect();
+        let mut a_val = a.nzval.clone();
+        for (k, e) in a_sorted.iter().enumerate() {
+            if e.0 == usize::MAX {
+                a_val[k] = soc_vals[e.1];
+            }
+        }
+        Ok(ClarabelWbc {
+            solver,
+            p_entries: p_sorted,
+            a_entries: a_sorted,
+            p_val: p.nzval.clone(),
+            a_val,
+            b,
+            q_buf: vec![0.0; n],
+            n_soc,
+        })
+    }
+
+    fn solve_clarabel(&mut self) -> QpStatus {
+        if !self.qp.is_finite() {
+            return QpStatus::NumericalError;
+        }
+        let mask = self.leg_mask();
+        let qp = &self.qp;
+        let n = qp.n;
+        let Some(cw) = self.clarabel[mask].as_mut() else { return QpStatus::NumericalError };
+        for (k, &(r, c)) in cw.p_entries.iter().enumerate() {
+            cw.p_val[k] = qp.h[c * n + r];
+        }
+        for (k, &(r, c)) in cw.a_entries.iter().enumerate() {
+            if r == usize::MAX {
+                continue;
+            }
+            cw.a_val[k] = if r < qp.p { qp.e_mat[r * n + c] } else { qp.c_mat[(r - qp.p) * n + c] };
+        }
+        cw.b[..qp.p].copy_from_slice(&qp.e[..qp.p]);
+        cw.b[qp.p..qp.p + qp.m].copy_from_slice(&qp.d[..qp.m]);
+        cw.q_buf.copy_from_slice(&qp.g[..n]);
+        let _ = cw.n_soc;
+        let ok = cw.solver.update_P(&cw.p_val).is_ok()
+            && cw.solver.update_q(&cw.q_buf).is_ok()
+            && cw.solver.update_A(&cw.a_val).is_ok()
+            && cw.solver.update_b(&cw.b).is_ok();
+        if !ok {
+            return QpStatus::NumericalError;
+        }
+        cw.solver.solve();
+        self.iterations = cw.solver.solution.iterations;
+        QpStatus::from_clarabel(cw.solver.solution.status)
+    }
+}
