@@ -1,0 +1,157 @@
+//! QP feasibility: the MPC and the whole-body QP are feasible while standing and in every
+//! phase of every gait on each robot, also for perturbed states (base tilt, height,
+//! velocity, joint offsets).
+
+mod common;
+
+use centaur_dynamics::nalgebra::{UnitQuaternion, Vector3};
+use centaur_dynamics::{Model, RobotState};
+use centaur_mpc::{Command, ControllerConfig, Gait, LocomotionController, QpStatus};
+use proptest::prelude::*;
+
+/// A perturbation of the nominal state.
+#[derive(Clone, Debug)]
+struct Perturbation {
+    roll: f64,
+    pitch: f64,
+    dz: f64,
+    v: [f64; 3],
+    w: [f64; 3],
+    joint_offset: f64,
+    joint_seed: u64,
+}
+
+fn perturbed(c: &LocomotionController, p: &Perturbation) -> RobotState {
+    let mut s = c.nominal_state();
+    let r = c.robot();
+    match r.planar_q {
+        None => {
+            let pos = s.base_position() + Vector3::new(0.0, 0.0, p.dz);
+            let rot = UnitQuaternion::from_euler_angles(p.roll, p.pitch, 0.0);
+            s.set_base_pose(pos, rot);
+            s.set_base_twist_world(Vector3::from(p.v), Vector3::from(p.w));
+        }
+        Some([ix, iz, ip]) => {
+            s.q[iz] += p.dz;
+            s.q[ip] += p.pitch;
+            s.v[r.base_v[0]] = p.v[0];
+            s.v[r.base_v[1]] = p.v[2];
+            s.v[r.base_v[2]] = p.w[1];
+            let _ = ix;
+        }
+    }
+    // Deterministic pseudo-random joint offsets in ±joint_offset.
+    let mut x = p.joint_seed | 1;
+    for &iq in &r.joint_q {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        let u = (x % 10_000) as f64 / 10_000.0 * 2.0 - 1.0;
+        s.q[iq] += u * p.joint_offset;
+    }
+    s
+}
+
+/// Runs one gait cycle (plus a bit) and checks every QP status.
+fn check_cycle(name: &str, model: &Model, cfg: &ControllerConfig, gait: Gait, p: &Perturbation) {
+    let mut c = LocomotionController::new(model, cfg.clone()).unwrap();
+    let state = perturbed(&c, p);
+    let cmd = Command::forward(0.3, gait);
+    let period = centaur_mpc::GaitPattern::new(gait, c.robot().n_legs).map_or(0.5, |g| g.period);
+    let steps = (period / 0.025).ceil() as usize + 1;
+    for k in 0..steps {
+        let t = k as f64 * 0.025;
+        c.tick(&state, &cmd, t);
+        let s = c.status();
+        assert!(s.mpc_status.is_ok(), "{name} {gait:?} φ = {:.2} {p:?}: MPC {:?}", s.phase, s.mpc_status);
+        if s.wbc_status != QpStatus::NotRun {
+            assert!(s.wbc_status.is_ok(), "{name} {gait:?} φ = {:.2} {p:?}: WBC {:?}", s.phase, s.wbc_status);
+        }
+        assert!(c.command().tau.iter().all(|x| x.is_finite()));
+    }
+}
+
+fn gaits_for(c: &ControllerConfig) -> Vec<Gait> {
+    Gait::ALL.into_iter().filter(|g| g.supported(c.robot.n_legs)).collect()
+}
+
+#[test]
+fn feasible_standing_and_in_every_phase_of_every_gait() {
+    let zero = Perturbation {
+        roll: 0.0,
+        pitch: 0.0,
+        dz: 0.0,
+        v: [0.0; 3],
+        w: [0.0; 3],
+        joint_offset: 0.0,
+        joint_seed: 1,
+    };
+    for (name, _, _) in common::ROBOTS {
+        let (model, cfg) = common::load(name);
+        for gait in gaits_for(&cfg) {
+            check_cycle(name, &model, &cfg, gait, &zero);
+        }
+    }
+}
+
+fn perturbation() -> impl Strategy<Value = Perturbation> {
+    (
+        -0.15..0.15f64,
+        -0.15..0.15f64,
+        -0.03..0.02f64,
+        prop::array::uniform3(-0.3..0.3f64),
+        prop::array::uniform3(-0.5..0.5f64),
+        0.0..0.1f64,
+        any::<u64>(),
+    )
+        .prop_map(|(roll, pitch, dz, v, w, joint_offset, joint_seed)| Perturbation {
+            roll,
+            pitch,
+            dz,
+            v,
+            w,
+            joint_offset,
+            joint_seed,
+        })
+}
+
+macro_rules! perturbed_feasibility {
+    ($test:ident, $robot:expr) => {
+        proptest! {
+            #![proptest_config(ProptestConfig { cases: 6, ..ProptestConfig::default() })]
+            #[test]
+            fn $test(p in perturbation(), g in 0usize..7) {
+                let (model, cfg) = common::load($robot);
+                let gaits = gaits_for(&cfg);
+                let gait = gaits[g % gaits.len()];
+                check_cycle($robot, &model, &cfg, gait, &p);
+            }
+        }
+    };
+}
+
+perturbed_feasibility!(perturbed_states_feasible_solo12, "solo12");
+perturbed_feasibility!(perturbed_states_feasible_ant, "ant");
+perturbed_feasibility!(perturbed_states_feasible_walker2d, "walker2d");
+perturbed_feasibility!(perturbed_states_feasible_humanoid, "humanoid");
+perturbed_feasibility!(perturbed_states_feasible_minitaur, "minitaur");
+
+#[test]
+fn clarabel_wbc_backend_is_feasible_too() {
+    // The Clarabel backend with exact cones, Solo12 trotting.
+    let (model, mut cfg) = common::load("solo12");
+    cfg.wbc.backend = centaur_mpc::QpBackend::Clarabel;
+    cfg.wbc.friction = centaur_mpc::FrictionModel::Cone;
+    let zero = Perturbation {
+        roll: 0.05,
+        pitch: -0.05,
+        dz: -0.01,
+        v: [0.1, 0.0, 0.0],
+        w: [0.0; 3],
+        joint_offset: 0.05,
+        joint_seed: 3,
+    };
+    for gait in [Gait::Stand, Gait::Trot, Gait::Bound] {
+        check_cycle("solo12/clarabel", &model, &cfg, gait, &zero);
+    }
+}
