@@ -1,5 +1,76 @@
-//! # centaur-mpc (work in progress)
-#![allow(missing_docs)]
+//! # centaur-mpc
+//!
+//! Model-predictive locomotion control for legged robots, seeing the robot only through a
+//! [`centaur_dynamics::Model`], a [`centaur_dynamics::RobotState`] and a [`Command`]:
+//!
+//! ```text
+//! gait schedule ──> footholds + swing curves ──> convex MPC (forces over the horizon)
+//!        │                                                │
+//!        └──────────────> whole-body QP (or cheap τ = −Jᵀf) ──> JointCommand
+//! ```
+//!
+//! | part | module | maths |
+//! |---|---|---|
+//! | gait schedule (stand, walk, trot, pace, bound, pronk, gallop; biped walk) | [`gait`] | offsets `oᵢ`, duty `dᵢ`, `ψᵢ = (φ − oᵢ) mod 1`, stance iff `ψᵢ < dᵢ` |
+//! | friction | [`friction`] | `‖(f_x, f_y)‖ ≤ μ f_z` (SOC) or a 4-sided pyramid |
+//! | convex MPC | [`convex_mpc`] | Di Carlo et al. 2018, single rigid body, yaw-linearised, sparse, Clarabel |
+//! | whole-body QP | [`wbc`] | `[q̈, f, λ]`, floating-base rows as equalities, torque limits, weighted tasks |
+//! | dense QP solver | [`qp`] | Goldfarb–Idnani dual active set (the WBC default) |
+//! | footholds, swing curves | [`swing`] | Raibert + capture point `√(h/g)(v − v_cmd)`; Bézier swing |
+//! | robot description | [`robot`], [`config`] | contacts, actuated/passive joints, loop closures, presets |
+//! | controller | [`controller`] | [`LocomotionController::tick`], status, fallbacks |
+//! | Minitaur action mapping | [`minitaur`] | PD targets → motor angles → PyBullet leg model |
+//!
+//! ## Conventions
+//!
+//! Those of `centaur-dynamics` (Pinocchio's): `q = [x, y, z, qx, qy, qz, qw, joints]`,
+//! `v = [v_base, ω_base]` in the base frame. The controller's world quantities (contact
+//! forces, foot positions, CoM) are in world axes, z up, flat ground. Contact forces are
+//! the ground's reaction on the robot. The [`JointCommand`] lists the actuated joints in
+//! model order ([`LocomotionController::joint_names`]); the torque it asks for is
+//! `τ = tau + kp (q_des − q) + kd (qd_des − q̇)`.
+//!
+//! ## Per robot (presets in [`ControllerConfig`])
+//!
+//! * **Solo12**, **Ant**: quadruped MPC + WBC. Ant's legs have 2 dof, so forces a leg
+//!   cannot produce are limited by the WBC's torque rows and no-slip task.
+//! * **Minitaur**: the same, with the four 5-bar loops closed in the WBC by constraint
+//!   forces `λ` along the two in-plane directions, passive knees (`τ = 0` rows), toe
+//!   contacts; [`minitaur`] maps the command to the env's motor-angle / leg-model actions.
+//! * **Walker2d**: the **planar** MPC variant ([`MpcConfig::biped_planar`]: lateral force
+//!   columns removed, feet projected to the sagittal plane) + WBC on its planar root
+//!   joints, biped walk, heel and toe contacts per foot.
+//! * **Humanoid**: balance — the standing MPC on two point feet + WBC (hip strategy: the
+//!   trunk and hips move the CoM, there are no ankles). Walking is not tuned.
+//!
+//! ## Failures and fallbacks
+//!
+//! Solver outcomes are [`QpStatus`] values in [`ControllerStatus`]. The MPC falls back to
+//! its last feasible forces decayed by `fallback_decay` per failure (or the weight split
+//! over the stance feet); a failed whole-body QP falls back to the cheap path; a
+//! non-finite state or command gives posture PD to the nominal pose with zero feed-forward.
+//! The whole-body QP is feasible for every finite state by construction (see [`wbc`]).
+//!
+//! ## Limits
+//!
+//! Flat ground (contact normal +z); contact states follow the schedule (no touch-down
+//! detection); `tick` allocates nothing except one small allocation inside each Clarabel
+//! solve (Clarabel 0.11's internal timers); the dense WBC needs a pyramid friction model.
+//!
+//! ## Example
+//!
+//! ```
+//! use centaur_dynamics::{BaseKind, Model};
+//! use centaur_mpc::{Command, ControllerConfig, Gait, LocomotionController};
+//! let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/solo12/solo12.urdf");
+//! let model = Model::from_urdf_file(path, BaseKind::Floating).unwrap();
+//! let mut ctrl = LocomotionController::new(&model, ControllerConfig::solo12()).unwrap();
+//! let state = ctrl.nominal_state();
+//! let cmd = ctrl.tick(&state, &Command::forward(0.3, Gait::Trot), 0.0);
+//! assert_eq!(cmd.tau.len(), 12);
+//! assert!(ctrl.status().mpc_status.is_ok() && ctrl.status().wbc_status.is_ok());
+//! ```
+
 pub mod config;
 pub mod controller;
 pub mod convex_mpc;
