@@ -28,7 +28,7 @@ pub fn cholesky_decompose(model: &Model, data: &mut Data) -> bool {
             tmp[k] = u[(j, k)] * d[k];
             dj -= u[(j, k)] * tmp[k];
         }
-        if !(dj > 0.0) {
+        if dj.is_nan() || dj <= 0.0 {
             ok = false;
         }
         d[j] = dj;

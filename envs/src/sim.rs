@@ -44,6 +44,9 @@ pub struct SimConfig {
     pub ground_contact_frequency: f64,
     /// Damping ratio of ground contacts (default: 10, Rapier's default).
     pub ground_contact_damping_ratio: f64,
+    /// Penetration Rapier tolerates before correcting contacts (m) (default: 0.001; Rapier's
+    /// own 0.005 lets the robot sit several millimetres into the ground).
+    pub allowed_penetration: f64,
     /// Gravity in the world, z up (default: (0, 0, −9.81)).
     pub gravity: [f64; 3],
     /// Friction coefficient of the ground (default: 1.0).
@@ -61,6 +64,7 @@ impl Default for SimConfig {
             stabilization_iterations: 1,
             ground_contact_frequency: 120.0,
             ground_contact_damping_ratio: 10.0,
+            allowed_penetration: 0.001,
             gravity: [0.0, 0.0, -9.81],
             ground_friction: 1.0,
             self_collision: false,
@@ -94,11 +98,20 @@ pub struct ColliderSpec {
     /// Friction of the robot's colliders (default: 1.0). Rapier combines the two
     /// coefficients of a contact with `Max`, as MuJoCo does.
     pub default_friction: f64,
+    /// Links whose box shapes are replaced by capsules along the box's longest side, of the
+    /// same length and with the radius of half the next side: long thin links (legs) touch
+    /// the ground through one or two points instead of four (default: none).
+    pub capsule_boxes: Vec<String>,
 }
 
 impl Default for ColliderSpec {
     fn default() -> Self {
-        ColliderSpec { links: Vec::new(), friction: Vec::new(), default_friction: 1.0 }
+        ColliderSpec {
+            links: Vec::new(),
+            friction: Vec::new(),
+            default_friction: 1.0,
+            capsule_boxes: Vec::new(),
+        }
     }
 }
 
@@ -193,6 +206,7 @@ pub struct Sim {
     closure_specs: Vec<(RigidBodyHandle, Vector3<f64>, RigidBodyHandle, Vector3<f64>)>,
     /// Generalized forces applied at every step until changed (model `v` layout).
     tau: Vec<f64>,
+    external: Option<(usize, Vector3<f64>)>,
     disp: Vec<f32>,
     time: f64,
 }
@@ -220,6 +234,7 @@ impl Sim {
             config.ground_contact_damping_ratio as f32,
         );
         params.max_ccd_substeps = 0;
+        params.normalized_allowed_linear_error = config.allowed_penetration as f32;
         let mut bodies = RigidBodySet::new();
         let mut collider_set = ColliderSet::new();
         let mut multibody_joints = MultibodyJointSet::new();
@@ -292,11 +307,21 @@ impl Sim {
             // Joint frame in the parent's Rapier frame, and in the child's (the child frame is
             // the joint frame: URDF convention).
             let in_parent = shift(parent).inverse().mul(&joint.placement);
-            let g = GenericJointBuilder::new(mask)
+            let mut builder = GenericJointBuilder::new(mask)
                 .local_frame1(pose(&in_parent) * Pose::from_rotation(r))
                 .local_frame2(Pose::from_rotation(r))
-                .contacts_enabled(config.self_collision)
-                .build();
+                .contacts_enabled(config.self_collision);
+            // Position limits become Rapier joint limits (solved as constraints).
+            let (lo, hi) = (model.lower_position_limit[joint.idx_q], model.upper_position_limit[joint.idx_q]);
+            if lo.is_finite() && hi.is_finite() {
+                let axis = if revolute {
+                    rapier3d::prelude::JointAxis::AngX
+                } else {
+                    rapier3d::prelude::JointAxis::LinX
+                };
+                builder = builder.limits(axis, [lo as f32, hi as f32]);
+            }
+            let g = builder.build();
             let handle = multibody_joints
                 .insert(parent_body, h, g, true)
                 .ok_or_else(|| SimError::JointRejected(joint.name.clone()))?;
@@ -324,6 +349,19 @@ impl Sim {
             let Some(body) = bodies_of_joint[g.parent_joint] else { continue };
             let local = shift(g.parent_joint).inverse().mul(&g.placement);
             let builder = match &g.shape {
+                Shape::Box { size } if colliders.capsule_boxes.iter().any(|l| l == link) => {
+                    // Longest side → capsule axis (z of a turned frame).
+                    let mut idx = [0usize, 1, 2];
+                    idx.sort_by(|a, b| size[*b].total_cmp(&size[*a]));
+                    let (long, mid) = (size[idx[0]], size[idx[1]]);
+                    let radius = mid / 2.0;
+                    let axis = Vector3::ith(idx[0], 1.0);
+                    let turn = na::Rotation3::rotation_between(&Vector3::z(), &axis)
+                        .unwrap_or_else(na::Rotation3::identity);
+                    let frame = local.mul(&Se3::new(*turn.matrix(), Vector3::zeros()));
+                    ColliderBuilder::capsule_z(((long / 2.0) - radius).max(0.0) as f32, radius as f32)
+                        .position(pose(&frame))
+                }
                 Shape::Box { size } => {
                     ColliderBuilder::cuboid(size.x as f32 / 2.0, size.y as f32 / 2.0, size.z as f32 / 2.0)
                         .position(pose(&local))
@@ -426,6 +464,7 @@ impl Sim {
             closures: closure_handles,
             closure_specs,
             tau: vec![0.0; model.nv],
+            external: None,
             disp: Vec::new(),
             time: 0.0,
         };
@@ -511,6 +550,21 @@ impl Sim {
         }
     }
 
+    /// Position and velocity of one 1-dof model joint (cheaper than [`Sim::read_state`]).
+    #[inline]
+    pub fn joint_state(&self, joint: usize) -> (f64, f64) {
+        let Some(map) = self.joints[joint] else { return (0.0, 0.0) };
+        let (mb, _) = self.multibody_joints.get(self.root_handle).expect("multibody exists");
+        let q = mb.link(map.link).map_or(0.0, |l| l.joint().coords()[map.coord]);
+        (q as f64, mb.generalized_velocity()[map.dof] as f64)
+    }
+
+    /// Applies a force (N, world frame) through the centre of mass of the body moved by
+    /// `joint` at every step until changed (zero to stop).
+    pub fn set_external_force(&mut self, joint: usize, force: Vector3<f64>) {
+        self.external = Some((joint, force)).filter(|(_, f)| f.norm() > 0.0);
+    }
+
     /// Sets the generalized forces applied from now on (model `v` layout; entries of a
     /// floating base are ignored). They persist across steps until changed.
     #[track_caller]
@@ -558,6 +612,11 @@ impl Sim {
                 if self.bodies[map.parent_body].is_dynamic() {
                     self.bodies[map.parent_body].add_force_at_point(-f, at, false);
                 }
+            }
+        }
+        if let Some((j, f)) = self.external {
+            if let Some(body) = self.bodies_of_joint[j] {
+                self.bodies[body].add_force(v3(&f), false);
             }
         }
         self.pipeline.step(

@@ -1,0 +1,874 @@
+//! PyBullet's `MinitaurBulletEnv-v0` on Rapier.
+//!
+//! Read from `pybullet_envs/bullet/{minitaur_gym_env,minitaur,motor,minitaur_env_randomizer}.py`
+//! (pybullet 3.2.7) and reproduced here:
+//!
+//! * **Robot**: `assets/minitaur/minitaur.urdf` (8 motors, 8 passive knees), the four 5-bar
+//!   legs closed at the toes by loop-closing joints between the two lower legs of each leg
+//!   (pivots `[0, 0.005, 0.2]` in `lower_leg_*R_link`, `[0, 0.01, 0.2]` in
+//!   `lower_leg_*L_link`). Inertias follow PyBullet, which ignores the file's 1 kg·m²:
+//!   each link gets the box inertia of the AABB of its collision shapes (+1 mm per side)
+//!   about its `<inertial>` origin — see [`minitaur_model`].
+//! * **Time**: physics step 2 ms, 5 physics steps per env step (100 Hz), 1000 steps.
+//!   Gravity −10 m/s², as PyBullet's env sets it.
+//! * **Motors**: PyBullet's DC motor model ([`MotorModel`]) recomputed before every physics
+//!   step from the current motor angle and velocity (pwm = clip(−kp (q − q*) − kd q̇), back-EMF,
+//!   the current→torque table, 50 V diode clipping), overheat protection (a motor above
+//!   2.45 N·m for more than 1 s switches off until reset); or a plain PD option.
+//! * **Action**: the leg model ([`leg_model_to_motor_angles`]) by default, motor angles or
+//!   PWM as options. Actions are clipped to [−1, 1] (PyBullet raises beyond ±1.01).
+//! * **Observation** (28): motor angles, velocities, observed torques (motor frame:
+//!   left motors negated) and the base quaternion (x, y, z, w).
+//! * **Reward**: `w_d Δx − w_e |τ_obs · q̇| · 0.002 − w_drift |Δy| − w_shake |Δz|`, weights
+//!   1.0 / 0.005 / 0 / 0 by default, the energy term on the last physics step only, the first
+//!   step measured from the origin (as PyBullet does).
+//! * **Termination**: base z-axis · world z < 0.85, or base height < 0.13 m.
+//! * **Randomisation** (on by default, as in v0; [`MinitaurRandomization`]): base mass and
+//!   leg/motor masses ±20 % (inertias scale with mass), battery voltage 14.8–16.8 V, motor
+//!   viscous damping 0–0.01, foot friction 0.8–1.5; plus the sim-to-real options of Tan et
+//!   al. (2018): motor strength, control latency and observation noise.
+//!
+//! Differences from PyBullet: Rapier's solver instead of Bullet's (1 substep, 8 PGS
+//! iterations, ground contact at 120 Hz natural frequency — standing height 0.158 m vs
+//! PyBullet's 0.157 m), loop closures locking the two in-plane directions only (a full
+//! point-to-point lock is unstable in Rapier: the out-of-plane row is redundant for a
+//! planar linkage), no self-collision (PyBullet enables it; it changes random-action
+//! statistics by a few percent), lower legs collide as capsules of the same length (option
+//! `capsule_feet`), and the randomiser draws from the environment's seeded generator rather
+//! than Python's global one.
+
+use centaur_dynamics::nalgebra::Vector3;
+use centaur_dynamics::{BaseKind, Inertia, Model, RobotState, Shape, UrdfError};
+use centaur_rl::env::{check_action, check_observation};
+use centaur_rl::{BoxSpace, Env, EnvError, Rng, Step, StepInfo};
+
+use crate::robot::{FootContact, JointHistory, ObsOptions, RobotEnv};
+use crate::sim::{ColliderSpec, LoopClosure, Sim, SimConfig};
+
+/// The Minitaur URDF from pybullet_data, compiled into the crate.
+pub const MINITAUR_URDF: &str = include_str!("../../assets/minitaur/minitaur.urdf");
+
+/// Motor joints in observation/action order (PyBullet's `MOTOR_NAMES`).
+pub const MOTOR_NAMES: [&str; 8] = [
+    "motor_front_leftL_joint",
+    "motor_front_leftR_joint",
+    "motor_back_leftL_joint",
+    "motor_back_leftR_joint",
+    "motor_front_rightL_joint",
+    "motor_front_rightR_joint",
+    "motor_back_rightL_joint",
+    "motor_back_rightR_joint",
+];
+
+/// Legs in PyBullet's order (`LEG_POSITION`); leg `l` owns motors `2l` and `2l + 1`.
+pub const LEG_NAMES: [&str; 4] = ["front_left", "back_left", "front_right", "back_right"];
+
+/// Motor frame = joint frame × direction (left motors are mounted mirrored).
+pub const MOTOR_DIRECTION: [f64; 8] = [-1.0, -1.0, -1.0, -1.0, 1.0, 1.0, 1.0, 1.0];
+
+/// Knee angle of the initial pose (PyBullet's `knee_angle`, joint frame × direction).
+const KNEE_ANGLE: f64 = -2.1834;
+/// Loop-closure pivots in the lower legs (PyBullet's `KNEE_CONSTRAINT_POINT_*`).
+const TOE_RIGHT: [f64; 3] = [0.0, 0.005, 0.2];
+const TOE_LEFT: [f64; 3] = [0.0, 0.01, 0.2];
+/// Observation bounds: angle, velocity (V / Kt), observed torque, quaternion.
+const OBS_BOUNDS: [f32; 4] = [std::f32::consts::PI, 16.0 / 0.0954, 5.7, 1.0];
+const OBSERVATION_EPS: f32 = 0.01;
+/// PyBullet's energy term multiplies the power by its 2 ms simulation step; the reward keeps
+/// that definition whatever physics step Rapier uses.
+pub const ENERGY_TERM_DT: f64 = 0.002;
+
+/// The Minitaur model both the simulator and a controller use: the URDF with PyBullet's
+/// inertias (box inertia of each link's collision AABB, 1 mm margin per side, about the
+/// `<inertial>` origin, no parallel-axis term — PyBullet's behaviour without
+/// `URDF_USE_INERTIA_FROM_FILE`; it reproduces the base inertia (0.0241, 0.0289, 0.0504)
+/// kg·m² that PyBullet reports).
+pub fn minitaur_model() -> Result<Model, UrdfError> {
+    let mut model = Model::from_urdf_str(MINITAUR_URDF, "assets/minitaur/minitaur.urdf", BaseKind::Floating)?;
+    apply_box_inertias(&mut model, 0.001);
+    Ok(model)
+}
+
+/// Replaces every link's rotational inertia by Bullet's AABB box inertia (see
+/// [`minitaur_model`]) and recomputes the body inertias.
+pub fn apply_box_inertias(model: &mut Model, margin: f64) {
+    for f in 0..model.frames.len() {
+        let frame = &model.frames[f];
+        if !frame.is_link || frame.link_inertia.mass <= 0.0 {
+            continue;
+        }
+        let link_from_joint = frame.placement.inverse();
+        // The AABB in the inertial frame (link frame shifted to the <inertial> origin).
+        let origin = frame.link_inertia.lever;
+        let mut lo = Vector3::repeat(f64::INFINITY);
+        let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+        for g in model
+            .geometries
+            .iter()
+            .filter(|g| g.frame == f && g.role == centaur_dynamics::GeometryRole::Collision)
+        {
+            let in_link = link_from_joint.mul(&g.placement);
+            let (c, r) = (in_link.translation - origin, in_link.rotation);
+            let half: Vector3<f64> = match &g.shape {
+                Shape::Box { size } => (r.abs() * size) / 2.0,
+                Shape::Sphere { radius } => Vector3::repeat(*radius),
+                Shape::Cylinder { radius, length } | Shape::Capsule { radius, length } => {
+                    let extra = if matches!(g.shape, Shape::Capsule { .. }) { *radius } else { 0.0 };
+                    let axis = r.column(2);
+                    Vector3::from_fn(|i, _| {
+                        axis[i].abs() * (length / 2.0 + extra)
+                            + radius * (1.0 - axis[i] * axis[i]).max(0.0).sqrt()
+                    })
+                }
+                Shape::Mesh { .. } => continue,
+            };
+            lo = lo.inf(&(c - half));
+            hi = hi.sup(&(c + half));
+        }
+        let m = frame.link_inertia.mass;
+        let rotational = if lo.x.is_finite() {
+            let l = (hi - lo) + Vector3::repeat(2.0 * margin);
+            let (lx, ly, lz) = (l.x * l.x, l.y * l.y, l.z * l.z);
+            centaur_dynamics::nalgebra::Matrix3::from_diagonal(&Vector3::new(ly + lz, lx + lz, lx + ly))
+                * (m / 12.0)
+        } else {
+            centaur_dynamics::nalgebra::Matrix3::zeros()
+        };
+        model.frames[f].link_inertia = Inertia::new(m, origin, rotational);
+    }
+    model.recompute_body_inertias();
+}
+
+/// Converts a leg-model action to the 8 desired motor angles (PyBullet's
+/// `ConvertFromLegModel`): for motor `i` of leg `l = i / 2`,
+/// `q*ᵢ = π − (π/4)(a[l+4] + 1.5) + sᵢ (π/4) a[l]` with `sᵢ = (−1)ⁱ` on the left legs
+/// (`i < 4`) and `−(−1)ⁱ` on the right. `a[0..4]` moves the two motors of a leg apart
+/// (PyBullet calls it extension; physically it swings the leg), `a[4..8]` together (leg
+/// length). `a = 0` gives 5π/8 on every motor.
+pub fn leg_model_to_motor_angles(a: &[f64; 8]) -> [f64; 8] {
+    let quarter_pi = std::f64::consts::FRAC_PI_4;
+    let mut out = [0.0; 8];
+    for (i, o) in out.iter_mut().enumerate() {
+        let leg = i / 2;
+        let common = -quarter_pi * (a[leg + 4] + 1.5);
+        let mut differential = if i % 2 == 0 { quarter_pi * a[leg] } else { -quarter_pi * a[leg] };
+        if i >= 4 {
+            differential = -differential;
+        }
+        *o = std::f64::consts::PI + common + differential;
+    }
+    out
+}
+
+/// The inverse of [`leg_model_to_motor_angles`]: the leg-model action whose motor angles
+/// are `q` (exact when `q` is reachable; actions outside [−1, 1] mean the angles are).
+pub fn motor_angles_to_leg_model(q: &[f64; 8]) -> [f64; 8] {
+    let quarter_pi = std::f64::consts::FRAC_PI_4;
+    let mut a = [0.0; 8];
+    for leg in 0..4 {
+        let (q0, q1) = (q[2 * leg], q[2 * leg + 1]);
+        let sign = if leg < 2 { 1.0 } else { -1.0 };
+        a[leg] = sign * (q0 - q1) / (2.0 * quarter_pi);
+        a[leg + 4] = (std::f64::consts::PI - (q0 + q1) / 2.0) / quarter_pi - 1.5;
+    }
+    a
+}
+
+/// PyBullet's DC motor model (`motor.py`), per motor, in the motor frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MotorModel {
+    /// Position gain on PWM (1/rad) (default: 1.0).
+    pub kp: f64,
+    /// Velocity gain on PWM (s/rad) (default: 0.02).
+    pub kd: f64,
+    /// Battery voltage (V) (default: 16.0).
+    pub voltage: f64,
+    /// Winding resistance (Ω) (default: 0.186).
+    pub resistance: f64,
+    /// Torque constant (N·m/A) (default: 0.0954).
+    pub torque_constant: f64,
+    /// Viscous damping (N·m·s/rad), added to the back-EMF constant (default: 0).
+    pub viscous_damping: f64,
+    /// Scale of the produced torque, for motor-strength randomisation (default: 1.0).
+    pub strength: f64,
+}
+
+impl Default for MotorModel {
+    fn default() -> Self {
+        MotorModel {
+            kp: 1.0,
+            kd: 0.02,
+            voltage: 16.0,
+            resistance: 0.186,
+            torque_constant: 0.0954,
+            viscous_damping: 0.0,
+            strength: 1.0,
+        }
+    }
+}
+
+/// Torque the "sensor" reports is clipped here (N·m).
+pub const OBSERVED_TORQUE_LIMIT: f64 = 5.7;
+/// Diode clipping of the net voltage (V).
+const VOLTAGE_CLIPPING: f64 = 50.0;
+const CURRENT_TABLE: [f64; 7] = [0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0];
+const TORQUE_TABLE: [f64; 7] = [0.0, 1.0, 1.9, 2.45, 3.0, 3.25, 3.5];
+
+impl MotorModel {
+    /// Position control: `pwm = clip(−kp (q − q*) − kd q̇, −1, 1)`, then
+    /// [`MotorModel::torque_from_pwm`]. Returns `(actual, observed)` torques.
+    pub fn torque(&self, q_des: f64, q: f64, qd: f64) -> (f64, f64) {
+        let pwm = (-self.kp * (q - q_des) - self.kd * qd).clamp(-1.0, 1.0);
+        self.torque_from_pwm(pwm, qd)
+    }
+
+    /// `observed = clip(Kt·pwm·V/R, ±5.7)`; `V_net = clip(pwm V − (Kt + b) q̇, ±50)`;
+    /// `I = V_net / R`; `actual = sign(I) · interp(|I|, current table, torque table)`.
+    pub fn torque_from_pwm(&self, pwm: f64, qd: f64) -> (f64, f64) {
+        let observed = (self.torque_constant * pwm * self.voltage / self.resistance)
+            .clamp(-OBSERVED_TORQUE_LIMIT, OBSERVED_TORQUE_LIMIT);
+        let v_net = (pwm * self.voltage - (self.torque_constant + self.viscous_damping) * qd)
+            .clamp(-VOLTAGE_CLIPPING, VOLTAGE_CLIPPING);
+        let current = v_net / self.resistance;
+        let actual = current.signum() * interp(current.abs(), &CURRENT_TABLE, &TORQUE_TABLE);
+        (actual * self.strength, observed)
+    }
+}
+
+/// Piecewise-linear interpolation, clamped at the ends (numpy's `interp`).
+fn interp(x: f64, xs: &[f64], ys: &[f64]) -> f64 {
+    if x <= xs[0] {
+        return ys[0];
+    }
+    for k in 1..xs.len() {
+        if x <= xs[k] {
+            let t = (x - xs[k - 1]) / (xs[k] - xs[k - 1]);
+            return ys[k - 1] + t * (ys[k] - ys[k - 1]);
+        }
+    }
+    ys[ys.len() - 1]
+}
+
+/// How motor commands become torques.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MotorControl {
+    /// PyBullet's DC motor model (the v0 default).
+    Accurate(MotorModel),
+    /// PyBullet's `pd_control_enabled`: `τ = −kp (q − q*) − kd q̇`, clipped to ±`max_torque`.
+    Pd {
+        /// Position gain (N·m/rad) (PyBullet: 8).
+        kp: f64,
+        /// Velocity gain (N·m·s/rad) (PyBullet: 0.3).
+        kd: f64,
+        /// Torque limit (N·m) (PyBullet's `_max_force`: 3.5).
+        max_torque: f64,
+    },
+}
+
+/// What an action means.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MinitaurAction {
+    /// The leg model (v0 default), see [`leg_model_to_motor_angles`].
+    LegModel,
+    /// Desired motor angles directly, in the motor frame (rad, bounded by [0, π]... see the
+    /// action space).
+    MotorAngles,
+    /// PWM duty cycles in [−1, 1] (PyBullet's `torque_control_enabled`, accurate model only).
+    Pwm,
+}
+
+/// Physical randomisation at every reset (v0's `MinitaurEnvRandomizer`, plus motor strength
+/// from Tan et al. 2018). Each range is `(low, high)` of a uniform draw.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MinitaurRandomization {
+    /// Relative base mass error (default: (−0.2, 0.2)).
+    pub base_mass_error: (f64, f64),
+    /// Relative leg and motor mass error (default: (−0.2, 0.2)).
+    pub leg_mass_error: (f64, f64),
+    /// Battery voltage (V) (default: (14.8, 16.8)).
+    pub battery_voltage: (f64, f64),
+    /// Motor viscous damping (N·m·s/rad) (default: (0.0, 0.01)).
+    pub motor_damping: (f64, f64),
+    /// Lower-leg friction (default: (0.8, 1.5)).
+    pub foot_friction: (f64, f64),
+    /// Motor strength scale (default: (1.0, 1.0), i.e. off as in v0).
+    pub motor_strength: (f64, f64),
+}
+
+impl Default for MinitaurRandomization {
+    fn default() -> Self {
+        MinitaurRandomization {
+            base_mass_error: (-0.2, 0.2),
+            leg_mass_error: (-0.2, 0.2),
+            battery_voltage: (14.8, 16.8),
+            motor_damping: (0.0, 0.01),
+            foot_friction: (0.8, 1.5),
+            motor_strength: (1.0, 1.0),
+        }
+    }
+}
+
+/// Configuration of [`MinitaurEnv`]; `Default` is `MinitaurBulletEnv-v0`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MinitaurConfig {
+    /// Weight of the forward distance per step (default: 1.0).
+    pub distance_weight: f64,
+    /// Weight of the energy term (default: 0.005).
+    pub energy_weight: f64,
+    /// Weight of the sideways drift penalty (default: 0.0).
+    pub drift_weight: f64,
+    /// Weight of the vertical shake penalty (default: 0.0).
+    pub shake_weight: f64,
+    /// Episode ends when the base is farther than this from the origin (m) (default: ∞).
+    pub distance_limit: f64,
+    /// Truncation (steps) (default: 1000).
+    pub max_episode_steps: usize,
+    /// Physics steps per env step (default: 5).
+    pub action_repeat: usize,
+    /// Physics settings (default: dt 2 ms, 1 substep, 8 PGS iterations, 120 Hz ground
+    /// contact, gravity −10 m/s²).
+    pub sim: SimConfig,
+    /// Motor model (default: PyBullet's DC motor model, kp 1.0, kd 0.02).
+    pub motor_control: MotorControl,
+    /// Action meaning (default: leg model).
+    pub action: MinitaurAction,
+    /// Overheat protection (default: true).
+    pub overheat_protection: bool,
+    /// Randomisation at reset (default: on, as v0).
+    pub randomization: Option<MinitaurRandomization>,
+    /// Control latency: the observation is this old (s) (default: 0).
+    pub latency: f64,
+    /// Observation noise: N(0, σ·bound) per entry (default: 0).
+    pub observation_noise_std: f64,
+    /// Lower legs collide as capsules (default: true; ~30 % faster).
+    pub capsule_feet: bool,
+    /// Observation options (default: none).
+    pub obs: ObsOptions,
+}
+
+impl Default for MinitaurConfig {
+    fn default() -> Self {
+        MinitaurConfig {
+            distance_weight: 1.0,
+            energy_weight: 0.005,
+            drift_weight: 0.0,
+            shake_weight: 0.0,
+            distance_limit: f64::INFINITY,
+            max_episode_steps: 1000,
+            action_repeat: 5,
+            sim: SimConfig { gravity: [0.0, 0.0, -10.0], ..SimConfig::default() },
+            motor_control: MotorControl::Accurate(MotorModel::default()),
+            action: MinitaurAction::LegModel,
+            overheat_protection: true,
+            randomization: Some(MinitaurRandomization::default()),
+            latency: 0.0,
+            observation_noise_std: 0.0,
+            capsule_feet: true,
+            obs: ObsOptions::default(),
+        }
+    }
+}
+
+impl MinitaurConfig {
+    /// v0 without randomisation (a fixed robot, useful for controllers and tests).
+    pub fn deterministic() -> Self {
+        MinitaurConfig { randomization: None, ..Self::default() }
+    }
+
+    /// Checks the numbers.
+    pub fn validate(&self) -> Result<(), EnvError> {
+        let bad = |what: &str| Err(EnvError::Other(format!("MinitaurConfig: {what}")));
+        if self.action_repeat == 0 || self.max_episode_steps == 0 {
+            return bad("action_repeat and max_episode_steps must be positive");
+        }
+        if !(self.latency >= 0.0 && self.latency.is_finite()) || !(self.observation_noise_std >= 0.0) {
+            return bad("latency and observation_noise_std must be finite and non-negative");
+        }
+        for w in [self.distance_weight, self.energy_weight, self.drift_weight, self.shake_weight] {
+            if !w.is_finite() {
+                return bad("reward weights must be finite");
+            }
+        }
+        if self.action == MinitaurAction::Pwm && !matches!(self.motor_control, MotorControl::Accurate(_)) {
+            return bad("PWM actions need the accurate motor model");
+        }
+        Ok(())
+    }
+}
+
+/// Leg-model action bounds are [−1, 1]; motor-angle actions are bounded by [0, π]... in the
+/// motor frame PyBullet leaves them unbounded; we use [−π, 2π] to keep the box finite.
+fn action_space(action: MinitaurAction) -> BoxSpace {
+    match action {
+        MinitaurAction::LegModel | MinitaurAction::Pwm => BoxSpace::symmetric(8, 1.0),
+        MinitaurAction::MotorAngles => {
+            BoxSpace::new(vec![-std::f32::consts::PI; 8], vec![2.0 * std::f32::consts::PI; 8])
+        }
+    }
+}
+
+/// `MinitaurBulletEnv-v0` simulated with Rapier (see the module docs).
+pub struct MinitaurEnv {
+    config: MinitaurConfig,
+    nominal: Model,
+    sim: Sim,
+    rng: Rng,
+    obs_space: BoxSpace,
+    act_space: BoxSpace,
+    motor_joints: [usize; 8],
+    motor_dofs: [usize; 8],
+    foot_colliders: Vec<Vec<rapier3d::prelude::ColliderHandle>>,
+    foot_frames: Vec<String>,
+    motor: MotorModel,
+    motor_enabled: [bool; 8],
+    overheat_counter: [usize; 8],
+    observed_torque: [f64; 8],
+    state: RobotState,
+    contacts: [FootContact; 4],
+    last_position: Vector3<f64>,
+    steps: usize,
+    needs_reset: bool,
+    history: JointHistory,
+    /// Ring of past base observations (28 entries) for the latency option, one per physics step.
+    delayed: Vec<f32>,
+    delayed_head: usize,
+    delay_steps: usize,
+    base_obs: [f32; 28],
+    push: Option<(Vector3<f64>, f64)>,
+    episode_time: f64,
+}
+
+impl MinitaurEnv {
+    /// Builds the environment (the robot stands at its reset pose after [`Env::reset`]).
+    pub fn new(config: MinitaurConfig) -> Result<MinitaurEnv, EnvError> {
+        config.validate()?;
+        let nominal = minitaur_model().map_err(|e| EnvError::Other(e.to_string()))?;
+        let mut motor_joints = [0usize; 8];
+        let mut motor_dofs = [0usize; 8];
+        for (i, name) in MOTOR_NAMES.iter().enumerate() {
+            let j = nominal.joint_index(name).ok_or_else(|| EnvError::Other(format!("no joint {name}")))?;
+            motor_joints[i] = j;
+            motor_dofs[i] = nominal.joints[j].idx_v;
+        }
+        let sim = build_sim(&nominal, &config, 1.0)?;
+        let obs_dim = observation_dim(&config);
+        let mut high = Vec::with_capacity(obs_dim);
+        for (k, b) in OBS_BOUNDS.iter().enumerate() {
+            let n = if k == 3 { 4 } else { 8 };
+            if k == 3 && config.obs.drop_base_orientation {
+                continue;
+            }
+            high.extend(std::iter::repeat_n(b + OBSERVATION_EPS, n));
+        }
+        high.extend(std::iter::repeat_n(OBS_BOUNDS[0] + OBSERVATION_EPS, 8 * config.obs.joint_history));
+        let low = high.iter().map(|h| -h).collect();
+        let motor = match &config.motor_control {
+            MotorControl::Accurate(m) => m.clone(),
+            MotorControl::Pd { .. } => MotorModel::default(),
+        };
+        let delay_steps = (config.latency / config.sim.dt).round() as usize;
+        let foot_frames = LEG_NAMES.iter().map(|l| format!("lower_leg_{l}R_link")).collect();
+        let mut env = MinitaurEnv {
+            act_space: action_space(config.action),
+            obs_space: BoxSpace::new(low, high),
+            history: JointHistory::new(config.obs.joint_history, 8),
+            delayed: vec![0.0; 28 * (delay_steps + 1)],
+            delayed_head: 0,
+            delay_steps,
+            config,
+            state: RobotState::new(&nominal),
+            nominal,
+            sim,
+            rng: Rng::seed_from_u64(0),
+            motor_joints,
+            motor_dofs,
+            foot_colliders: Vec::new(),
+            foot_frames,
+            motor,
+            motor_enabled: [true; 8],
+            overheat_counter: [0; 8],
+            observed_torque: [0.0; 8],
+            contacts: [FootContact::default(); 4],
+            last_position: Vector3::zeros(),
+            steps: 0,
+            needs_reset: true,
+            base_obs: [0.0; 28],
+            push: None,
+            episode_time: 0.0,
+        };
+        env.index_feet();
+        Ok(env)
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &MinitaurConfig {
+        &self.config
+    }
+
+    /// The simulator (read access, e.g. for loop-closure gaps or rendering).
+    pub fn sim(&self) -> &Sim {
+        &self.sim
+    }
+
+    /// Motor angles, velocities (motor frame) and the torques last applied (joint frame).
+    pub fn motor_state(&self) -> ([f64; 8], [f64; 8]) {
+        let mut q = [0.0; 8];
+        let mut qd = [0.0; 8];
+        for i in 0..8 {
+            let (a, b) = self.sim.joint_state(self.motor_joints[i]);
+            q[i] = MOTOR_DIRECTION[i] * a;
+            qd[i] = MOTOR_DIRECTION[i] * b;
+        }
+        (q, qd)
+    }
+
+    fn index_feet(&mut self) {
+        self.foot_colliders.clear();
+        for leg in LEG_NAMES {
+            let mut cs = Vec::new();
+            for side in ["L", "R"] {
+                let name = format!("lower_leg_{leg}{side}_link");
+                for (k, g) in self.sim.model().geometries.iter().enumerate() {
+                    if self.sim.model().frames[g.frame].name == name
+                        && let Some(c) = self.sim.geometry_collider(k)
+                    {
+                        cs.push(c);
+                    }
+                }
+            }
+            self.foot_colliders.push(cs);
+        }
+    }
+
+    /// One physics step with motor commands `cmd` (desired motor angles, or PWM).
+    fn physics_step(&mut self, cmd: &[f64; 8]) -> f64 {
+        let mut power = 0.0;
+        for i in 0..8 {
+            let (qj, qdj) = self.sim.joint_state(self.motor_joints[i]);
+            let (q, qd) = (MOTOR_DIRECTION[i] * qj, MOTOR_DIRECTION[i] * qdj);
+            let (actual, observed) = match (&self.config.motor_control, self.config.action) {
+                (MotorControl::Accurate(_), MinitaurAction::Pwm) => {
+                    self.motor.torque_from_pwm(cmd[i].clamp(-1.0, 1.0), qd)
+                }
+                (MotorControl::Accurate(_), _) => self.motor.torque(cmd[i], q, qd),
+                (MotorControl::Pd { kp, kd, max_torque }, _) => {
+                    let t = (-kp * (q - cmd[i]) - kd * qd).clamp(-max_torque, *max_torque);
+                    (t, t)
+                }
+            };
+            if self.config.overheat_protection {
+                if actual.abs() > 2.45 {
+                    self.overheat_counter[i] += 1;
+                } else {
+                    self.overheat_counter[i] = 0;
+                }
+                if self.overheat_counter[i] as f64 > 1.0 / self.config.sim.dt {
+                    self.motor_enabled[i] = false;
+                }
+            }
+            self.observed_torque[i] = observed;
+            let applied = if self.motor_enabled[i] { actual } else { 0.0 };
+            self.sim.set_joint_torque(self.motor_dofs[i], MOTOR_DIRECTION[i] * applied);
+            power += applied * qd;
+        }
+        self.sim.step();
+        self.episode_time += self.config.sim.dt;
+        if self.delay_steps > 0 {
+            self.write_base_observation();
+            let slot = self.delayed_head;
+            self.delayed[slot * 28..(slot + 1) * 28].copy_from_slice(&self.base_obs);
+            self.delayed_head = (self.delayed_head + 1) % (self.delay_steps + 1);
+        }
+        power.abs() * self.config.sim.dt
+    }
+
+    /// The undelayed 28-entry observation from the simulator.
+    fn write_base_observation(&mut self) {
+        let (q, qd) = self.motor_state();
+        for i in 0..8 {
+            self.base_obs[i] = q[i] as f32;
+            self.base_obs[8 + i] = qd[i] as f32;
+            self.base_obs[16 + i] = self.observed_torque[i] as f32;
+        }
+        self.sim.read_state(&mut self.state);
+        for k in 0..4 {
+            self.base_obs[24 + k] = self.state.q[3 + k] as f32;
+        }
+    }
+
+    fn write_observation(&mut self, obs: &mut [f32]) {
+        self.write_base_observation();
+        let mut base = self.base_obs;
+        if self.delay_steps > 0 {
+            // The oldest slot of the ring is `delay_steps` physics steps old.
+            let slot = self.delayed_head;
+            base.copy_from_slice(&self.delayed[slot * 28..(slot + 1) * 28]);
+        }
+        if self.config.observation_noise_std > 0.0 {
+            for (k, b) in base.iter_mut().enumerate() {
+                let bound = OBS_BOUNDS[(k / 8).min(3)] as f64;
+                *b += (self.rng.normal() * self.config.observation_noise_std * bound) as f32;
+            }
+        }
+        let n = if self.config.obs.drop_base_orientation { 24 } else { 28 };
+        obs[..n].copy_from_slice(&base[..n]);
+        self.history.push(&base[..8]);
+        self.history.write(&mut obs[n..n + self.history.len()]);
+    }
+
+    fn update_contacts(&mut self) {
+        for (leg, cs) in self.foot_colliders.iter().enumerate() {
+            let mut c = FootContact::default();
+            for &h in cs {
+                if let Some((f, _)) = self.sim.contact_force(h) {
+                    c.in_contact = true;
+                    c.force += f;
+                }
+            }
+            self.contacts[leg] = c;
+        }
+    }
+
+    fn is_fallen(&self) -> bool {
+        let q = &self.state.q;
+        let (x, y) = (q[3], q[4]);
+        // R[2,2] = 1 − 2(x² + y²) for a unit quaternion.
+        let up_z = 1.0 - 2.0 * (x * x + y * y);
+        up_z < 0.85 || q[2] < 0.13
+    }
+
+    /// Initial pose: base at (0, 0, 0.2), motors at ±π/2 and knees at ∓2.1834 (joint frame).
+    fn initial_state(&self) -> RobotState {
+        let model = self.sim.model();
+        let mut s = RobotState::new(model);
+        s.q[2] = 0.2;
+        for (l, leg) in LEG_NAMES.iter().enumerate() {
+            for (k, side) in ["L", "R"].iter().enumerate() {
+                let dir = MOTOR_DIRECTION[2 * l + k];
+                let m = model.joint_index(&format!("motor_{leg}{side}_joint")).expect("motor joint");
+                let kn = model.joint_index(&format!("knee_{leg}{side}_link")).expect("knee joint");
+                s.q[model.joints[m].idx_q] = dir * std::f64::consts::FRAC_PI_2;
+                s.q[model.joints[kn].idx_q] = dir * KNEE_ANGLE;
+            }
+        }
+        s
+    }
+}
+
+fn observation_dim(config: &MinitaurConfig) -> usize {
+    (if config.obs.drop_base_orientation { 24 } else { 28 }) + 8 * config.obs.joint_history
+}
+
+fn build_sim(model: &Model, config: &MinitaurConfig, foot_friction: f64) -> Result<Sim, EnvError> {
+    let closures: Vec<LoopClosure> = LEG_NAMES
+        .iter()
+        .map(|leg| LoopClosure {
+            frame_a: format!("lower_leg_{leg}R_link"),
+            point_a: TOE_RIGHT,
+            frame_b: format!("lower_leg_{leg}L_link"),
+            point_b: TOE_LEFT,
+            free_axis: Some([0.0, 1.0, 0.0]),
+        })
+        .collect();
+    let lower_legs: Vec<String> =
+        LEG_NAMES.iter().flat_map(|l| ["L", "R"].map(|s| format!("lower_leg_{l}{s}_link"))).collect();
+    let colliders = ColliderSpec {
+        links: Vec::new(),
+        friction: lower_legs.iter().map(|l| (l.clone(), foot_friction)).collect(),
+        default_friction: 1.0,
+        capsule_boxes: if config.capsule_feet { lower_legs } else { Vec::new() },
+    };
+    Sim::new(model, &config.sim, &colliders, &closures).map_err(|e| EnvError::Other(e.to_string()))
+}
+
+/// Scales the masses of links (and their inertias, as PyBullet's `changeDynamics` does).
+fn scale_links(model: &mut Model, names: &[&str], factor: f64) {
+    for f in model.frames.iter_mut() {
+        if f.is_link && names.iter().any(|n| f.name.starts_with(n)) {
+            f.link_inertia = Inertia::new(
+                f.link_inertia.mass * factor,
+                f.link_inertia.lever,
+                f.link_inertia.rotational * factor,
+            );
+        }
+    }
+}
+
+impl Env for MinitaurEnv {
+    fn name(&self) -> &str {
+        "minitaur"
+    }
+
+    fn observation_space(&self) -> &BoxSpace {
+        &self.obs_space
+    }
+
+    fn action_space(&self) -> &BoxSpace {
+        &self.act_space
+    }
+
+    fn max_episode_steps(&self) -> usize {
+        self.config.max_episode_steps
+    }
+
+    fn dt(&self) -> f64 {
+        self.config.sim.dt * self.config.action_repeat as f64
+    }
+
+    fn reward_term_names(&self) -> &'static [&'static str] {
+        &["forward", "energy", "drift", "shake"]
+    }
+
+    fn reset(&mut self, seed: Option<u64>, obs: &mut [f32]) -> Result<(), EnvError> {
+        check_observation(&self.obs_space, obs)?;
+        if let Some(s) = seed {
+            self.rng = Rng::seed_from_u64(s);
+        }
+        // A fresh world every episode: resets are then deterministic by construction.
+        let mut model = self.nominal.clone();
+        let mut friction = 1.0;
+        self.motor = match &self.config.motor_control {
+            MotorControl::Accurate(m) => m.clone(),
+            MotorControl::Pd { .. } => MotorModel::default(),
+        };
+        if let Some(r) = self.config.randomization.clone() {
+            let base = 1.0 + self.rng.range(r.base_mass_error.0, r.base_mass_error.1);
+            scale_links(&mut model, &["base_chassis_link"], base);
+            let leg = 1.0 + self.rng.range(r.leg_mass_error.0, r.leg_mass_error.1);
+            scale_links(&mut model, &["upper_leg_", "lower_leg_"], leg);
+            let motor = 1.0 + self.rng.range(r.leg_mass_error.0, r.leg_mass_error.1);
+            scale_links(&mut model, &["motor_"], motor);
+            model.recompute_body_inertias();
+            self.motor.voltage = self.rng.range(r.battery_voltage.0, r.battery_voltage.1);
+            self.motor.viscous_damping = self.rng.range(r.motor_damping.0, r.motor_damping.1);
+            friction = self.rng.range(r.foot_friction.0, r.foot_friction.1);
+            self.motor.strength *= self.rng.range(r.motor_strength.0, r.motor_strength.1);
+        }
+        self.sim = build_sim(&model, &self.config, friction)?;
+        self.index_feet();
+        let s0 = self.initial_state();
+        self.sim.set_state(&s0);
+        self.motor_enabled = [true; 8];
+        self.overheat_counter = [0; 8];
+        self.observed_torque = [0.0; 8];
+        self.push = None;
+        self.sim.set_external_force(1, Vector3::zeros());
+        // PyBullet settles the robot for 100 physics steps with every motor at π/2.
+        if self.config.action != MinitaurAction::Pwm {
+            let settle = [std::f64::consts::FRAC_PI_2; 8];
+            for _ in 0..100 {
+                self.physics_step(&settle);
+            }
+        }
+        self.episode_time = 0.0;
+        self.steps = 0;
+        self.last_position = Vector3::zeros();
+        self.sim.read_state(&mut self.state);
+        if self.delay_steps > 0 {
+            self.write_base_observation();
+            for s in 0..=self.delay_steps {
+                self.delayed[s * 28..(s + 1) * 28].copy_from_slice(&self.base_obs);
+            }
+        }
+        self.write_base_observation();
+        self.history.fill(&self.base_obs[..8]);
+        self.write_observation(obs);
+        self.update_contacts();
+        self.needs_reset = false;
+        Ok(())
+    }
+
+    fn step(&mut self, action: &[f32], obs: &mut [f32]) -> Result<Step, EnvError> {
+        check_action(&self.act_space, action)?;
+        check_observation(&self.obs_space, obs)?;
+        if self.needs_reset {
+            return Err(EnvError::NeedsReset);
+        }
+        let mut a = [0.0f64; 8];
+        for (ai, (x, (lo, hi))) in
+            a.iter_mut().zip(action.iter().zip(self.act_space.low.iter().zip(&self.act_space.high)))
+        {
+            *ai = x.clamp(*lo, *hi) as f64;
+        }
+        let cmd = match self.config.action {
+            MinitaurAction::LegModel => leg_model_to_motor_angles(&a),
+            MinitaurAction::MotorAngles | MinitaurAction::Pwm => a,
+        };
+        let mut energy = 0.0;
+        for _ in 0..self.config.action_repeat {
+            if let Some((f, until)) = self.push {
+                if self.episode_time >= until {
+                    self.sim.set_external_force(1, Vector3::zeros());
+                    self.push = None;
+                } else {
+                    self.sim.set_external_force(1, f);
+                }
+            }
+            energy += self.physics_step(&cmd);
+        }
+        self.steps += 1;
+        self.sim.read_state(&mut self.state);
+        let mut info = StepInfo { energy, ..StepInfo::default() };
+        if !self.state.is_finite() || self.state.v.amax() > 1e3 {
+            // The simulation blew up: end the episode, keep the last finite observation.
+            self.needs_reset = true;
+            info.unstable = true;
+            return Ok(Step { reward: 0.0, terminated: true, truncated: false, info });
+        }
+        self.write_observation(obs);
+        self.update_contacts();
+        let p = Vector3::new(self.state.q[0], self.state.q[1], self.state.q[2]);
+        let forward = p.x - self.last_position.x;
+        let drift = -(p.y - self.last_position.y).abs();
+        let shake = -(p.z - self.last_position.z).abs();
+        self.last_position = p;
+        // PyBullet: |observed torque · motor velocity| of the last physics step × 0.002.
+        let (_, qd) = self.motor_state();
+        let power: f64 = (0..8).map(|i| self.observed_torque[i] * qd[i]).sum();
+        let energy_term = power.abs() * ENERGY_TERM_DT;
+        let c = &self.config;
+        let reward = c.distance_weight * forward - c.energy_weight * energy_term
+            + c.drift_weight * drift
+            + c.shake_weight * shake;
+        info.reward_terms[..4].copy_from_slice(&[forward, energy_term, drift, shake]);
+        info.forward_velocity = forward / self.dt();
+        info.foot_contacts =
+            self.contacts.iter().enumerate().fold(0u32, |m, (k, c)| m | ((c.in_contact as u32) << k));
+        let terminated = self.is_fallen() || (p.x * p.x + p.y * p.y).sqrt() > c.distance_limit;
+        let truncated = !terminated && self.steps >= c.max_episode_steps;
+        if terminated || truncated {
+            self.needs_reset = true;
+        }
+        Ok(Step { reward, terminated, truncated, info })
+    }
+}
+
+impl RobotEnv for MinitaurEnv {
+    fn model(&self) -> &Model {
+        &self.nominal
+    }
+
+    fn robot_state(&self) -> &RobotState {
+        &self.state
+    }
+
+    fn foot_contacts(&self) -> &[FootContact] {
+        &self.contacts
+    }
+
+    fn foot_frames(&self) -> &[String] {
+        &self.foot_frames
+    }
+
+    fn actuated_joints(&self) -> &[usize] {
+        &self.motor_joints
+    }
+
+    fn episode_time(&self) -> f64 {
+        self.episode_time
+    }
+
+    fn push(&mut self, force: Vector3<f64>, duration: f64) {
+        self.push = Some((force, self.episode_time + duration));
+    }
+}

@@ -1,0 +1,108 @@
+//! What every robot environment offers besides the RL interface: robot-level access for
+//! controllers, and the observation options one seed paper ablates.
+
+use centaur_dynamics::nalgebra::Vector3;
+use centaur_dynamics::{Model, RobotState};
+use centaur_rl::Env;
+
+/// One foot's contact during the last control step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FootContact {
+    /// Whether the foot touched the ground at the end of the step.
+    pub in_contact: bool,
+    /// Ground reaction force on the foot (N, world frame) at the end of the step.
+    pub force: Vector3<f64>,
+}
+
+/// How joint commands reach the robot when a controller drives it directly.
+#[derive(Clone, Debug, PartialEq)]
+pub enum JointTarget<'a> {
+    /// Torques (N·m) for the actuated joints, in [`RobotEnv::actuated_joints`] order.
+    Torques(&'a [f64]),
+    /// PD targets for the actuated joints: `τ = kp (q* − q) + kd (q̇* − q̇) + τ_ff`.
+    Pd {
+        /// Target positions.
+        q: &'a [f64],
+        /// Target velocities.
+        qd: &'a [f64],
+        /// Position gains.
+        kp: &'a [f64],
+        /// Velocity gains.
+        kd: &'a [f64],
+        /// Feed-forward torques.
+        tau_ff: &'a [f64],
+    },
+}
+
+/// Robot-level access for controllers: the model the simulator was built from, the state in
+/// the dynamics conventions, foot contacts, and external pushes.
+pub trait RobotEnv: Env {
+    /// The model the simulation was built from (with the environment's inertias).
+    fn model(&self) -> &Model;
+    /// The robot's state at the end of the last step (or reset).
+    fn robot_state(&self) -> &RobotState;
+    /// Foot contacts at the end of the last step, one per foot.
+    fn foot_contacts(&self) -> &[FootContact];
+    /// Names of the foot frames, in [`RobotEnv::foot_contacts`] order.
+    fn foot_frames(&self) -> &[String];
+    /// Model joint indices of the actuated joints, in action order.
+    fn actuated_joints(&self) -> &[usize];
+    /// Simulated time since the episode started (s).
+    fn episode_time(&self) -> f64;
+    /// Applies a force (N, world frame) to the base for the next `duration` seconds.
+    fn push(&mut self, force: Vector3<f64>, duration: f64);
+}
+
+/// Observation options shared by every environment (one seed paper ablates them).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ObsOptions {
+    /// Append the joint positions of the last `k` control steps (oldest first), after the
+    /// environment's own observation (default: 0).
+    pub joint_history: usize,
+    /// Remove the base orientation from the observation (default: false).
+    pub drop_base_orientation: bool,
+}
+
+/// A ring of the last `k` joint-position vectors.
+#[derive(Clone, Debug)]
+pub(crate) struct JointHistory {
+    k: usize,
+    n: usize,
+    data: Vec<f32>,
+    head: usize,
+}
+
+impl JointHistory {
+    pub(crate) fn new(k: usize, n: usize) -> Self {
+        JointHistory { k, n, data: vec![0.0; k * n], head: 0 }
+    }
+
+    /// Fills every slot with `q` (at reset).
+    pub(crate) fn fill(&mut self, q: &[f32]) {
+        for s in 0..self.k {
+            self.data[s * self.n..(s + 1) * self.n].copy_from_slice(q);
+        }
+        self.head = 0;
+    }
+
+    /// Records `q` as the newest entry.
+    pub(crate) fn push(&mut self, q: &[f32]) {
+        if self.k == 0 {
+            return;
+        }
+        self.data[self.head * self.n..(self.head + 1) * self.n].copy_from_slice(q);
+        self.head = (self.head + 1) % self.k;
+    }
+
+    /// Writes the history, oldest first, into `out` (`k·n` entries).
+    pub(crate) fn write(&self, out: &mut [f32]) {
+        for s in 0..self.k {
+            let slot = (self.head + s) % self.k;
+            out[s * self.n..(s + 1) * self.n].copy_from_slice(&self.data[slot * self.n..(slot + 1) * self.n]);
+        }
+    }
+
+    pub(crate) fn len(&self) -> usize {
+        self.k * self.n
+    }
+}
