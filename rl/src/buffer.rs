@@ -407,6 +407,30 @@ pub struct ReplayRaw<'a> {
     pub pos: usize,
 }
 
+/// Writes `[obs_j; act_j]` for each of `batch` samples into `out` (`batch × (od + ad)`), the
+/// input layout of Q networks.
+#[track_caller]
+pub fn concat_obs_act(obs: &[f32], act: &[f32], batch: usize, out: &mut [f32]) {
+    assert!(
+        batch > 0 && obs.len().is_multiple_of(batch) && act.len().is_multiple_of(batch),
+        "concat_obs_act: {} obs and {} action values for batch {batch}",
+        obs.len(),
+        act.len()
+    );
+    let (od, ad) = (obs.len() / batch, act.len() / batch);
+    assert!(
+        out.len() >= batch * (od + ad),
+        "concat_obs_act: output has {} entries, need {}",
+        out.len(),
+        batch * (od + ad)
+    );
+    for j in 0..batch {
+        let o = &mut out[j * (od + ad)..(j + 1) * (od + ad)];
+        o[..od].copy_from_slice(&obs[j * od..(j + 1) * od]);
+        o[od..].copy_from_slice(&act[j * ad..(j + 1) * ad]);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

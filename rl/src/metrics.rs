@@ -1,0 +1,233 @@
+//! Per-update training metrics and their CSV form.
+//!
+//! Every learner reports an [`UpdateMetrics`] after each update (on-policy) or every
+//! `log_interval` environment steps (off-policy). Quantities an algorithm does not have
+//! (e.g. `approx_kl` for SAC) are `NaN` and written as empty CSV cells.
+
+use std::io::Write;
+use std::path::Path;
+
+/// One row of training metrics.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct UpdateMetrics {
+    /// Updates done so far (1-based).
+    pub update: u64,
+    /// Environment steps done so far (all environments).
+    pub env_steps: u64,
+    /// Wall-clock seconds spent in `learn` so far.
+    pub wall_time: f64,
+    /// Environment steps per second since the previous record (updates included).
+    pub steps_per_second: f64,
+    /// Episodes finished since the previous record.
+    pub episodes: u64,
+    /// Mean undiscounted return of those episodes.
+    pub episode_return_mean: f64,
+    /// Their standard deviation.
+    pub episode_return_std: f64,
+    /// Their mean length.
+    pub episode_length_mean: f64,
+    /// Policy loss.
+    pub policy_loss: f64,
+    /// Value-function loss (PPO, A2C, SAC v1's V network).
+    pub value_loss: f64,
+    /// Q-function loss (off-policy).
+    pub q_loss: f64,
+    /// Policy entropy (for SAC: the estimate `−E[log π]`).
+    pub entropy: f64,
+    /// Approximate KL divergence between old and new policy, `E[(r − 1) − log r]` (PPO).
+    pub approx_kl: f64,
+    /// Fraction of samples whose ratio was clipped (PPO).
+    pub clip_fraction: f64,
+    /// `1 − Var(R − V) / Var(R)` over the rollout (on-policy).
+    pub explained_variance: f64,
+    /// Mean Q value on the sampled batch (off-policy).
+    pub mean_q: f64,
+    /// Entropy temperature α (SAC).
+    pub alpha: f64,
+    /// Learning rate in use.
+    pub learning_rate: f64,
+}
+
+impl UpdateMetrics {
+    /// A record with every algorithm-specific field `NaN`.
+    pub fn empty() -> UpdateMetrics {
+        UpdateMetrics {
+            episode_return_mean: f64::NAN,
+            episode_return_std: f64::NAN,
+            episode_length_mean: f64::NAN,
+            policy_loss: f64::NAN,
+            value_loss: f64::NAN,
+            q_loss: f64::NAN,
+            entropy: f64::NAN,
+            approx_kl: f64::NAN,
+            clip_fraction: f64::NAN,
+            explained_variance: f64::NAN,
+            mean_q: f64::NAN,
+            alpha: f64::NAN,
+            learning_rate: f64::NAN,
+            ..Default::default()
+        }
+    }
+
+    /// CSV column names.
+    pub const COLUMNS: [&'static str; 18] = [
+        "update",
+        "env_steps",
+        "wall_time",
+        "steps_per_second",
+        "episodes",
+        "episode_return_mean",
+        "episode_return_std",
+        "episode_length_mean",
+        "policy_loss",
+        "value_loss",
+        "q_loss",
+        "entropy",
+        "approx_kl",
+        "clip_fraction",
+        "explained_variance",
+        "mean_q",
+        "alpha",
+        "learning_rate",
+    ];
+
+    /// The values in [`UpdateMetrics::COLUMNS`] order.
+    pub fn values(&self) -> [f64; 18] {
+        [
+            self.update as f64,
+            self.env_steps as f64,
+            self.wall_time,
+            self.steps_per_second,
+            self.episodes as f64,
+            self.episode_return_mean,
+            self.episode_return_std,
+            self.episode_length_mean,
+            self.policy_loss,
+            self.value_loss,
+            self.q_loss,
+            self.entropy,
+            self.approx_kl,
+            self.clip_fraction,
+            self.explained_variance,
+            self.mean_q,
+            self.alpha,
+            self.learning_rate,
+        ]
+    }
+
+    /// The fields that must be identical between two runs with the same seed (everything
+    /// but the timings), as bits.
+    pub fn deterministic_bits(&self) -> Vec<u64> {
+        let v = self.values();
+        v.iter().enumerate().filter(|(i, _)| *i != 2 && *i != 3).map(|(_, x)| x.to_bits()).collect()
+    }
+
+    /// The CSV header line (no newline).
+    pub fn csv_header() -> String {
+        Self::COLUMNS.join(",")
+    }
+
+    /// One CSV line (no newline); `NaN` becomes an empty cell.
+    pub fn csv_row(&self) -> String {
+        let v = self.values();
+        let mut s = format!("{},{}", self.update, self.env_steps);
+        for (i, x) in v.iter().enumerate().skip(2) {
+            s.push(',');
+            if i == 4 {
+                s.push_str(&self.episodes.to_string());
+            } else if x.is_finite() {
+                s.push_str(&format!("{x}"));
+            } else if !x.is_nan() {
+                s.push_str(if *x > 0.0 { "inf" } else { "-inf" });
+            }
+        }
+        s
+    }
+}
+
+/// Running sums of finished episodes between two records (allocation-free).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EpisodeWindow {
+    count: u64,
+    sum: f64,
+    sum_sq: f64,
+    len_sum: f64,
+}
+
+impl EpisodeWindow {
+    /// Adds a finished episode.
+    pub fn push(&mut self, ret: f64, length: usize) {
+        self.count += 1;
+        self.sum += ret;
+        self.sum_sq += ret * ret;
+        self.len_sum += length as f64;
+    }
+
+    /// Writes the window's statistics into `m` and clears it (NaN if no episode finished).
+    pub fn drain_into(&mut self, m: &mut UpdateMetrics) {
+        m.episodes = self.count;
+        if self.count > 0 {
+            let n = self.count as f64;
+            let mean = self.sum / n;
+            m.episode_return_mean = mean;
+            m.episode_return_std = (self.sum_sq / n - mean * mean).max(0.0).sqrt();
+            m.episode_length_mean = self.len_sum / n;
+        } else {
+            m.episode_return_mean = f64::NAN;
+            m.episode_return_std = f64::NAN;
+            m.episode_length_mean = f64::NAN;
+        }
+        *self = EpisodeWindow::default();
+    }
+}
+
+/// A CSV file of [`UpdateMetrics`] rows.
+pub struct MetricsCsv {
+    out: std::io::BufWriter<std::fs::File>,
+}
+
+impl MetricsCsv {
+    /// Creates (truncates) `path` and writes the header.
+    pub fn create(path: &Path) -> std::io::Result<MetricsCsv> {
+        let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
+        writeln!(out, "{}", UpdateMetrics::csv_header())?;
+        Ok(MetricsCsv { out })
+    }
+
+    /// Appends a row.
+    pub fn write(&mut self, m: &UpdateMetrics) -> std::io::Result<()> {
+        writeln!(self.out, "{}", m.csv_row())
+    }
+
+    /// Flushes buffered rows.
+    pub fn flush(&mut self) -> std::io::Result<()> {
+        self.out.flush()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_row_and_window() {
+        let mut w = EpisodeWindow::default();
+        // Returns −100 and −200: mean −150, std 50; lengths 200 and 100: mean 150.
+        w.push(-100.0, 200);
+        w.push(-200.0, 100);
+        let mut m = UpdateMetrics::empty();
+        m.update = 3;
+        m.env_steps = 600;
+        w.drain_into(&mut m);
+        assert_eq!(
+            (m.episodes, m.episode_return_mean, m.episode_return_std, m.episode_length_mean),
+            (2, -150.0, 50.0, 150.0)
+        );
+        let row = m.csv_row();
+        assert_eq!(row.split(',').count(), UpdateMetrics::COLUMNS.len());
+        assert!(row.starts_with("3,600,0,0,2,-150,50,150,,"), "{row}");
+        w.drain_into(&mut m);
+        assert_eq!(m.episodes, 0);
+        assert!(m.episode_return_mean.is_nan());
+    }
+}

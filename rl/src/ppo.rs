@@ -1,0 +1,794 @@
+//! Proximal Policy Optimization (Schulman et al. 2017, "Proximal Policy Optimization
+//! Algorithms", arXiv:1707.06347) for continuous actions, with the code-level details of
+//! Huang et al. 2022, "The 37 Implementation Details of Proximal Policy Optimization"
+//! (ICLR blog track), section "continuous action domains" — each of which can be switched
+//! off in [`PpoConfig`] to rerun ablations (Engstrom et al. 2020; Andrychowicz et al. 2021):
+//!
+//! | detail | config switch |
+//! |---|---|
+//! | separate actor and critic networks (always: no shared trunk) | — |
+//! | orthogonal init, gains √2 / 0.01 (policy) / 1 (value), zero biases | `ortho_init` |
+//! | Adam with ε = 10⁻⁵ | `adam_eps` |
+//! | linear learning-rate annealing to 0 | `anneal_lr` |
+//! | GAE(λ) (Schulman et al. 2016, eq. 16) | `gae` (off: Monte-Carlo n-step returns) |
+//! | minibatch updates over `n_epochs` shuffled epochs | `n_epochs`, `batch_size` |
+//! | advantage normalisation per minibatch | `norm_adv` |
+//! | clipped surrogate objective (eq. 7) | `clip_policy` |
+//! | clipped value loss | `clip_vloss` |
+//! | entropy bonus (eq. 9) | `ent_coef` |
+//! | global gradient clipping at 0.5 | `clip_grad_norm` |
+//! | state-independent log-std, Gaussian actions | `log_std_init` |
+//! | actions clipped to the bounds for the env, unclipped action stored | `clip_actions` |
+//! | observation normalisation, clipped to ±10 | `norm_obs`, `clip_obs` |
+//! | reward scaling by the discounted return's std, clipped to ±10 | `norm_reward`, `clip_reward` |
+//! | approximate-KL tracking, optional early stop at a target KL | `target_kl` |
+//! | bootstrapping from the final observation on truncation | `bootstrap_truncation` |
+//!
+//! ## The loss
+//!
+//! With `r_t(θ) = π_θ(a_t|s_t) / π_old(a_t|s_t)` and advantages `Â_t`, per minibatch
+//!
+//! ```text
+//! L = −mean[min(r Â, clip(r, 1−ε, 1+ε) Â)]              (policy, eq. 7)
+//!     + c_v · ½ mean[max((V − R)², (V_old + clip(V − V_old, −ε, ε) − R)²)]  (value)
+//!     − c_e · H[π]                                         (entropy)
+//! ```
+//!
+//! minimised by Adam on the actor, log-std and critic parameters jointly (one global
+//! gradient norm). `approx_kl = mean[(r − 1) − log r]` (Schulman's k3 estimator);
+//! when it exceeds `target_kl` after an epoch, the remaining epochs are skipped (CleanRL).
+
+use std::ops::ControlFlow;
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use crate::algorithm::Algorithm;
+use crate::buffer::{RolloutBuffer, StepEnd, gae, n_step_returns};
+use crate::checkpoint::Checkpoint;
+use crate::distributions::{gaussian_entropy, gaussian_log_prob, gaussian_log_prob_grad};
+use crate::env::{BoxSpace, VecEnv, VecStep};
+use crate::error::{RlError, check};
+use crate::metrics::{EpisodeWindow, UpdateMetrics};
+use crate::nn::{Activation, Init, Mlp, MlpBuffers};
+use crate::normalizer::{RewardScaler, RunningMeanStd, normalize_obs};
+use crate::optim::{Adam, clip_grad_norm, linear_decay};
+use crate::policy::{ObsNorm, Policy, PolicyHead};
+use crate::rng::Rng;
+
+/// PPO hyperparameters. Defaults: CleanRL's `ppo_continuous_action.py` (= the 37 details),
+/// which match Stable-Baselines3's PPO except for learning-rate annealing, value clipping
+/// and the normalisation wrappers.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PpoConfig {
+    /// Seed of the network initialisation, action sampling, minibatch shuffling and
+    /// environment resets (default: 0).
+    pub seed: u64,
+    /// Steps per environment per rollout; a rollout holds `n_steps × n_envs` transitions
+    /// (default: 2048).
+    pub n_steps: usize,
+    /// Minibatch size (default: 64).
+    pub batch_size: usize,
+    /// Passes over each rollout (default: 10).
+    pub n_epochs: usize,
+    /// Adam learning rate, the initial one if annealed (default: 3e-4).
+    pub learning_rate: f64,
+    /// Anneal the learning rate linearly to 0 (default: true).
+    pub anneal_lr: bool,
+    /// Environment steps over which the learning rate anneals; unset means the
+    /// `total_steps` of the first `learn` call (default: unset).
+    pub lr_decay_steps: Option<u64>,
+    /// Adam ε (default: 1e-5).
+    pub adam_eps: f64,
+    /// Discount γ (default: 0.99).
+    pub gamma: f64,
+    /// Use GAE(λ); off: advantages from n-step returns, `R − V` (default: true).
+    pub gae: bool,
+    /// GAE λ (default: 0.95).
+    pub gae_lambda: f64,
+    /// Normalise advantages per minibatch (default: true).
+    pub norm_adv: bool,
+    /// Surrogate clipping ε, also the value-clipping range (default: 0.2).
+    pub clip_coef: f64,
+    /// Use the clipped surrogate; off: the plain ratio objective `−r Â` (default: true).
+    pub clip_policy: bool,
+    /// Clip the value loss around the rollout's values (default: true).
+    pub clip_vloss: bool,
+    /// Entropy coefficient `c_e` (default: 0.0).
+    pub ent_coef: f64,
+    /// Value-loss coefficient `c_v` (default: 0.5).
+    pub vf_coef: f64,
+    /// Clip the global gradient norm (default: true).
+    pub clip_grad_norm: bool,
+    /// Maximum global gradient norm (default: 0.5).
+    pub max_grad_norm: f64,
+    /// Stop an update's epochs once the approximate KL exceeds this; unset: never
+    /// (default: unset).
+    pub target_kl: Option<f64>,
+    /// Normalise observations with running statistics (default: true).
+    pub norm_obs: bool,
+    /// Clip of normalised observations (default: 10.0).
+    pub clip_obs: f64,
+    /// Scale rewards by the running std of the discounted return (default: true).
+    pub norm_reward: bool,
+    /// Clip of scaled rewards (default: 10.0).
+    pub clip_reward: f64,
+    /// Clip sampled actions to the action bounds before stepping the env (the unclipped
+    /// action is stored for the update) (default: true).
+    pub clip_actions: bool,
+    /// Bootstrap truncated episodes with `V(final observation)`; off: treat them as
+    /// terminal (default: true).
+    pub bootstrap_truncation: bool,
+    /// Actor hidden layer sizes (default: [64, 64]).
+    pub actor_hidden: Vec<usize>,
+    /// Critic hidden layer sizes (default: [64, 64]).
+    pub critic_hidden: Vec<usize>,
+    /// Hidden activation (default: "tanh").
+    pub activation: Activation,
+    /// Orthogonal initialisation; off: PyTorch's default init (default: true).
+    pub ortho_init: bool,
+    /// Initial log standard deviation of the Gaussian policy (default: 0.0).
+    pub log_std_init: f64,
+}
+
+impl Default for PpoConfig {
+    fn default() -> Self {
+        PpoConfig {
+            seed: 0,
+            n_steps: 2048,
+            batch_size: 64,
+            n_epochs: 10,
+            learning_rate: 3e-4,
+            anneal_lr: true,
+            lr_decay_steps: None,
+            adam_eps: 1e-5,
+            gamma: 0.99,
+            gae: true,
+            gae_lambda: 0.95,
+            norm_adv: true,
+            clip_coef: 0.2,
+            clip_policy: true,
+            clip_vloss: true,
+            ent_coef: 0.0,
+            vf_coef: 0.5,
+            clip_grad_norm: true,
+            max_grad_norm: 0.5,
+            target_kl: None,
+            norm_obs: true,
+            clip_obs: 10.0,
+            norm_reward: true,
+            clip_reward: 10.0,
+            clip_actions: true,
+            bootstrap_truncation: true,
+            actor_hidden: vec![64, 64],
+            critic_hidden: vec![64, 64],
+            activation: Activation::Tanh,
+            ortho_init: true,
+            log_std_init: 0.0,
+        }
+    }
+}
+
+impl PpoConfig {
+    /// Checks every field's range.
+    pub fn validate(&self) -> Result<(), RlError> {
+        const A: &str = "ppo";
+        check(self.n_steps > 0, A, "n_steps", self.n_steps, "must be positive")?;
+        check(self.batch_size > 0, A, "batch_size", self.batch_size, "must be positive")?;
+        check(self.n_epochs > 0, A, "n_epochs", self.n_epochs, "must be positive")?;
+        check(
+            self.learning_rate.is_finite() && self.learning_rate > 0.0,
+            A,
+            "learning_rate",
+            self.learning_rate,
+            "must be positive",
+        )?;
+        check(self.lr_decay_steps != Some(0), A, "lr_decay_steps", self.lr_decay_steps, "must be positive")?;
+        check(
+            self.adam_eps.is_finite() && self.adam_eps > 0.0,
+            A,
+            "adam_eps",
+            self.adam_eps,
+            "must be positive",
+        )?;
+        check((0.0..=1.0).contains(&self.gamma), A, "gamma", self.gamma, "must be in [0, 1]")?;
+        check((0.0..=1.0).contains(&self.gae_lambda), A, "gae_lambda", self.gae_lambda, "must be in [0, 1]")?;
+        check(
+            self.clip_coef.is_finite() && self.clip_coef > 0.0,
+            A,
+            "clip_coef",
+            self.clip_coef,
+            "must be positive",
+        )?;
+        check(self.ent_coef.is_finite(), A, "ent_coef", self.ent_coef, "must be finite")?;
+        check(self.vf_coef.is_finite() && self.vf_coef >= 0.0, A, "vf_coef", self.vf_coef, "must be ≥ 0")?;
+        check(
+            self.max_grad_norm.is_finite() && self.max_grad_norm > 0.0,
+            A,
+            "max_grad_norm",
+            self.max_grad_norm,
+            "must be positive",
+        )?;
+        check(
+            self.target_kl.is_none_or(|k| k.is_finite() && k > 0.0),
+            A,
+            "target_kl",
+            self.target_kl,
+            "must be positive",
+        )?;
+        check(self.clip_obs > 0.0, A, "clip_obs", self.clip_obs, "must be positive")?;
+        check(self.clip_reward > 0.0, A, "clip_reward", self.clip_reward, "must be positive")?;
+        check(
+            !self.actor_hidden.is_empty() && self.actor_hidden.iter().all(|&h| h > 0),
+            A,
+            "actor_hidden",
+            &self.actor_hidden,
+            "needs at least one positive layer size",
+        )?;
+        check(
+            !self.critic_hidden.is_empty() && self.critic_hidden.iter().all(|&h| h > 0),
+            A,
+            "critic_hidden",
+            &self.critic_hidden,
+            "needs at least one positive layer size",
+        )?;
+        check(self.log_std_init.is_finite(), A, "log_std_init", self.log_std_init, "must be finite")?;
+        Ok(())
+    }
+}
+
+/// Preallocated buffers of the rollout and update loops.
+struct Work {
+    /// Policy input for the current step (`n × obs_dim`, normalised if enabled).
+    obs: Vec<f32>,
+    /// Sampled actions (`n × act_dim`) and their clipped version for the env.
+    actions: Vec<f32>,
+    env_actions: Vec<f32>,
+    step: VecStep,
+    rewards: Vec<f64>,
+    /// Final observations of truncated environments, compacted, and their indices.
+    final_obs: Vec<f32>,
+    final_idx: Vec<usize>,
+    last_values: Vec<f32>,
+    indices: Vec<usize>,
+    mb_obs: Vec<f32>,
+    mb_actions: Vec<f32>,
+    mb_log_probs: Vec<f32>,
+    mb_adv: Vec<f32>,
+    mb_returns: Vec<f32>,
+    mb_values: Vec<f32>,
+    d_mean: Vec<f32>,
+    d_value: Vec<f32>,
+    d_mu: Vec<f32>,
+    d_ls: Vec<f32>,
+    actor_buf: MlpBuffers,
+    critic_buf: MlpBuffers,
+}
+
+/// A PPO learner; see the module documentation.
+pub struct Ppo {
+    config: PpoConfig,
+    obs_space: BoxSpace,
+    act_space: BoxSpace,
+    n_envs: usize,
+    actor: Mlp,
+    log_std: Vec<f32>,
+    log_std_grad: Vec<f32>,
+    critic: Mlp,
+    opt_actor: Adam,
+    opt_log_std: Adam,
+    opt_critic: Adam,
+    obs_rms: RunningMeanStd,
+    reward_scaler: RewardScaler,
+    rng: Rng,
+    steps_done: u64,
+    updates: u64,
+    lr_horizon: Option<u64>,
+    wall_time: f64,
+    rollout: RolloutBuffer,
+    work: Work,
+}
+
+impl Ppo {
+    /// A new learner for `n_envs` environments with the given spaces.
+    pub fn new(
+        config: PpoConfig,
+        obs_space: &BoxSpace,
+        act_space: &BoxSpace,
+        n_envs: usize,
+    ) -> Result<Ppo, RlError> {
+        config.validate()?;
+        if n_envs == 0 {
+            return Err(RlError::Incompatible {
+                algo: "ppo",
+                reason: "needs at least one environment".into(),
+            });
+        }
+        let (od, ad) = (obs_space.dim(), act_space.dim());
+        let mut rng = Rng::derive(config.seed, 1);
+        let (actor_init, critic_init) = if config.ortho_init {
+            (
+                Init::Orthogonal { hidden_gain: 2f32.sqrt(), output_gain: 0.01 },
+                Init::Orthogonal { hidden_gain: 2f32.sqrt(), output_gain: 1.0 },
+            )
+        } else {
+            (Init::TorchDefault, Init::TorchDefault)
+        };
+        let sizes = |hidden: &[usize], out: usize| [&[od][..], hidden, &[out]].concat();
+        let actor = Mlp::new(&sizes(&config.actor_hidden, ad), config.activation, actor_init, &mut rng);
+        let critic = Mlp::new(&sizes(&config.critic_hidden, 1), config.activation, critic_init, &mut rng);
+        let eps = config.adam_eps as f32;
+        let len = config.n_steps * n_envs;
+        let cap = n_envs.max(config.batch_size.min(len));
+        let b = config.batch_size.min(len);
+        let work = Work {
+            obs: vec![0.0; n_envs * od],
+            actions: vec![0.0; n_envs * ad],
+            env_actions: vec![0.0; n_envs * ad],
+            step: VecStep {
+                obs: vec![0.0; n_envs * od],
+                rewards: vec![0.0; n_envs],
+                terminated: vec![false; n_envs],
+                truncated: vec![false; n_envs],
+                final_obs: vec![0.0; n_envs * od],
+                infos: vec![Default::default(); n_envs],
+                episodes: Vec::with_capacity(n_envs),
+            },
+            rewards: vec![0.0; n_envs],
+            final_obs: vec![0.0; n_envs * od],
+            final_idx: Vec::with_capacity(n_envs),
+            last_values: vec![0.0; n_envs],
+            indices: (0..len).collect(),
+            mb_obs: vec![0.0; b * od],
+            mb_actions: vec![0.0; b * ad],
+            mb_log_probs: vec![0.0; b],
+            mb_adv: vec![0.0; b],
+            mb_returns: vec![0.0; b],
+            mb_values: vec![0.0; b],
+            d_mean: vec![0.0; b * ad],
+            d_value: vec![0.0; b],
+            d_mu: vec![0.0; ad],
+            d_ls: vec![0.0; ad],
+            actor_buf: actor.buffers(cap),
+            critic_buf: critic.buffers(cap),
+        };
+        Ok(Ppo {
+            opt_actor: Adam::new(actor.n_params(), eps),
+            opt_log_std: Adam::new(ad, eps),
+            opt_critic: Adam::new(critic.n_params(), eps),
+            log_std: vec![config.log_std_init as f32; ad],
+            log_std_grad: vec![0.0; ad],
+            actor,
+            critic,
+            obs_rms: RunningMeanStd::new(od),
+            reward_scaler: RewardScaler::new(n_envs, config.gamma, config.clip_reward),
+            rng,
+            steps_done: 0,
+            updates: 0,
+            lr_horizon: config.lr_decay_steps,
+            wall_time: 0.0,
+            rollout: RolloutBuffer::new(config.n_steps, n_envs, od, ad),
+            work,
+            obs_space: obs_space.clone(),
+            act_space: act_space.clone(),
+            n_envs,
+            config,
+        })
+    }
+
+    /// A learner for `env`'s spaces and number of environments.
+    pub fn for_env(config: PpoConfig, env: &VecEnv) -> Result<Ppo, RlError> {
+        Ppo::new(config, env.observation_space(), env.action_space(), env.len())
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &PpoConfig {
+        &self.config
+    }
+
+    /// Normalises raw observations into the policy input (identity if disabled).
+    fn policy_input(&self, raw: &[f32], out: &mut [f32]) {
+        if self.config.norm_obs {
+            normalize_obs(&self.obs_rms.mean, &self.obs_rms.var, self.config.clip_obs, raw, out);
+        } else {
+            out.copy_from_slice(raw);
+        }
+    }
+
+    /// Collects one rollout of `n_steps × n_envs` transitions.
+    fn collect_rollout(&mut self, env: &mut VecEnv, episodes: &mut EpisodeWindow) -> Result<(), RlError> {
+        let (n, od, ad) = (self.n_envs, self.obs_space.dim(), self.act_space.dim());
+        let mut w = std::mem::take(&mut self.work.obs);
+        for t in 0..self.config.n_steps {
+            // π(·|s_t) and V(s_t) for all environments at once.
+            let mean = self.actor.forward(&mut self.work.actor_buf, &w, n);
+            for i in 0..n {
+                let (a, m) = (&mut self.work.actions[i * ad..(i + 1) * ad], &mean[i * ad..(i + 1) * ad]);
+                for j in 0..ad {
+                    a[j] = m[j] + self.log_std[j].exp() * self.rng.normal() as f32;
+                }
+                self.rollout.log_probs[t * n + i] = gaussian_log_prob(a, m, &self.log_std);
+            }
+            let values = self.critic.forward(&mut self.work.critic_buf, &w, n);
+            self.rollout.values[t * n..(t + 1) * n].copy_from_slice(values);
+            self.rollout.obs[t * n * od..(t + 1) * n * od].copy_from_slice(&w);
+            self.rollout.actions[t * n * ad..(t + 1) * n * ad].copy_from_slice(&self.work.actions);
+
+            // Step with the clipped action; the unclipped one stays in the buffer.
+            self.work.env_actions.copy_from_slice(&self.work.actions);
+            if self.config.clip_actions {
+                for a in self.work.env_actions.chunks_exact_mut(ad) {
+                    self.act_space.clip(a);
+                }
+            }
+            env.step(&self.work.env_actions, &mut self.work.step)?;
+            self.steps_done += n as u64;
+            for e in &self.work.step.episodes {
+                episodes.push(e.ret, e.length);
+            }
+
+            // Observation statistics see every returned observation (auto-reset ones too).
+            if self.config.norm_obs {
+                self.obs_rms.update(&self.work.step.obs);
+            }
+            self.policy_input(&self.work.step.obs, &mut w);
+
+            let s = &self.work.step;
+            if self.config.norm_reward {
+                self.reward_scaler.scale(
+                    &s.rewards,
+                    |i| s.terminated[i] || s.truncated[i],
+                    &mut self.work.rewards,
+                );
+            } else {
+                self.work.rewards.copy_from_slice(&s.rewards);
+            }
+            self.work.final_idx.clear();
+            for i in 0..n {
+                let k = t * n + i;
+                self.rollout.rewards[k] = self.work.rewards[i] as f32;
+                let truncated = s.truncated[i] && !s.terminated[i];
+                self.rollout.ends[k] = if truncated && !self.config.bootstrap_truncation {
+                    StepEnd::Terminated
+                } else {
+                    StepEnd::from_flags(s.terminated[i], s.truncated[i])
+                };
+                self.rollout.final_values[k] = 0.0;
+                if self.rollout.ends[k] == StepEnd::Truncated {
+                    self.work.final_idx.push(i);
+                }
+            }
+            // V(s_final) of truncated episodes, normalised with the current statistics.
+            let m = self.work.final_idx.len();
+            if m > 0 {
+                for (slot, &i) in self.work.final_idx.iter().enumerate() {
+                    let raw = &self.work.step.final_obs[i * od..(i + 1) * od];
+                    let dst = &mut self.work.final_obs[slot * od..(slot + 1) * od];
+                    if self.config.norm_obs {
+                        normalize_obs(&self.obs_rms.mean, &self.obs_rms.var, self.config.clip_obs, raw, dst);
+                    } else {
+                        dst.copy_from_slice(raw);
+                    }
+                }
+                let v = self.critic.forward(&mut self.work.critic_buf, &self.work.final_obs[..m * od], m);
+                for (slot, &i) in self.work.final_idx.iter().enumerate() {
+                    self.rollout.final_values[t * n + i] = v[slot];
+                }
+            }
+        }
+        let last = self.critic.forward(&mut self.work.critic_buf, &w, n);
+        self.work.last_values.copy_from_slice(last);
+        self.work.obs = w;
+        Ok(())
+    }
+
+    /// Advantages and value targets of the stored rollout.
+    fn compute_advantages(&mut self) {
+        let r = &mut self.rollout;
+        let gamma = self.config.gamma as f32;
+        if self.config.gae {
+            let lambda = self.config.gae_lambda as f32;
+            gae(
+                &r.rewards,
+                &r.values,
+                &r.ends,
+                &r.final_values,
+                &self.work.last_values,
+                gamma,
+                lambda,
+                &mut r.advantages,
+                &mut r.returns,
+            );
+        } else {
+            n_step_returns(
+                &r.rewards,
+                &r.ends,
+                &r.final_values,
+                &self.work.last_values,
+                gamma,
+                &mut r.returns,
+            );
+            for k in 0..r.len() {
+                r.advantages[k] = r.returns[k] - r.values[k];
+            }
+        }
+    }
+
+    /// `n_epochs` passes of minibatch gradient steps; fills the loss metrics.
+    fn update(&mut self, lr: f32, m: &mut UpdateMetrics) -> Result<(), RlError> {
+        let (od, ad) = (self.obs_space.dim(), self.act_space.dim());
+        let len = self.rollout.len();
+        let bs = self.config.batch_size.min(len);
+        let clip = self.config.clip_coef as f32;
+        let (ent_coef, vf_coef) = (self.config.ent_coef as f32, self.config.vf_coef as f32);
+        let (mut pg_sum, mut v_sum, mut kl_sum, mut cf_sum, mut n_mb) =
+            (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0u64);
+        'epochs: for _epoch in 0..self.config.n_epochs {
+            self.rng.shuffle(&mut self.work.indices);
+            let mut epoch_kl = 0.0f64;
+            for start in (0..len).step_by(bs) {
+                let b = bs.min(len - start);
+                let w = &mut self.work;
+                let r = &self.rollout;
+                for (j, &k) in w.indices[start..start + b].iter().enumerate() {
+                    w.mb_obs[j * od..(j + 1) * od].copy_from_slice(&r.obs[k * od..(k + 1) * od]);
+                    w.mb_actions[j * ad..(j + 1) * ad].copy_from_slice(&r.actions[k * ad..(k + 1) * ad]);
+                    w.mb_log_probs[j] = r.log_probs[k];
+                    w.mb_adv[j] = r.advantages[k];
+                    w.mb_returns[j] = r.returns[k];
+                    w.mb_values[j] = r.values[k];
+                }
+                // Advantage normalisation with the unbiased std (as torch's `.std()`).
+                if self.config.norm_adv && b > 1 {
+                    let adv = &mut w.mb_adv[..b];
+                    let mean = adv.iter().map(|a| *a as f64).sum::<f64>() / b as f64;
+                    let var = adv.iter().map(|a| (*a as f64 - mean).powi(2)).sum::<f64>() / (b - 1) as f64;
+                    let inv = 1.0 / (var.sqrt() + 1e-8);
+                    adv.iter_mut().for_each(|a| *a = ((*a as f64 - mean) * inv) as f32);
+                }
+
+                // Policy loss: clipped surrogate, gradient through log π.
+                let mean = self.actor.forward(&mut w.actor_buf, &w.mb_obs[..b * od], b);
+                self.log_std_grad.fill(0.0);
+                let (mut pg, mut kl, mut cf) = (0.0f64, 0.0f64, 0.0f64);
+                for j in 0..b {
+                    let (a, mu) = (&w.mb_actions[j * ad..(j + 1) * ad], &mean[j * ad..(j + 1) * ad]);
+                    let log_ratio = gaussian_log_prob(a, mu, &self.log_std) - w.mb_log_probs[j];
+                    let ratio = log_ratio.exp();
+                    let adv = w.mb_adv[j];
+                    let pg1 = -adv * ratio;
+                    let pg2 = -adv * ratio.clamp(1.0 - clip, 1.0 + clip);
+                    // ∂/∂ratio of max(pg1, pg2): −Â where pg1 is active, 0 where the clip is.
+                    let (loss, d_ratio) =
+                        if !self.config.clip_policy || pg1 >= pg2 { (pg1, -adv) } else { (pg2, 0.0) };
+                    pg += loss as f64;
+                    kl += ((ratio - 1.0) - log_ratio) as f64;
+                    cf += ((ratio - 1.0).abs() > clip) as u8 as f64;
+                    let d_logp = d_ratio * ratio / b as f32;
+                    gaussian_log_prob_grad(a, mu, &self.log_std, &mut w.d_mu, &mut w.d_ls);
+                    for i in 0..ad {
+                        w.d_mean[j * ad + i] = d_logp * w.d_mu[i];
+                        self.log_std_grad[i] += d_logp * w.d_ls[i];
+                    }
+                }
+                // Entropy bonus: H = Σ (½ + ½ log 2π + log σ), ∂H/∂log σᵢ = 1.
+                let entropy = gaussian_entropy(&self.log_std);
+                self.log_std_grad.iter_mut().for_each(|g| *g -= ent_coef);
+                self.actor.backward(&mut w.actor_buf, &w.mb_obs[..b * od], &w.d_mean[..b * ad], b, None);
+
+                // Value loss, optionally clipped around the rollout's values.
+                let v = self.critic.forward(&mut w.critic_buf, &w.mb_obs[..b * od], b);
+                let mut vl = 0.0f64;
+                for j in 0..b {
+                    let (vj, ret, old) = (v[j], w.mb_returns[j], w.mb_values[j]);
+                    let lu = (vj - ret) * (vj - ret);
+                    let (loss, dv) = if self.config.clip_vloss {
+                        let vc = old + (vj - old).clamp(-clip, clip);
+                        let lc = (vc - ret) * (vc - ret);
+                        if lu >= lc {
+                            (lu, vj - ret)
+                        } else {
+                            (lc, if (vj - old).abs() < clip { vc - ret } else { 0.0 })
+                        }
+                    } else {
+                        (lu, vj - ret)
+                    };
+                    vl += 0.5 * loss as f64;
+                    w.d_value[j] = vf_coef * dv / b as f32;
+                }
+                self.critic.backward(&mut w.critic_buf, &w.mb_obs[..b * od], &w.d_value[..b], b, None);
+
+                let (pg, vl, kl) = (pg / b as f64, vl / b as f64, kl / b as f64);
+                let loss = pg + vf_coef as f64 * vl - ent_coef as f64 * entropy as f64;
+                if !loss.is_finite() {
+                    return Err(RlError::Diverged { algo: "ppo", update: self.updates + 1, what: "loss" });
+                }
+                if self.config.clip_grad_norm {
+                    clip_grad_norm(
+                        &mut [&mut self.actor.grads, &mut self.log_std_grad, &mut self.critic.grads],
+                        self.config.max_grad_norm as f32,
+                    );
+                }
+                self.opt_actor.step(&mut self.actor.params, &self.actor.grads, lr);
+                self.opt_log_std.step(&mut self.log_std, &self.log_std_grad, lr);
+                self.opt_critic.step(&mut self.critic.params, &self.critic.grads, lr);
+
+                pg_sum += pg;
+                v_sum += vl;
+                kl_sum += kl;
+                cf_sum += cf / b as f64;
+                n_mb += 1;
+                m.entropy = entropy as f64;
+                epoch_kl = kl;
+            }
+            if self.config.target_kl.is_some_and(|t| epoch_kl > t) {
+                break 'epochs;
+            }
+        }
+        let n = n_mb.max(1) as f64;
+        m.policy_loss = pg_sum / n;
+        m.value_loss = v_sum / n;
+        m.approx_kl = kl_sum / n;
+        m.clip_fraction = cf_sum / n;
+        Ok(())
+    }
+
+    /// `1 − Var(R − V) / Var(R)` over the rollout.
+    fn explained_variance(&self) -> f64 {
+        let r = &self.rollout;
+        let n = r.len() as f64;
+        let mean = |f: &dyn Fn(usize) -> f64| (0..r.len()).map(f).sum::<f64>() / n;
+        let mr = mean(&|k| r.returns[k] as f64);
+        let var_r = mean(&|k| (r.returns[k] as f64 - mr).powi(2));
+        let md = mean(&|k| (r.returns[k] - r.values[k]) as f64);
+        let var_d = mean(&|k| ((r.returns[k] - r.values[k]) as f64 - md).powi(2));
+        if var_r == 0.0 { f64::NAN } else { 1.0 - var_d / var_r }
+    }
+
+    fn check_env(&self, env: &VecEnv) -> Result<(), RlError> {
+        if env.observation_space() != &self.obs_space || env.action_space() != &self.act_space {
+            return Err(RlError::Incompatible {
+                algo: "ppo",
+                reason: "observation or action space differs".into(),
+            });
+        }
+        if env.len() != self.n_envs {
+            return Err(RlError::Incompatible {
+                algo: "ppo",
+                reason: format!("learner built for {} environments, VecEnv has {}", self.n_envs, env.len()),
+            });
+        }
+        Ok(())
+    }
+
+    /// Reads a learner saved by [`Algorithm::save`].
+    pub fn load(path: &std::path::Path) -> Result<Ppo, RlError> {
+        Ppo::from_checkpoint(&Checkpoint::read(path)?)
+    }
+
+    /// A learner from an in-memory checkpoint.
+    pub fn from_checkpoint(c: &Checkpoint) -> Result<Ppo, RlError> {
+        c.expect_algo("ppo")?;
+        let config: PpoConfig = c.get_meta("config")?;
+        let n_envs: usize = c.get_meta("n_envs")?;
+        let obs_space = c.read_space("obs_space")?;
+        let act_space = c.read_space("act_space")?;
+        let mut p = Ppo::new(config, &obs_space, &act_space, n_envs)?;
+        c.read_mlp("actor", &mut p.actor)?;
+        c.read_mlp("critic", &mut p.critic)?;
+        c.read_f32_into("log_std", &mut p.log_std)?;
+        c.read_adam("adam/actor", &mut p.opt_actor)?;
+        c.read_adam("adam/log_std", &mut p.opt_log_std)?;
+        c.read_adam("adam/critic", &mut p.opt_critic)?;
+        c.read_rms("obs_rms", &mut p.obs_rms)?;
+        c.read_rms("return_rms", &mut p.reward_scaler.stats)?;
+        p.reward_scaler.returns.copy_from_slice(c.f64("discounted_returns", Some(n_envs))?);
+        p.rng = c.read_rng("rng")?;
+        p.steps_done = c.get_meta("steps_done")?;
+        p.updates = c.get_meta("updates")?;
+        p.lr_horizon = c.get_meta("lr_horizon")?;
+        p.wall_time = c.get_meta("wall_time")?;
+        Ok(p)
+    }
+}
+
+impl Algorithm for Ppo {
+    fn name(&self) -> &'static str {
+        "ppo"
+    }
+
+    fn learn(
+        &mut self,
+        env: &mut VecEnv,
+        total_steps: u64,
+        callback: &mut dyn FnMut(&UpdateMetrics) -> ControlFlow<()>,
+    ) -> Result<(), RlError> {
+        self.check_env(env)?;
+        let horizon = *self.lr_horizon.get_or_insert(total_steps.max(1));
+        // Continue a live VecEnv, or reset a fresh one.
+        match env.observations() {
+            Some(obs) => {
+                let raw = obs.to_vec();
+                let mut w = std::mem::take(&mut self.work.obs);
+                self.policy_input(&raw, &mut w);
+                self.work.obs = w;
+            }
+            None => {
+                let mut raw = vec![0.0; self.n_envs * self.obs_space.dim()];
+                env.reset(self.config.seed.wrapping_add(self.steps_done), &mut raw)?;
+                if self.config.norm_obs {
+                    self.obs_rms.update(&raw);
+                }
+                let mut w = std::mem::take(&mut self.work.obs);
+                self.policy_input(&raw, &mut w);
+                self.work.obs = w;
+            }
+        }
+        let mut episodes = EpisodeWindow::default();
+        while self.steps_done < total_steps {
+            let t0 = Instant::now();
+            let steps_before = self.steps_done;
+            let lr = if self.config.anneal_lr {
+                linear_decay(self.config.learning_rate, self.steps_done, horizon)
+            } else {
+                self.config.learning_rate
+            };
+            self.collect_rollout(env, &mut episodes)?;
+            self.compute_advantages();
+            let mut m = UpdateMetrics::empty();
+            m.explained_variance = self.explained_variance();
+            self.update(lr as f32, &mut m)?;
+            self.updates += 1;
+            let dt = t0.elapsed().as_secs_f64();
+            self.wall_time += dt;
+            m.update = self.updates;
+            m.env_steps = self.steps_done;
+            m.wall_time = self.wall_time;
+            m.steps_per_second = (self.steps_done - steps_before) as f64 / dt.max(1e-9);
+            m.learning_rate = lr;
+            episodes.drain_into(&mut m);
+            if callback(&m).is_break() {
+                break;
+            }
+        }
+        Ok(())
+    }
+
+    fn to_checkpoint(&self) -> Checkpoint {
+        let mut c = Checkpoint::new("ppo");
+        c.set_meta("config", &self.config);
+        c.set_meta("n_envs", self.n_envs);
+        c.set_meta("steps_done", self.steps_done);
+        c.set_meta("updates", self.updates);
+        c.set_meta("lr_horizon", self.lr_horizon);
+        c.set_meta("wall_time", self.wall_time);
+        c.put_space("obs_space", &self.obs_space);
+        c.put_space("act_space", &self.act_space);
+        c.put_f32("actor", &self.actor.params);
+        c.put_f32("critic", &self.critic.params);
+        c.put_f32("log_std", &self.log_std);
+        c.put_adam("adam/actor", &self.opt_actor);
+        c.put_adam("adam/log_std", &self.opt_log_std);
+        c.put_adam("adam/critic", &self.opt_critic);
+        c.put_rms("obs_rms", &self.obs_rms);
+        c.put_rms("return_rms", &self.reward_scaler.stats);
+        c.put_f64("discounted_returns", &self.reward_scaler.returns);
+        c.put_rng("rng", &self.rng);
+        self.policy().write_to(&mut c);
+        c
+    }
+
+    fn policy(&self) -> Policy {
+        let norm = self.config.norm_obs.then(|| ObsNorm {
+            mean: self.obs_rms.mean.clone(),
+            var: self.obs_rms.var.clone(),
+            clip: self.config.clip_obs,
+        });
+        Policy::new(PolicyHead::GaussianMean, self.actor.clone(), norm, &self.act_space)
+    }
+
+    fn steps_done(&self) -> u64 {
+        self.steps_done
+    }
+}

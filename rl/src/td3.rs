@@ -1,0 +1,563 @@
+//! Twin Delayed DDPG (Fujimoto, van Hoof & Meger 2018, "Addressing Function Approximation
+//! Error in Actor-Critic Methods", ICML; Algorithm 1). Defaults: Stable-Baselines3's `TD3`
+//! plus the paper's Gaussian exploration noise σ = 0.1.
+//!
+//! A deterministic actor `μ(s) = tanh(y(s)) ∈ [−1, 1]^|A|` (rescaled to the env's bounds),
+//! two critics and target copies of all three. Per gradient step on a batch `(s, a, r, s', d)`:
+//!
+//! ```text
+//! ã' = clip(μ̄(s') + clip(ε, −c, c), −1, 1),   ε ~ N(0, σ̃²)      (target policy smoothing, eq. 14)
+//! y  = r + γ (1 − d) min_i Q̄_i(s', ã')                           (clipped double-Q, eq. 10)
+//! J(Q_i) = mean[(Q_i(s, a) − y)²]                                  (SB3: sum of the two MSEs)
+//! every `policy_delay` steps:                                      (delayed policy updates)
+//!     J(μ) = −mean[Q_1(s, μ(s))],   θ̄ ← τ θ + (1 − τ) θ̄  for actor and critics
+//! ```
+//!
+//! Exploration: `a = clip(μ(s) + N(0, σ²), −1, 1)` after `learning_starts` uniformly random
+//! steps.
+
+use std::ops::ControlFlow;
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use crate::algorithm::Algorithm;
+use crate::buffer::{ReplayBatch, ReplayBuffer, concat_obs_act};
+use crate::checkpoint::Checkpoint;
+use crate::env::{BoxSpace, VecEnv, VecStep};
+use crate::error::{RlError, check};
+use crate::metrics::{EpisodeWindow, UpdateMetrics};
+use crate::nn::{Activation, Init, Mlp, MlpBuffers, polyak, tanh_fast};
+use crate::optim::Adam;
+use crate::policy::{Policy, PolicyHead, rescale_action};
+use crate::rng::Rng;
+
+/// TD3 hyperparameters (defaults: Stable-Baselines3 2.x `TD3`, exploration noise from the
+/// paper).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Td3Config {
+    /// Seed of initialisation, exploration, sampling and env resets (default: 0).
+    pub seed: u64,
+    /// Replay buffer capacity (transitions) (default: 1000000).
+    pub buffer_size: usize,
+    /// Environment steps of uniformly random actions before learning starts (default: 100).
+    pub learning_starts: u64,
+    /// Minibatch size (default: 256).
+    pub batch_size: usize,
+    /// Learning rate of actor and critics (default: 1e-3).
+    pub learning_rate: f64,
+    /// Adam ε (default: 1e-8).
+    pub adam_eps: f64,
+    /// Polyak coefficient τ (default: 0.005).
+    pub tau: f64,
+    /// Discount γ (default: 0.99).
+    pub gamma: f64,
+    /// Gradient steps after each vectorised environment step (default: 1).
+    pub gradient_steps: usize,
+    /// Critic updates per actor (and target) update (default: 2).
+    pub policy_delay: u64,
+    /// Std of the target policy smoothing noise σ̃, in the [−1, 1] action scale (default: 0.2).
+    pub target_policy_noise: f64,
+    /// Clip c of the smoothing noise (default: 0.5).
+    pub target_noise_clip: f64,
+    /// Std of the Gaussian exploration noise, in the [−1, 1] action scale (default: 0.1).
+    pub exploration_noise: f64,
+    /// Actor hidden layer sizes (default: [400, 300]).
+    pub actor_hidden: Vec<usize>,
+    /// Critic hidden layer sizes (default: [400, 300]).
+    pub critic_hidden: Vec<usize>,
+    /// Hidden activation (default: "relu").
+    pub activation: Activation,
+    /// Environment steps between metrics records (default: 1000).
+    pub log_interval: u64,
+}
+
+impl Default for Td3Config {
+    fn default() -> Self {
+        Td3Config {
+            seed: 0,
+            buffer_size: 1_000_000,
+            learning_starts: 100,
+            batch_size: 256,
+            learning_rate: 1e-3,
+            adam_eps: 1e-8,
+            tau: 0.005,
+            gamma: 0.99,
+            gradient_steps: 1,
+            policy_delay: 2,
+            target_policy_noise: 0.2,
+            target_noise_clip: 0.5,
+            exploration_noise: 0.1,
+            actor_hidden: vec![400, 300],
+            critic_hidden: vec![400, 300],
+            activation: Activation::Relu,
+            log_interval: 1000,
+        }
+    }
+}
+
+impl Td3Config {
+    /// Checks every field's range.
+    pub fn validate(&self) -> Result<(), RlError> {
+        const A: &str = "td3";
+        check(self.buffer_size > 0, A, "buffer_size", self.buffer_size, "must be positive")?;
+        check(self.batch_size > 0, A, "batch_size", self.batch_size, "must be positive")?;
+        check(
+            self.learning_rate.is_finite() && self.learning_rate > 0.0,
+            A,
+            "learning_rate",
+            self.learning_rate,
+            "must be positive",
+        )?;
+        check(
+            self.adam_eps.is_finite() && self.adam_eps > 0.0,
+            A,
+            "adam_eps",
+            self.adam_eps,
+            "must be positive",
+        )?;
+        check(self.tau > 0.0 && self.tau <= 1.0, A, "tau", self.tau, "must be in (0, 1]")?;
+        check((0.0..=1.0).contains(&self.gamma), A, "gamma", self.gamma, "must be in [0, 1]")?;
+        check(self.gradient_steps > 0, A, "gradient_steps", self.gradient_steps, "must be positive")?;
+        check(self.policy_delay > 0, A, "policy_delay", self.policy_delay, "must be positive")?;
+        check(
+            self.target_policy_noise.is_finite() && self.target_policy_noise >= 0.0,
+            A,
+            "target_policy_noise",
+            self.target_policy_noise,
+            "must be ≥ 0",
+        )?;
+        check(
+            self.target_noise_clip.is_finite() && self.target_noise_clip >= 0.0,
+            A,
+            "target_noise_clip",
+            self.target_noise_clip,
+            "must be ≥ 0",
+        )?;
+        check(
+            self.exploration_noise.is_finite() && self.exploration_noise >= 0.0,
+            A,
+            "exploration_noise",
+            self.exploration_noise,
+            "must be ≥ 0",
+        )?;
+        check(
+            !self.actor_hidden.is_empty() && self.actor_hidden.iter().all(|&h| h > 0),
+            A,
+            "actor_hidden",
+            &self.actor_hidden,
+            "needs at least one positive layer size",
+        )?;
+        check(
+            !self.critic_hidden.is_empty() && self.critic_hidden.iter().all(|&h| h > 0),
+            A,
+            "critic_hidden",
+            &self.critic_hidden,
+            "needs at least one positive layer size",
+        )?;
+        check(self.log_interval > 0, A, "log_interval", self.log_interval, "must be positive")?;
+        Ok(())
+    }
+}
+
+/// Preallocated buffers.
+struct Work {
+    obs: Vec<f32>,
+    actions: Vec<f32>,
+    env_actions: Vec<f32>,
+    step: VecStep,
+    batch: ReplayBatch,
+    next_actions: Vec<f32>,
+    pi_actions: Vec<f32>,
+    q_in: Vec<f32>,
+    target: Vec<f32>,
+    d_q: Vec<f32>,
+    d_q_in: Vec<f32>,
+    d_actor: Vec<f32>,
+    actor_buf: MlpBuffers,
+    actor_target_buf: MlpBuffers,
+    q_buf: [MlpBuffers; 2],
+    q_target_buf: [MlpBuffers; 2],
+}
+
+#[derive(Clone, Copy, Default)]
+struct LossSums {
+    n_q: u64,
+    n_pi: u64,
+    q_loss: f64,
+    policy_loss: f64,
+    mean_q: f64,
+}
+
+/// A TD3 learner; see the module documentation.
+pub struct Td3 {
+    config: Td3Config,
+    obs_space: BoxSpace,
+    act_space: BoxSpace,
+    actor: Mlp,
+    actor_target: Mlp,
+    q: [Mlp; 2],
+    q_target: [Mlp; 2],
+    opt_actor: Adam,
+    opt_q: [Adam; 2],
+    replay: ReplayBuffer,
+    rng: Rng,
+    steps_done: u64,
+    gradient_steps_done: u64,
+    records: u64,
+    wall_time: f64,
+    work: Work,
+}
+
+impl Td3 {
+    /// A new learner; `max_envs` sizes the per-step buffers.
+    pub fn new(
+        config: Td3Config,
+        obs_space: &BoxSpace,
+        act_space: &BoxSpace,
+        max_envs: usize,
+    ) -> Result<Td3, RlError> {
+        config.validate()?;
+        if !act_space.is_bounded() {
+            return Err(RlError::Incompatible { algo: "td3", reason: "needs a bounded action space".into() });
+        }
+        let (od, ad, n, b) = (obs_space.dim(), act_space.dim(), max_envs.max(1), config.batch_size);
+        let mut rng = Rng::derive(config.seed, 1);
+        let actor_sizes = [&[od][..], &config.actor_hidden, &[ad]].concat();
+        let q_sizes = [&[od + ad][..], &config.critic_hidden, &[1]].concat();
+        let actor = Mlp::new(&actor_sizes, config.activation, Init::TorchDefault, &mut rng);
+        let q = [
+            Mlp::new(&q_sizes, config.activation, Init::TorchDefault, &mut rng),
+            Mlp::new(&q_sizes, config.activation, Init::TorchDefault, &mut rng),
+        ];
+        let eps = config.adam_eps as f32;
+        let work = Work {
+            obs: vec![0.0; n * od],
+            actions: vec![0.0; n * ad],
+            env_actions: vec![0.0; n * ad],
+            step: VecStep {
+                obs: vec![0.0; n * od],
+                rewards: vec![0.0; n],
+                terminated: vec![false; n],
+                truncated: vec![false; n],
+                final_obs: vec![0.0; n * od],
+                infos: vec![Default::default(); n],
+                episodes: Vec::with_capacity(n),
+            },
+            batch: ReplayBatch::new(b, od, ad),
+            next_actions: vec![0.0; b * ad],
+            pi_actions: vec![0.0; b * ad],
+            q_in: vec![0.0; b * (od + ad)],
+            target: vec![0.0; b],
+            d_q: vec![0.0; b],
+            d_q_in: vec![0.0; b * (od + ad)],
+            d_actor: vec![0.0; b * ad],
+            actor_buf: actor.buffers(b.max(n)),
+            actor_target_buf: actor.buffers(b),
+            q_buf: [q[0].buffers(b), q[1].buffers(b)],
+            q_target_buf: [q[0].buffers(b), q[1].buffers(b)],
+        };
+        Ok(Td3 {
+            opt_actor: Adam::new(actor.n_params(), eps),
+            opt_q: [Adam::new(q[0].n_params(), eps), Adam::new(q[1].n_params(), eps)],
+            replay: ReplayBuffer::new(config.buffer_size, od, ad),
+            actor_target: actor.clone(),
+            actor,
+            q_target: q.clone(),
+            q,
+            rng,
+            steps_done: 0,
+            gradient_steps_done: 0,
+            records: 0,
+            wall_time: 0.0,
+            work,
+            obs_space: obs_space.clone(),
+            act_space: act_space.clone(),
+            config,
+        })
+    }
+
+    /// A learner for `env`'s spaces.
+    pub fn for_env(config: Td3Config, env: &VecEnv) -> Result<Td3, RlError> {
+        Td3::new(config, env.observation_space(), env.action_space(), env.len())
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &Td3Config {
+        &self.config
+    }
+
+    /// One gradient step on a replay batch (critics always, actor and targets every
+    /// `policy_delay` steps).
+    fn train_step(&mut self, sums: &mut LossSums) -> Result<(), RlError> {
+        let (od, ad, b) = (self.obs_space.dim(), self.act_space.dim(), self.config.batch_size);
+        let (gamma, lr) = (self.config.gamma as f32, self.config.learning_rate as f32);
+        let (sigma, c) = (self.config.target_policy_noise, self.config.target_noise_clip);
+        let w = &mut self.work;
+        self.replay.sample(&mut self.rng, &mut w.batch);
+
+        // Target policy smoothing: ã' = clip(μ̄(s') + clip(ε, −c, c), −1, 1).
+        let y = self.actor_target.forward(&mut w.actor_target_buf, &w.batch.next_obs, b);
+        for k in 0..b * ad {
+            let noise = (self.rng.normal() * sigma).clamp(-c, c) as f32;
+            w.next_actions[k] = (tanh_fast(y[k]) + noise).clamp(-1.0, 1.0);
+        }
+        // Clipped double-Q target y = r + γ(1 − d) min_i Q̄_i(s', ã').
+        concat_obs_act(&w.batch.next_obs, &w.next_actions, b, &mut w.q_in);
+        let [tb0, tb1] = &mut w.q_target_buf;
+        let q1n = self.q_target[0].forward(tb0, &w.q_in, b);
+        let q2n = self.q_target[1].forward(tb1, &w.q_in, b);
+        for j in 0..b {
+            w.target[j] = w.batch.rewards[j] + gamma * (1.0 - w.batch.terminated[j]) * q1n[j].min(q2n[j]);
+        }
+
+        // Critics: J(Q_i) = mean (Q_i(s, a) − y)², ∂/∂Q = 2(Q − y)/B.
+        concat_obs_act(&w.batch.obs, &w.batch.actions, b, &mut w.q_in);
+        for i in 0..2 {
+            let q = self.q[i].forward(&mut w.q_buf[i], &w.q_in, b);
+            let mut loss = 0.0f64;
+            for j in 0..b {
+                let d = q[j] - w.target[j];
+                loss += (d * d) as f64 / b as f64;
+                w.d_q[j] = 2.0 * d / b as f32;
+                if i == 0 {
+                    sums.mean_q += q[j] as f64 / b as f64;
+                }
+            }
+            sums.q_loss += loss;
+            self.q[i].backward(&mut w.q_buf[i], &w.q_in, &w.d_q, b, None);
+            self.opt_q[i].step(&mut self.q[i].params, &self.q[i].grads, lr);
+        }
+        sums.n_q += 1;
+        if !sums.q_loss.is_finite() {
+            return Err(RlError::Diverged {
+                algo: "td3",
+                update: self.gradient_steps_done + 1,
+                what: "critic loss",
+            });
+        }
+        self.gradient_steps_done += 1;
+
+        // Delayed actor update: J(μ) = −mean Q_1(s, μ(s)), then all targets.
+        if self.gradient_steps_done.is_multiple_of(self.config.policy_delay) {
+            let y = self.actor.forward(&mut w.actor_buf, &w.batch.obs, b);
+            for k in 0..b * ad {
+                w.pi_actions[k] = tanh_fast(y[k]);
+            }
+            concat_obs_act(&w.batch.obs, &w.pi_actions, b, &mut w.q_in);
+            let q = self.q[0].forward(&mut w.q_buf[0], &w.q_in, b);
+            sums.policy_loss -= q.iter().map(|x| *x as f64).sum::<f64>() / b as f64;
+            w.d_q.fill(-1.0 / b as f32);
+            self.q[0].input_grad(&mut w.q_buf[0], &w.d_q, b, &mut w.d_q_in);
+            // Through tanh: ∂a/∂y = 1 − a².
+            for j in 0..b {
+                for k in 0..ad {
+                    let a = w.pi_actions[j * ad + k];
+                    w.d_actor[j * ad + k] = w.d_q_in[j * (od + ad) + od + k] * (1.0 - a * a);
+                }
+            }
+            self.actor.backward(&mut w.actor_buf, &w.batch.obs, &w.d_actor, b, None);
+            self.opt_actor.step(&mut self.actor.params, &self.actor.grads, lr);
+            sums.n_pi += 1;
+            let tau = self.config.tau as f32;
+            for i in 0..2 {
+                polyak(&mut self.q_target[i].params, &self.q[i].params, tau);
+            }
+            polyak(&mut self.actor_target.params, &self.actor.params, tau);
+        }
+        Ok(())
+    }
+
+    fn check_env(&self, env: &VecEnv) -> Result<(), RlError> {
+        if env.observation_space() != &self.obs_space || env.action_space() != &self.act_space {
+            return Err(RlError::Incompatible {
+                algo: "td3",
+                reason: "observation or action space differs".into(),
+            });
+        }
+        if env.len() * self.obs_space.dim() > self.work.obs.len() {
+            return Err(RlError::Incompatible {
+                algo: "td3",
+                reason: format!(
+                    "learner sized for {} environments, VecEnv has {}",
+                    self.work.obs.len() / self.obs_space.dim(),
+                    env.len()
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// Reads a learner saved by [`Algorithm::save`].
+    pub fn load(path: &std::path::Path) -> Result<Td3, RlError> {
+        Td3::from_checkpoint(&Checkpoint::read(path)?)
+    }
+
+    /// A learner from an in-memory checkpoint.
+    pub fn from_checkpoint(c: &Checkpoint) -> Result<Td3, RlError> {
+        c.expect_algo("td3")?;
+        let config: Td3Config = c.get_meta("config")?;
+        let max_envs: usize = c.get_meta("max_envs")?;
+        let obs_space = c.read_space("obs_space")?;
+        let act_space = c.read_space("act_space")?;
+        let mut s = Td3::new(config, &obs_space, &act_space, max_envs)?;
+        c.read_mlp("actor", &mut s.actor)?;
+        c.read_mlp("actor_target", &mut s.actor_target)?;
+        c.read_adam("adam/actor", &mut s.opt_actor)?;
+        for i in 0..2 {
+            c.read_mlp(&format!("q{i}"), &mut s.q[i])?;
+            c.read_mlp(&format!("q{i}_target"), &mut s.q_target[i])?;
+            c.read_adam(&format!("adam/q{i}"), &mut s.opt_q[i])?;
+        }
+        if c.get_meta::<bool>("replay_saved")? {
+            c.read_replay("replay", &mut s.replay)?;
+        }
+        s.rng = c.read_rng("rng")?;
+        s.steps_done = c.get_meta("steps_done")?;
+        s.gradient_steps_done = c.get_meta("gradient_steps_done")?;
+        s.records = c.get_meta("records")?;
+        s.wall_time = c.get_meta("wall_time")?;
+        Ok(s)
+    }
+
+    /// Like [`Algorithm::to_checkpoint`], optionally without the replay buffer.
+    pub fn to_checkpoint_with(&self, save_replay: bool) -> Checkpoint {
+        let mut c = Checkpoint::new("td3");
+        c.set_meta("config", &self.config);
+        c.set_meta("max_envs", self.work.obs.len() / self.obs_space.dim().max(1));
+        c.set_meta("steps_done", self.steps_done);
+        c.set_meta("gradient_steps_done", self.gradient_steps_done);
+        c.set_meta("records", self.records);
+        c.set_meta("wall_time", self.wall_time);
+        c.put_space("obs_space", &self.obs_space);
+        c.put_space("act_space", &self.act_space);
+        c.put_f32("actor", &self.actor.params);
+        c.put_f32("actor_target", &self.actor_target.params);
+        c.put_adam("adam/actor", &self.opt_actor);
+        for i in 0..2 {
+            c.put_f32(&format!("q{i}"), &self.q[i].params);
+            c.put_f32(&format!("q{i}_target"), &self.q_target[i].params);
+            c.put_adam(&format!("adam/q{i}"), &self.opt_q[i]);
+        }
+        c.set_meta("replay_saved", save_replay);
+        if save_replay {
+            c.put_replay("replay", &self.replay);
+        }
+        c.put_rng("rng", &self.rng);
+        self.policy().write_to(&mut c);
+        c
+    }
+}
+
+impl Algorithm for Td3 {
+    fn name(&self) -> &'static str {
+        "td3"
+    }
+
+    fn learn(
+        &mut self,
+        env: &mut VecEnv,
+        total_steps: u64,
+        callback: &mut dyn FnMut(&UpdateMetrics) -> ControlFlow<()>,
+    ) -> Result<(), RlError> {
+        self.check_env(env)?;
+        let (n, od, ad) = (env.len(), self.obs_space.dim(), self.act_space.dim());
+        match env.observations() {
+            Some(obs) => self.work.obs[..n * od].copy_from_slice(obs),
+            None => {
+                env.reset(self.config.seed.wrapping_add(self.steps_done), &mut self.work.obs[..n * od])?
+            }
+        }
+        if self.work.step.rewards.len() != n {
+            self.work.step = env.make_step_buffers();
+        }
+        let mut episodes = EpisodeWindow::default();
+        let mut sums = LossSums::default();
+        let (mut t0, mut steps_at_t0) = (Instant::now(), self.steps_done);
+        let mut next_record = (self.steps_done / self.config.log_interval + 1) * self.config.log_interval;
+        while self.steps_done < total_steps {
+            // Act: uniform random during warm-up, then clip(μ(s) + N(0, σ²), −1, 1).
+            if self.steps_done < self.config.learning_starts {
+                self.work.actions[..n * ad].iter_mut().for_each(|a| *a = self.rng.range(-1.0, 1.0) as f32);
+            } else {
+                let w = &mut self.work;
+                let y = self.actor.forward(&mut w.actor_buf, &w.obs[..n * od], n);
+                for k in 0..n * ad {
+                    let noise = (self.rng.normal() * self.config.exploration_noise) as f32;
+                    w.actions[k] = (tanh_fast(y[k]) + noise).clamp(-1.0, 1.0);
+                }
+            }
+            for i in 0..n * ad {
+                let k = i % ad;
+                self.work.env_actions[i] =
+                    rescale_action(self.work.actions[i], self.act_space.low[k], self.act_space.high[k]);
+            }
+            let w = &mut self.work;
+            env.step(&w.env_actions[..n * ad], &mut w.step)?;
+            for e in &w.step.episodes {
+                episodes.push(e.ret, e.length);
+            }
+            for i in 0..n {
+                let s = &w.step;
+                let next = if s.terminated[i] || s.truncated[i] { &s.final_obs } else { &s.obs };
+                self.replay.push(
+                    &w.obs[i * od..(i + 1) * od],
+                    &w.actions[i * ad..(i + 1) * ad],
+                    s.rewards[i] as f32,
+                    &next[i * od..(i + 1) * od],
+                    s.terminated[i],
+                    s.truncated[i],
+                );
+            }
+            w.obs[..n * od].copy_from_slice(&w.step.obs);
+            self.steps_done += n as u64;
+
+            if self.steps_done > self.config.learning_starts {
+                for _ in 0..self.config.gradient_steps {
+                    self.train_step(&mut sums)?;
+                }
+            }
+
+            if self.steps_done >= next_record || self.steps_done >= total_steps {
+                next_record = (self.steps_done / self.config.log_interval + 1) * self.config.log_interval;
+                self.records += 1;
+                let dt = t0.elapsed().as_secs_f64();
+                self.wall_time += dt;
+                let mut m = UpdateMetrics::empty();
+                m.update = self.records;
+                m.env_steps = self.steps_done;
+                m.wall_time = self.wall_time;
+                m.steps_per_second = (self.steps_done - steps_at_t0) as f64 / dt.max(1e-9);
+                m.learning_rate = self.config.learning_rate;
+                if sums.n_q > 0 {
+                    m.q_loss = sums.q_loss / sums.n_q as f64;
+                    m.mean_q = sums.mean_q / sums.n_q as f64;
+                }
+                if sums.n_pi > 0 {
+                    m.policy_loss = sums.policy_loss / sums.n_pi as f64;
+                }
+                episodes.drain_into(&mut m);
+                sums = LossSums::default();
+                t0 = Instant::now();
+                steps_at_t0 = self.steps_done;
+                if callback(&m).is_break() {
+                    break;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn to_checkpoint(&self) -> Checkpoint {
+        self.to_checkpoint_with(true)
+    }
+
+    fn policy(&self) -> Policy {
+        Policy::new(PolicyHead::TanhRescaled, self.actor.clone(), None, &self.act_space)
+    }
+
+    fn steps_done(&self) -> u64 {
+        self.steps_done
+    }
+}
