@@ -525,6 +525,9 @@ impl Ppo {
         let (mut pg_sum, mut v_sum, mut kl_sum, mut cf_sum, mut n_mb) =
             (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0u64);
         'epochs: for _epoch in 0..self.config.n_epochs {
+            // A fresh permutation of 0..len each epoch (not a reshuffle of the previous
+            // one, so that the order depends only on the RNG state, which checkpoints keep).
+            self.work.indices.iter_mut().enumerate().for_each(|(i, k)| *k = i);
             self.rng.shuffle(&mut self.work.indices);
             let mut epoch_kl = 0.0f64;
             for start in (0..len).step_by(bs) {

@@ -1,0 +1,300 @@
+//! Seeds control everything, checkpoints resume the same learning curve, and a saved
+//! policy acts exactly as before saving.
+
+use std::ops::ControlFlow;
+use std::path::PathBuf;
+
+use centaur_rl::pendulum::Pendulum;
+use centaur_rl::*;
+
+fn pendulums(n: usize, threads: usize) -> VecEnv {
+    VecEnv::new((0..n).map(|_| Box::new(Pendulum::new()) as Box<dyn Env>).collect(), threads).unwrap()
+}
+
+type MakeLearner = dyn Fn(&VecEnv) -> Box<dyn Algorithm>;
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("centaur-rl-tests-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+/// Trains to `total` steps, returning the metrics' deterministic bits.
+fn learn(algo: &mut dyn Algorithm, env: &mut VecEnv, total: u64) -> Vec<Vec<u64>> {
+    let mut curve = Vec::new();
+    algo.learn(env, total, &mut |m| {
+        curve.push(m.deterministic_bits());
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    curve
+}
+
+/// Every parameter and optimiser blob of a learner's checkpoint (everything but timings).
+fn state_bits(algo: &dyn Algorithm) -> Vec<u8> {
+    let mut c = algo.to_checkpoint();
+    c.set_meta("wall_time", 0.0);
+    c.to_bytes()
+}
+
+fn small_ppo() -> PpoConfig {
+    PpoConfig {
+        seed: 5,
+        n_steps: 64,
+        batch_size: 32,
+        n_epochs: 2,
+        lr_decay_steps: Some(1024),
+        actor_hidden: vec![16, 16],
+        critic_hidden: vec![16, 16],
+        ..PpoConfig::default()
+    }
+}
+
+fn small_sac() -> SacConfig {
+    SacConfig {
+        seed: 5,
+        batch_size: 32,
+        buffer_size: 5000,
+        learning_starts: 100,
+        log_interval: 100,
+        actor_hidden: vec![16, 16],
+        critic_hidden: vec![16, 16],
+        ..SacConfig::default()
+    }
+}
+
+#[test]
+fn ppo_same_seed_same_curve_bit_for_bit() {
+    let run = |threads| {
+        let mut env = pendulums(2, threads);
+        let mut algo = Ppo::for_env(small_ppo(), &env).unwrap();
+        let curve = learn(&mut algo, &mut env, 1024);
+        (curve, state_bits(&algo))
+    };
+    let a = run(2);
+    assert_eq!(a.0.len(), 8);
+    assert_eq!(a, run(2));
+    // The learner is single-threaded and VecEnv is thread-count independent.
+    assert_eq!(a, run(1));
+    let mut other = small_ppo();
+    other.seed = 6;
+    let mut env = pendulums(2, 1);
+    let mut algo = Ppo::for_env(other, &env).unwrap();
+    assert_ne!(learn(&mut algo, &mut env, 1024), a.0);
+}
+
+#[test]
+fn sac_same_seed_same_curve_bit_for_bit() {
+    let run = |threads| {
+        let mut env = pendulums(2, threads);
+        let mut algo = Sac::for_env(small_sac(), &env).unwrap();
+        let curve = learn(&mut algo, &mut env, 1200);
+        (curve, state_bits(&algo))
+    };
+    let a = run(2);
+    assert_eq!(a.0.len(), 12);
+    assert_eq!(a, run(2));
+}
+
+/// train(N) → save → load → train(M) equals train(N + M), at an update boundary, on the
+/// same (live) VecEnv.
+fn resume_equals_uninterrupted(
+    make: &dyn Fn(&VecEnv) -> Box<dyn Algorithm>,
+    n_envs: usize,
+    n: u64,
+    total: u64,
+) {
+    let mut env_a = pendulums(n_envs, 1);
+    let mut a = make(&env_a);
+    let curve_a = learn(a.as_mut(), &mut env_a, total);
+
+    let mut env_b = pendulums(n_envs, 1);
+    let mut b = make(&env_b);
+    let mut curve_b = learn(b.as_mut(), &mut env_b, n);
+    let path = tmp(&format!("{}-resume.ckpt", b.name()));
+    b.save(&path).unwrap();
+    drop(b);
+    let mut b = centaur_rl::algorithm::load(&path).unwrap();
+    assert_eq!(b.steps_done(), n);
+    curve_b.extend(learn(b.as_mut(), &mut env_b, total));
+    if let Some(i) = (0..curve_a.len().min(curve_b.len())).find(|&i| curve_a[i] != curve_b[i]) {
+        panic!(
+            "{}: learning curves differ after resume at record {i} of {} / {}: {:?} vs {:?}",
+            a.name(),
+            curve_a.len(),
+            curve_b.len(),
+            curve_a[i].iter().map(|b| f64::from_bits(*b)).collect::<Vec<_>>(),
+            curve_b[i].iter().map(|b| f64::from_bits(*b)).collect::<Vec<_>>()
+        );
+    }
+    assert_eq!(curve_a.len(), curve_b.len(), "{}: numbers of records differ after resume", a.name());
+    assert_eq!(state_bits(a.as_ref()), state_bits(b.as_ref()), "{}: states differ after resume", a.name());
+}
+
+#[test]
+fn resumed_training_continues_the_same_learning_curve() {
+    resume_equals_uninterrupted(&|e| Box::new(Ppo::for_env(small_ppo(), e).unwrap()), 2, 512, 1024);
+    resume_equals_uninterrupted(&|e| Box::new(Sac::for_env(small_sac(), e).unwrap()), 2, 600, 1200);
+    let a2c = A2cConfig {
+        seed: 3,
+        norm_obs: true,
+        norm_reward: true,
+        log_interval: 10,
+        // The schedule horizon is part of the state (unset, the first `learn` call's
+        // total would be used: 500 here, 1000 uninterrupted).
+        lr_decay_steps: Some(1000),
+        actor_hidden: vec![16],
+        critic_hidden: vec![16],
+        ..A2cConfig::default()
+    };
+    resume_equals_uninterrupted(&|e| Box::new(A2c::for_env(a2c.clone(), e).unwrap()), 2, 500, 1000);
+    let small = |h: usize| vec![h, h];
+    // An odd number of gradient steps before the save (the delayed actor update's phase is
+    // state too); a record every step so that the split falls on a record boundary.
+    let td3 = Td3Config {
+        seed: 3,
+        batch_size: 32,
+        buffer_size: 4000,
+        log_interval: 1,
+        actor_hidden: small(16),
+        critic_hidden: small(16),
+        ..Td3Config::default()
+    };
+    resume_equals_uninterrupted(&|e| Box::new(Td3::for_env(td3.clone(), e).unwrap()), 1, 501, 900);
+    let ddpg = DdpgConfig {
+        seed: 3,
+        batch_size: 32,
+        buffer_size: 4000,
+        log_interval: 100,
+        noise: centaur_rl::ddpg::NoiseKind::OrnsteinUhlenbeck,
+        actor_hidden: small(16),
+        critic_hidden: small(16),
+        ..DdpgConfig::default()
+    };
+    resume_equals_uninterrupted(&|e| Box::new(Ddpg::for_env(ddpg.clone(), e).unwrap()), 1, 500, 900);
+    let sac1 = SacV1Config {
+        seed: 3,
+        batch_size: 32,
+        buffer_size: 4000,
+        log_interval: 100,
+        actor_hidden: small(16),
+        critic_hidden: small(16),
+        ..SacV1Config::default()
+    };
+    resume_equals_uninterrupted(&|e| Box::new(SacV1::for_env(sac1.clone(), e).unwrap()), 1, 500, 900);
+}
+
+#[test]
+fn loaded_policy_acts_exactly_as_before_saving() {
+    let small = || vec![16, 16];
+    let learners: Vec<Box<MakeLearner>> = vec![
+        Box::new(|e| Box::new(Ppo::for_env(small_ppo(), e).unwrap())),
+        Box::new(|e| {
+            Box::new(A2c::for_env(A2cConfig { norm_obs: true, ..A2cConfig::default() }, e).unwrap())
+        }),
+        Box::new(|e| Box::new(Sac::for_env(small_sac(), e).unwrap())),
+        Box::new(move |e| {
+            Box::new(
+                SacV1::for_env(
+                    SacV1Config {
+                        batch_size: 32,
+                        actor_hidden: small(),
+                        critic_hidden: small(),
+                        ..SacV1Config::default()
+                    },
+                    e,
+                )
+                .unwrap(),
+            )
+        }),
+        Box::new(move |e| {
+            Box::new(
+                Td3::for_env(
+                    Td3Config {
+                        batch_size: 32,
+                        actor_hidden: small(),
+                        critic_hidden: small(),
+                        ..Td3Config::default()
+                    },
+                    e,
+                )
+                .unwrap(),
+            )
+        }),
+        Box::new(move |e| {
+            Box::new(
+                Ddpg::for_env(
+                    DdpgConfig {
+                        batch_size: 32,
+                        actor_hidden: small(),
+                        critic_hidden: small(),
+                        ..DdpgConfig::default()
+                    },
+                    e,
+                )
+                .unwrap(),
+            )
+        }),
+    ];
+    let mut rng = Rng::seed_from_u64(11);
+    for make in learners {
+        let mut env = pendulums(2, 1);
+        let mut algo = make(&env);
+        algo.learn(&mut env, 600, &mut |_| ControlFlow::Continue(())).unwrap();
+        let path = tmp(&format!("{}-policy.ckpt", algo.name()));
+        algo.save(&path).unwrap();
+        let mut before = algo.policy();
+        let mut after = Policy::load(&path).unwrap();
+        let (mut a, mut b) = ([0.0f32], [0.0f32]);
+        for _ in 0..50 {
+            let th = rng.range(-4.0, 4.0);
+            let obs = [th.cos() as f32, th.sin() as f32, rng.range(-8.0, 8.0) as f32];
+            before.act(&obs, &mut a);
+            after.act(&obs, &mut b);
+            assert_eq!(a[0].to_bits(), b[0].to_bits(), "{}", algo.name());
+            assert!((-2.0..=2.0).contains(&a[0]), "{}: action {} outside the bounds", algo.name(), a[0]);
+        }
+        let eval_a = evaluate(&mut before, &mut Pendulum::new(), 2, 7).unwrap();
+        let eval_b = evaluate(&mut after, &mut Pendulum::new(), 2, 7).unwrap();
+        assert_eq!(eval_a, eval_b);
+    }
+}
+
+#[test]
+fn bad_files_and_configs_are_typed_errors() {
+    // Corrupt checkpoint.
+    let env = pendulums(1, 1);
+    let algo = Ppo::for_env(small_ppo(), &env).unwrap();
+    let path = tmp("corrupt.ckpt");
+    algo.save(&path).unwrap();
+    let mut bytes = std::fs::read(&path).unwrap();
+    let k = bytes.len() - 100;
+    bytes[k] ^= 1;
+    std::fs::write(&path, &bytes).unwrap();
+    assert!(matches!(Policy::load(&path), Err(CheckpointError::Checksum { .. })));
+    assert!(matches!(
+        centaur_rl::algorithm::load(&path),
+        Err(RlError::Checkpoint(CheckpointError::Checksum { .. }))
+    ));
+    std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
+    assert!(matches!(Ppo::load(&path), Err(RlError::Checkpoint(CheckpointError::Truncated { .. }))));
+    // A SAC checkpoint is not a PPO one.
+    let sac = Sac::for_env(small_sac(), &env).unwrap();
+    sac.save(&path).unwrap();
+    assert!(matches!(Ppo::load(&path), Err(RlError::Checkpoint(CheckpointError::WrongAlgorithm { .. }))));
+    // Out-of-range configuration values name their field.
+    let bad = PpoConfig { gamma: 1.5, ..PpoConfig::default() };
+    match Ppo::for_env(bad, &env) {
+        Err(RlError::InvalidConfig { field: "gamma", .. }) => {}
+        other => panic!("expected InvalidConfig(gamma), got {:?}", other.err()),
+    }
+    let bad = SacConfig { batch_size: 0, ..SacConfig::default() };
+    assert!(matches!(Sac::for_env(bad, &env), Err(RlError::InvalidConfig { field: "batch_size", .. })));
+    // A learner refuses an environment with other spaces or a different count.
+    let mut algo = Ppo::for_env(small_ppo(), &env).unwrap();
+    let mut two = pendulums(2, 1);
+    assert!(matches!(
+        algo.learn(&mut two, 100, &mut |_| ControlFlow::Continue(())),
+        Err(RlError::Incompatible { .. })
+    ));
+}
