@@ -47,6 +47,9 @@ pub struct SimConfig {
     /// Penetration Rapier tolerates before correcting contacts (m) (default: 0.001; Rapier's
     /// own 0.005 lets the robot sit several millimetres into the ground).
     pub allowed_penetration: f64,
+    /// Distance (m) within which Rapier creates contacts ahead of time (default: 0.02,
+    /// Rapier's; fast bodies at large time steps need more).
+    pub prediction_distance: f64,
     /// Gravity in the world, z up (default: (0, 0, −9.81)).
     pub gravity: [f64; 3],
     /// Friction coefficient of the ground (default: 1.0).
@@ -65,6 +68,7 @@ impl Default for SimConfig {
             ground_contact_frequency: 120.0,
             ground_contact_damping_ratio: 10.0,
             allowed_penetration: 0.001,
+            prediction_distance: 0.02,
             gravity: [0.0, 0.0, -9.81],
             ground_friction: 1.0,
             self_collision: false,
@@ -235,6 +239,7 @@ impl Sim {
         );
         params.max_ccd_substeps = 0;
         params.normalized_allowed_linear_error = config.allowed_penetration as f32;
+        params.normalized_prediction_distance = config.prediction_distance as f32;
         let mut bodies = RigidBodySet::new();
         let mut collider_set = ColliderSet::new();
         let mut multibody_joints = MultibodyJointSet::new();
