@@ -1,0 +1,212 @@
+//! Learning-curve plots as SVG and PNG, with optional confidence bands, for single runs and
+//! comparisons (pure vs hybrid, across seeds).
+//!
+//! Text is laid out with the bundled DejaVu Sans font (`assets/fonts/DejaVuSans.ttf`,
+//! through plotters' `ab_glyph` feature), so no system font library is needed; PNGs are
+//! rendered into an RGB buffer and encoded with the `png` crate.
+
+use std::path::{Path, PathBuf};
+use std::sync::Once;
+
+use plotters::prelude::*;
+
+static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
+static REGISTER: Once = Once::new();
+
+fn register_font() {
+    REGISTER.call_once(|| {
+        // The font is bundled at compile time and known to parse.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
+    });
+}
+
+/// One curve: `y` against `x`, with an optional band `[lower, upper]` (e.g. mean ± std or a
+/// confidence interval across seeds).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Series {
+    /// Legend label.
+    pub label: String,
+    /// Abscissae (e.g. environment steps).
+    pub x: Vec<f64>,
+    /// Ordinates (e.g. mean episode return); non-finite points are skipped.
+    pub y: Vec<f64>,
+    /// Lower edge of the band, same length as `x`.
+    pub lower: Option<Vec<f64>>,
+    /// Upper edge of the band.
+    pub upper: Option<Vec<f64>>,
+}
+
+/// Axis titles and figure title.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlotLabels {
+    /// Figure title.
+    pub title: String,
+    /// x-axis title.
+    pub x: String,
+    /// y-axis title.
+    pub y: String,
+}
+
+/// Why a plot could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// Nothing finite to draw.
+    #[error("{path}: no finite data points to plot")]
+    Empty {
+        /// Output file.
+        path: PathBuf,
+    },
+    /// Drawing or writing failed.
+    #[error("{path}: {message}")]
+    Backend {
+        /// Output file.
+        path: PathBuf,
+        /// What failed.
+        message: String,
+    },
+    /// The file extension is neither `.svg` nor `.png`.
+    #[error("{path}: unsupported plot format (use .svg or .png)")]
+    Format {
+        /// Output file.
+        path: PathBuf,
+    },
+}
+
+const PALETTE: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+];
+
+/// Writes the curves to `path` (`.svg` or `.png`, 1000 × 600 pixels).
+pub fn plot_curves(path: &Path, labels: &PlotLabels, series: &[Series]) -> Result<(), PlotError> {
+    register_font();
+    let (w, h) = (1000u32, 600u32);
+    let finite = |v: &f64| v.is_finite();
+    let xs: Vec<f64> = series.iter().flat_map(|s| s.x.iter().copied()).filter(finite).collect();
+    let ys: Vec<f64> = series
+        .iter()
+        .flat_map(|s| s.y.iter().chain(s.lower.iter().flatten()).chain(s.upper.iter().flatten()).copied())
+        .filter(finite)
+        .collect();
+    if xs.is_empty() || ys.is_empty() {
+        return Err(PlotError::Empty { path: path.to_path_buf() });
+    }
+    let (x0, x1) = min_max(&xs);
+    let (y0, y1) = min_max(&ys);
+    let pad = ((y1 - y0) * 0.05).max(1e-9);
+    let range = (x0, if x1 > x0 { x1 } else { x0 + 1.0 }, y0 - pad, y1 + pad);
+    let err =
+        |e: &dyn std::fmt::Display| PlotError::Backend { path: path.to_path_buf(), message: e.to_string() };
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("svg") => {
+            let root = SVGBackend::new(path, (w, h)).into_drawing_area();
+            draw(&root, labels, series, range).map_err(|e| err(&e))?;
+            root.present().map_err(|e| err(&e))?;
+        }
+        Some("png") => {
+            let mut buf = vec![0u8; (w * h * 3) as usize];
+            {
+                let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+                draw(&root, labels, series, range).map_err(|e| err(&e))?;
+                root.present().map_err(|e| err(&e))?;
+            }
+            let file = std::fs::File::create(path).map_err(|e| err(&e))?;
+            let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
+            enc.set_color(png::ColorType::Rgb);
+            enc.set_depth(png::BitDepth::Eight);
+            let mut writer = enc.write_header().map_err(|e| err(&e))?;
+            writer.write_image_data(&buf).map_err(|e| err(&e))?;
+            writer.finish().map_err(|e| err(&e))?;
+        }
+        _ => return Err(PlotError::Format { path: path.to_path_buf() }),
+    }
+    Ok(())
+}
+
+/// Decimals for tick labels of an axis spanning `range`.
+fn decimals(range: f64) -> usize {
+    if range >= 50.0 {
+        0
+    } else if range >= 1.0 {
+        1
+    } else {
+        3
+    }
+}
+
+fn min_max(v: &[f64]) -> (f64, f64) {
+    v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(*x), b.max(*x)))
+}
+
+fn draw<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    labels: &PlotLabels,
+    series: &[Series],
+    (x0, x1, y0, y1): (f64, f64, f64, f64),
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(root)
+        .caption(&labels.title, ("sans-serif", 24))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0..x1, y0..y1)?;
+    let (x_dec, y_dec) = (decimals(x1 - x0), decimals(y1 - y0));
+    let fx = move |v: &f64| format!("{v:.x_dec$}");
+    let fy = move |v: &f64| format!("{v:.y_dec$}");
+    chart
+        .configure_mesh()
+        .x_label_formatter(&fx)
+        .y_label_formatter(&fy)
+        .x_desc(&labels.x)
+        .y_desc(&labels.y)
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .draw()?;
+    for (k, s) in series.iter().enumerate() {
+        let color = PALETTE[k % PALETTE.len()];
+        if let (Some(lo), Some(hi)) = (&s.lower, &s.upper) {
+            // The band as a polygon: upper edge forward, lower edge back.
+            let pts: Vec<(f64, f64)> =
+                s.x.iter()
+                    .zip(hi)
+                    .filter(|(x, y)| x.is_finite() && y.is_finite())
+                    .map(|(x, y)| (*x, *y))
+                    .chain(
+                        s.x.iter()
+                            .zip(lo)
+                            .rev()
+                            .filter(|(x, y)| x.is_finite() && y.is_finite())
+                            .map(|(x, y)| (*x, *y)),
+                    )
+                    .collect();
+            if pts.len() >= 3 {
+                chart.draw_series(std::iter::once(Polygon::new(pts, color.mix(0.2).filled())))?;
+            }
+        }
+        let line: Vec<(f64, f64)> =
+            s.x.iter()
+                .zip(&s.y)
+                .filter(|(x, y)| x.is_finite() && y.is_finite())
+                .map(|(x, y)| (*x, *y))
+                .collect();
+        chart
+            .draw_series(LineSeries::new(line, color.stroke_width(2)))?
+            .label(s.label.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+    }
+    if series.iter().any(|s| !s.label.is_empty()) {
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 14))
+            .position(SeriesLabelPosition::LowerRight)
+            .draw()?;
+    }
+    Ok(())
+}

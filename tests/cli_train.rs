@@ -1,0 +1,90 @@
+//! `centaur train` end to end on the Pendulum: every artefact written, the summary
+//! consistent with the checkpoint, bad config keys named.
+
+use std::path::PathBuf;
+
+use centaur::train::{TrainError, TrainOptions, train};
+use centaur_rl::{AlgoKind, Policy};
+
+fn out_dir(name: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("centaur-cli-{}-{name}", std::process::id()))
+}
+
+#[test]
+fn train_writes_every_artefact() {
+    let out = out_dir("ppo");
+    let config = out_dir("ppo.toml");
+    std::fs::write(
+        &config,
+        "n_steps = 256\nbatch_size = 64\nactor_hidden = [32, 32]\ncritic_hidden = [32, 32]\n",
+    )
+    .unwrap();
+    let opts = TrainOptions {
+        env: "pendulum".into(),
+        algo: AlgoKind::Ppo,
+        steps: 2048,
+        seed: 3,
+        out: out.clone(),
+        config: Some(config),
+        threads: 2,
+        n_envs: 2,
+        eval_episodes: 10,
+    };
+    let mut records = 0;
+    let s = train(&opts, &mut |_| records += 1).unwrap();
+    assert_eq!(records, 4); // 2048 / (256 × 2)
+    assert_eq!((s.env.as_str(), s.algo.as_str(), s.seed, s.steps), ("pendulum", "ppo", 3, 2048));
+    assert!(s.final_return_mean.is_finite() && s.final_return_std >= 0.0 && s.wall_seconds > 0.0);
+    for f in ["metrics.csv", "checkpoint", "learning_curve.svg", "learning_curve.png", "summary.json"] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let csv = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 5);
+    assert!(csv.starts_with("update,env_steps,wall_time"));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    for key in [
+        "env",
+        "algo",
+        "seed",
+        "steps",
+        "wall_seconds",
+        "steps_per_second",
+        "final_return_mean",
+        "final_return_std",
+    ] {
+        assert!(json.get(key).is_some(), "summary.json lacks {key}");
+    }
+    let png = std::fs::read(out.join("learning_curve.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    assert!(std::fs::read_to_string(out.join("learning_curve.svg")).unwrap().contains("<svg"));
+    let policy = Policy::load(&out.join("checkpoint")).unwrap();
+    assert_eq!((policy.obs_dim(), policy.act_dim()), (3, 1));
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+#[test]
+fn unknown_config_keys_and_bad_values_are_named() {
+    let config = out_dir("bad.toml");
+    std::fs::write(&config, "learning_rate = 1e-3\nlearnin_starts = 5\n").unwrap();
+    let opts = TrainOptions {
+        env: "pendulum".into(),
+        algo: AlgoKind::Sac,
+        steps: 10,
+        seed: 0,
+        out: out_dir("bad"),
+        config: Some(config.clone()),
+        threads: 1,
+        n_envs: 1,
+        eval_episodes: 10,
+    };
+    match train(&opts, &mut |_| {}) {
+        Err(TrainError::Config { message, .. }) => assert!(message.contains("learnin_starts"), "{message}"),
+        other => panic!("expected a config error, got {other:?}"),
+    }
+    std::fs::write(&config, "gamma = 2.0\n").unwrap();
+    let e = train(&opts, &mut |_| {}).unwrap_err();
+    assert!(e.to_string().contains("gamma"), "{e}");
+    let bad_env = TrainOptions { env: "cartpole".into(), config: None, ..opts };
+    assert!(matches!(train(&bad_env, &mut |_| {}), Err(TrainError::Registry(_))));
+}
