@@ -200,7 +200,8 @@ pub struct Sim {
     /// Rigid body of each model joint (index 0: the fixed anchor, if any).
     bodies_of_joint: Vec<Option<RigidBodyHandle>>,
     joints: Vec<Option<JointMap>>,
-    root_handle: MultibodyJointHandle,
+    /// The multibody (absent for a robot that is a single free body).
+    root_handle: Option<MultibodyJointHandle>,
     /// Centre of mass of the free root body in its model frame (the Rapier frame sits there).
     root_com: Vector3<f64>,
     floating: bool,
@@ -333,8 +334,6 @@ impl Sim {
             root_handle.get_or_insert(handle);
             joints[j] = Some(JointMap { body: h, parent_body, link: 0, dof: 0, coord, axis, revolute });
         }
-        let root_handle =
-            root_handle.ok_or_else(|| SimError::InvalidConfig("the model has no moving joint".into()))?;
 
         // Colliders.
         let robot_groups = if config.self_collision {
@@ -477,27 +476,53 @@ impl Sim {
         Ok(sim)
     }
 
+    fn multibody(&self) -> Option<&rapier3d::prelude::Multibody> {
+        self.root_handle.and_then(|h| self.multibody_joints.get(h)).map(|(mb, _)| mb)
+    }
+
+    fn multibody_mut(&mut self) -> Option<&mut rapier3d::prelude::Multibody> {
+        self.root_handle.and_then(|h| self.multibody_joints.get_mut(h)).map(|(mb, _)| mb)
+    }
+
     /// Settles the multibody's root type, records link ids and dof indices, and replaces
     /// Rapier's default damping by the model's.
     fn finish_build(&mut self) {
-        let (mb, _) = self.multibody_joints.get_mut(self.root_handle).expect("multibody exists");
-        mb.forward_kinematics(&self.bodies, true);
-        for j in 0..self.joints.len() {
-            if let Some(map) = self.joints[j].as_mut() {
-                let link_id = self.multibody_joints.rigid_body_link(map.body).expect("link of a joint").id;
-                let (mb, _) = self.multibody_joints.get_mut(self.root_handle).expect("multibody exists");
-                map.link = link_id;
-                map.dof = mb.link(link_id).expect("link").assembly_id();
+        // Mass properties are otherwise only computed at the first step.
+        for h in self.bodies_of_joint.iter().flatten() {
+            if let Some(b) = self.bodies.get_mut(*h) {
+                b.recompute_mass_properties_from_colliders(&self.colliders);
             }
         }
-        let (mb, _) = self.multibody_joints.get_mut(self.root_handle).expect("multibody exists");
-        let ndofs = mb.ndofs();
-        mb.damping_mut().fill(0.0);
-        for (j, map) in self.joints.iter().enumerate() {
-            if let Some(map) = map {
+        let bodies = &self.bodies;
+        if let Some(mb) = self.root_handle.and_then(|h| self.multibody_joints.get_mut(h)).map(|(mb, _)| mb) {
+            mb.forward_kinematics(bodies, true);
+        }
+        for j in 0..self.joints.len() {
+            let Some(body) = self.joints[j].map(|m| m.body) else { continue };
+            let Some(link_id) = self.multibody_joints.rigid_body_link(body).map(|l| l.id) else { continue };
+            let dof = self.multibody().and_then(|mb| mb.link(link_id)).map_or(0, |l| l.assembly_id());
+            if let Some(map) = self.joints[j].as_mut() {
+                map.link = link_id;
+                map.dof = dof;
+            }
+        }
+        let settings: Vec<(usize, f32, f32)> = self
+            .joints
+            .iter()
+            .enumerate()
+            .filter_map(|(j, m)| m.map(|m| (j, m)))
+            .map(|(j, m)| {
                 let iv = self.model.joints[j].idx_v;
-                mb.damping_mut()[map.dof] = self.model.damping[iv] as f32;
-                mb.armature_mut()[map.dof] = self.model.armature[iv] as f32;
+                (m.dof, self.model.damping[iv] as f32, self.model.armature[iv] as f32)
+            })
+            .collect();
+        let mut ndofs = 0;
+        if let Some(mb) = self.multibody_mut() {
+            ndofs = mb.ndofs();
+            mb.damping_mut().fill(0.0);
+            for (dof, damping, armature) in settings {
+                mb.damping_mut()[dof] = damping;
+                mb.armature_mut()[dof] = armature;
             }
         }
         self.disp = vec![0.0; ndofs];
@@ -513,6 +538,17 @@ impl Sim {
         &self.config
     }
 
+    /// Total mass of the simulated robot bodies (kg), as Rapier sees it.
+    pub fn total_mass(&self) -> f64 {
+        self.bodies_of_joint
+            .iter()
+            .flatten()
+            .map(|h| &self.bodies[*h])
+            .filter(|b| b.is_dynamic())
+            .map(|b| b.mass() as f64)
+            .sum()
+    }
+
     /// Simulated time since construction (s).
     pub fn time(&self) -> f64 {
         self.time
@@ -522,9 +558,8 @@ impl Sim {
     /// stiffness; integrated implicitly by Rapier).
     #[track_caller]
     pub fn set_joint_spring(&mut self, joint: usize, stiffness: f64, rest: f64) {
-        let map = self.joints[joint].expect("set_joint_spring: not a moving non-root joint");
-        let (mb, _) = self.multibody_joints.get_mut(self.root_handle).expect("multibody exists");
-        if let Some(link) = mb.link_mut(map.link) {
+        let Some(map) = self.joints[joint] else { return };
+        if let Some(link) = self.multibody_mut().and_then(|mb| mb.link_mut(map.link)) {
             link.joint.set_spring(map.coord, stiffness as f32, rest as f32);
         }
     }
@@ -538,8 +573,9 @@ impl Sim {
     /// Sets the reflected rotor inertia (armature) of the dof `v_index` of the model
     /// (ignored for a floating base's dofs).
     pub fn set_armature(&mut self, v_index: usize, armature: f64) {
-        if let Some(dof) = self.rapier_dof(v_index) {
-            let (mb, _) = self.multibody_joints.get_mut(self.root_handle).expect("multibody exists");
+        if let Some(dof) = self.rapier_dof(v_index)
+            && let Some(mb) = self.multibody_mut()
+        {
             mb.armature_mut()[dof] = armature as f32;
             self.model.armature[v_index] = armature;
         }
@@ -548,8 +584,9 @@ impl Sim {
     /// Sets the viscous damping of the dof `v_index`, integrated implicitly by Rapier
     /// (ignored for a floating base's dofs).
     pub fn set_damping(&mut self, v_index: usize, damping: f64) {
-        if let Some(dof) = self.rapier_dof(v_index) {
-            let (mb, _) = self.multibody_joints.get_mut(self.root_handle).expect("multibody exists");
+        if let Some(dof) = self.rapier_dof(v_index)
+            && let Some(mb) = self.multibody_mut()
+        {
             mb.damping_mut()[dof] = damping as f32;
             self.model.damping[v_index] = damping;
         }
@@ -559,7 +596,7 @@ impl Sim {
     #[inline]
     pub fn joint_state(&self, joint: usize) -> (f64, f64) {
         let Some(map) = self.joints[joint] else { return (0.0, 0.0) };
-        let (mb, _) = self.multibody_joints.get(self.root_handle).expect("multibody exists");
+        let Some(mb) = self.multibody() else { return (0.0, 0.0) };
         let q = mb.link(map.link).map_or(0.0, |l| l.joint().coords()[map.coord]);
         (q as f64, mb.generalized_velocity()[map.dof] as f64)
     }
@@ -644,18 +681,22 @@ impl Sim {
 
     /// Reads the robot's state into `state` (model layout, dynamics conventions).
     pub fn read_state(&self, state: &mut RobotState) {
-        let (mb, _) = self.multibody_joints.get(self.root_handle).expect("multibody exists");
-        let gv = mb.generalized_velocity();
-        for j in 0..self.joints.len() {
-            let Some(map) = self.joints[j] else { continue };
-            let mj = &self.model.joints[j];
-            if let Some(link) = mb.link(map.link) {
-                state.q[mj.idx_q] = link.joint().coords()[map.coord] as f64;
+        let mb = self.multibody();
+        if let Some(mb) = mb {
+            let gv = mb.generalized_velocity();
+            for j in 0..self.joints.len() {
+                let Some(map) = self.joints[j] else { continue };
+                let mj = &self.model.joints[j];
+                if let Some(link) = mb.link(map.link) {
+                    state.q[mj.idx_q] = link.joint().coords()[map.coord] as f64;
+                }
+                state.v[mj.idx_v] = gv[map.dof] as f64;
             }
-            state.v[mj.idx_v] = gv[map.dof] as f64;
         }
-        if self.floating {
-            let rb = &self.bodies[self.bodies_of_joint[1].expect("root body")];
+        if self.floating
+            && let Some(root) = self.bodies_of_joint[1]
+        {
+            let rb = &self.bodies[root];
             let p = rb.position();
             let rq = p.rotation;
             let rot = UnitQuaternion::from_quaternion(na::Quaternion::new(
@@ -665,11 +706,20 @@ impl Sim {
                 rq.z as f64,
             ));
             let r = rot.to_rotation_matrix();
-            // The Rapier root frame sits at the centre of mass c: origin = p − R c.
+            // The Rapier root frame sits at the centre of mass c: origin = p − R c. Its
+            // velocity (the multibody's root dofs, or the lone body's) is the CoM's.
             let rc = r * self.root_com;
             let origin = to_f64(p.translation) - rc;
-            let v_com = Vector3::new(gv[0] as f64, gv[1] as f64, gv[2] as f64);
-            let w = Vector3::new(gv[3] as f64, gv[4] as f64, gv[5] as f64);
+            let (v_com, w) = match mb {
+                Some(mb) => {
+                    let gv = mb.generalized_velocity();
+                    (
+                        Vector3::new(gv[0] as f64, gv[1] as f64, gv[2] as f64),
+                        Vector3::new(gv[3] as f64, gv[4] as f64, gv[5] as f64),
+                    )
+                }
+                None => (to_f64(rb.linvel()), to_f64(rb.angvel())),
+            };
             let v_origin = v_com - w.cross(&rc);
             let (vl, wl) = (r.transpose() * v_origin, r.transpose() * w);
             let q = rot.quaternion();
@@ -680,16 +730,32 @@ impl Sim {
 
     /// Moves the robot to `state` (positions and velocities), in place.
     pub fn set_state(&mut self, state: &RobotState) {
-        if self.floating {
+        // Root twist, as Rapier wants it: centre-of-mass velocity and angular velocity, world axes.
+        let mut root_twist = None;
+        if self.floating
+            && let Some(root) = self.bodies_of_joint[1]
+        {
             let q = &state.q;
             let rot = UnitQuaternion::from_quaternion(na::Quaternion::new(q[6], q[3], q[4], q[5]));
             let r = rot.to_rotation_matrix();
             let rc = r * self.root_com;
             let p = Vector3::new(q[0], q[1], q[2]) + rc;
-            let root = self.bodies_of_joint[1].expect("root body");
             self.bodies[root].set_position(Pose::from_parts(v3(&p), quat(r.matrix())), true);
+            let vl = Vector3::new(state.v[0], state.v[1], state.v[2]);
+            let wl = Vector3::new(state.v[3], state.v[4], state.v[5]);
+            let (v_origin, w) = (r * vl, r * wl);
+            let v_com = v_origin + w.cross(&rc);
+            root_twist = Some((v_com, w));
+            if self.root_handle.is_none() {
+                self.bodies[root].set_linvel(v3(&v_com), true);
+                self.bodies[root].set_angvel(v3(&w), true);
+            }
         }
-        let (mb, _) = self.multibody_joints.get_mut(self.root_handle).expect("multibody exists");
+        let Some(handle) = self.root_handle else {
+            self.bodies.propagate_modified_body_positions_to_colliders(&mut self.colliders);
+            return;
+        };
+        let Some((mb, _)) = self.multibody_joints.get_mut(handle) else { return };
         self.disp.iter_mut().for_each(|d| *d = 0.0);
         for j in 0..self.joints.len() {
             let Some(map) = self.joints[j] else { continue };
@@ -704,14 +770,7 @@ impl Sim {
                 let Some(map) = self.joints[j] else { continue };
                 gv[map.dof] = state.v[self.model.joints[j].idx_v] as f32;
             }
-            if self.floating {
-                let q = &state.q;
-                let rot = UnitQuaternion::from_quaternion(na::Quaternion::new(q[6], q[3], q[4], q[5]));
-                let r = rot.to_rotation_matrix();
-                let vl = Vector3::new(state.v[0], state.v[1], state.v[2]);
-                let wl = Vector3::new(state.v[3], state.v[4], state.v[5]);
-                let (v_origin, w) = (r * vl, r * wl);
-                let v_com = v_origin + w.cross(&(r * self.root_com));
+            if let Some((v_com, w)) = root_twist {
                 for k in 0..3 {
                     gv[k] = v_com[k] as f32;
                     gv[3 + k] = w[k] as f32;
@@ -727,7 +786,7 @@ impl Sim {
     /// contacts, limits and loop closures (model `v` layout; joints only — base entries are
     /// left untouched).
     pub fn unconstrained_joint_accelerations(&self, out: &mut [f64]) {
-        let (mb, _) = self.multibody_joints.get(self.root_handle).expect("multibody exists");
+        let Some(mb) = self.multibody() else { return };
         let ga = mb.generalized_acceleration();
         for j in 0..self.joints.len() {
             if let Some(map) = self.joints[j] {

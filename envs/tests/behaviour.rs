@@ -1,0 +1,223 @@
+//! Environment behaviour: random-action statistics in the references' range, determinism,
+//! bad actions, blow-ups, vectorised stepping and the observation options.
+
+use centaur_envs::{
+    LocomotionConfig, LocomotionEnv, LocomotionRobot, MinitaurConfig, MinitaurEnv, ObsOptions,
+};
+use centaur_rl::{Env, EnvError, Rng, VecEnv};
+
+fn all_envs() -> Vec<Box<dyn Env>> {
+    let mut v: Vec<Box<dyn Env>> = vec![Box::new(MinitaurEnv::new(MinitaurConfig::default()).unwrap())];
+    for r in [
+        LocomotionRobot::Ant,
+        LocomotionRobot::Walker2d,
+        LocomotionRobot::Hopper,
+        LocomotionRobot::HalfCheetah,
+        LocomotionRobot::Humanoid,
+    ] {
+        v.push(Box::new(LocomotionEnv::new(LocomotionConfig::preset(r)).unwrap()));
+    }
+    v
+}
+
+/// Mean return and length over `episodes` episodes of uniform random actions.
+fn random_stats(env: &mut dyn Env, episodes: u64) -> (f64, f64) {
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    let mut act = vec![0.0f32; env.action_space().dim()];
+    let mut rng = Rng::seed_from_u64(3);
+    let (mut ret, mut len) = (0.0, 0.0);
+    for ep in 0..episodes {
+        env.reset(Some(ep), &mut obs).unwrap();
+        loop {
+            env.action_space().sample(&mut rng, &mut act);
+            let s = env.step(&act, &mut obs).unwrap();
+            ret += s.reward;
+            len += 1.0;
+            assert!(obs.iter().all(|x| x.is_finite()), "{}: non-finite observation", env.name());
+            if s.done() {
+                break;
+            }
+        }
+    }
+    (ret / episodes as f64, len / episodes as f64)
+}
+
+#[test]
+fn random_actions_give_returns_and_lengths_in_the_references_range() {
+    // References (10 episodes each, measured on this kind of machine): PyBullet Minitaur
+    // −1.33 / 829 steps (−0.99 / 633 in a second run); MuJoCo v5 Ant −17 / 108 (−96 / 264),
+    // Walker2d 5.7 / 28 (4.3 / 23), Hopper 31 / 32 (17 / 21), HalfCheetah −234 / 1000
+    // (−278 / 1000), Humanoid 90 / 19 (118 / 25). Random-action statistics over 10
+    // episodes vary that much between seeds in the references themselves; the bounds below
+    // hold both reference runs with that margin.
+    let bounds: [(&str, (f64, f64), (f64, f64)); 6] = [
+        ("minitaur", (-3.0, 0.0), (450.0, 1000.0)),
+        ("ant", (-250.0, 0.0), (60.0, 600.0)),
+        ("walker2d", (-5.0, 25.0), (10.0, 60.0)),
+        ("hopper", (5.0, 60.0), (10.0, 60.0)),
+        ("half_cheetah", (-450.0, -100.0), (1000.0, 1000.0)),
+        ("humanoid", (60.0, 160.0), (12.0, 40.0)),
+    ];
+    for (mut env, (name, r, l)) in all_envs().into_iter().zip(bounds) {
+        assert_eq!(env.name(), name);
+        let (ret, len) = random_stats(env.as_mut(), 10);
+        assert!(r.0 <= ret && ret <= r.1, "{name}: mean return {ret:.2} outside {r:?}");
+        assert!(l.0 <= len && len <= l.1, "{name}: mean length {len:.1} outside {l:?}");
+    }
+}
+
+/// Observations and rewards of 60 random steps after `reset(seed)`, as bits.
+fn trajectory(env: &mut dyn Env, seed: u64) -> Vec<u64> {
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    let mut act = vec![0.0f32; env.action_space().dim()];
+    let mut rng = Rng::seed_from_u64(seed ^ 0xABCD);
+    let mut out = Vec::new();
+    env.reset(Some(seed), &mut obs).unwrap();
+    out.extend(obs.iter().map(|x| x.to_bits() as u64));
+    for _ in 0..60 {
+        env.action_space().sample(&mut rng, &mut act);
+        let s = env.step(&act, &mut obs).unwrap();
+        out.extend(obs.iter().map(|x| x.to_bits() as u64));
+        out.push(s.reward.to_bits());
+        if s.done() {
+            break;
+        }
+    }
+    out
+}
+
+#[test]
+fn same_seed_gives_bit_identical_trajectories() {
+    for (mut used, mut fresh) in all_envs().into_iter().zip(all_envs()) {
+        // `used` runs another episode first: a reset with a seed must not remember it.
+        let _ = trajectory(used.as_mut(), 99);
+        let a = trajectory(used.as_mut(), 5);
+        let b = trajectory(fresh.as_mut(), 5);
+        assert_eq!(a, b, "{}: same seed, different trajectory", used.name());
+        let c = trajectory(fresh.as_mut(), 6);
+        assert_ne!(a, c, "{}: different seeds gave the same trajectory", used.name());
+    }
+}
+
+#[test]
+fn bad_actions_are_refused_or_clipped() {
+    for mut env in all_envs() {
+        let name = env.name().to_string();
+        let n = env.action_space().dim();
+        let mut obs = vec![0.0f32; env.observation_space().dim()];
+        assert_eq!(env.step(&vec![0.0; n], &mut obs).unwrap_err(), EnvError::NeedsReset, "{name}");
+        env.reset(Some(1), &mut obs).unwrap();
+        let mut nan = vec![0.0f32; n];
+        nan[0] = f32::NAN;
+        assert!(
+            matches!(env.step(&nan, &mut obs), Err(EnvError::NonFiniteAction { index: 0, .. })),
+            "{name}"
+        );
+        assert!(
+            matches!(env.step(&vec![0.0; n + 1], &mut obs), Err(EnvError::ActionLength { .. })),
+            "{name}"
+        );
+        let mut short_obs = vec![0.0f32; 3];
+        assert!(
+            matches!(env.step(&vec![0.0; n], &mut short_obs), Err(EnvError::ObservationLength { .. })),
+            "{name}"
+        );
+        // Out of bounds: clipped to the bound, so it acts exactly like the bound itself.
+        let high = env.action_space().high.clone();
+        let too_big: Vec<f32> = high.iter().map(|h| h * 10.0).collect();
+        let mut other = all_envs().into_iter().find(|e| e.name() == name).unwrap();
+        let mut obs2 = obs.clone();
+        env.reset(Some(1), &mut obs).unwrap();
+        other.reset(Some(1), &mut obs2).unwrap();
+        env.step(&too_big, &mut obs).unwrap();
+        other.step(&high, &mut obs2).unwrap();
+        assert_eq!(obs, obs2, "{name}: an out-of-bounds action did not act like the clipped one");
+    }
+}
+
+#[test]
+fn a_blown_up_simulation_ends_the_episode_with_a_flag() {
+    let mut env = LocomotionEnv::new(LocomotionConfig::walker2d()).unwrap();
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    env.reset(Some(0), &mut obs).unwrap();
+    let qpos = env.qpos().to_vec();
+    let mut qvel = env.qvel().to_vec();
+    qvel[3] = 1e9; // a joint spinning at an absurd rate
+    env.set_mujoco_state(&qpos, &qvel);
+    let before = obs.clone();
+    let s = env.step(&[0.0; 6], &mut obs).unwrap();
+    assert!(s.info.unstable && s.terminated, "the blow-up was not flagged");
+    assert!(obs.iter().all(|x| x.is_finite()));
+    assert_eq!(obs, before, "the observation must stay the last finite one");
+    assert_eq!(env.step(&[0.0; 6], &mut obs).unwrap_err(), EnvError::NeedsReset);
+}
+
+#[test]
+fn vec_env_results_do_not_depend_on_the_thread_count() {
+    let make = |threads: usize| {
+        let envs: Vec<Box<dyn Env>> = (0..4)
+            .map(|_| {
+                // Short episodes so that auto-resets happen inside the window.
+                Box::new(
+                    MinitaurEnv::new(MinitaurConfig { max_episode_steps: 15, ..MinitaurConfig::default() })
+                        .unwrap(),
+                ) as Box<dyn Env>
+            })
+            .collect();
+        VecEnv::new(envs, threads).unwrap()
+    };
+    let run = |mut v: VecEnv| {
+        let mut obs = vec![0.0f32; 4 * 28];
+        v.reset(42, &mut obs).unwrap();
+        let mut out = v.make_step_buffers();
+        let mut rng = Rng::seed_from_u64(1);
+        let mut acts = vec![0.0f32; 4 * 8];
+        let mut trace = Vec::new();
+        let mut finished = 0;
+        for _ in 0..40 {
+            for a in acts.iter_mut() {
+                *a = rng.range(-1.0, 1.0) as f32;
+            }
+            v.step(&acts, &mut out).unwrap();
+            trace.extend(out.obs.iter().map(|x| x.to_bits()));
+            trace.extend(out.rewards.iter().map(|x| x.to_bits() as u32));
+            finished += out.episodes.len();
+        }
+        (trace, finished)
+    };
+    let (a, fa) = run(make(1));
+    let (b, fb) = run(make(2));
+    assert!(fa >= 8, "auto-resets should have happened ({fa} episodes)");
+    assert_eq!(fa, fb);
+    assert!(a == b, "1 and 2 threads gave different results");
+}
+
+#[test]
+fn observation_options_add_joint_history_and_drop_orientation() {
+    let obs_opts = ObsOptions { joint_history: 3, drop_base_orientation: true };
+    let mut env =
+        MinitaurEnv::new(MinitaurConfig { obs: obs_opts.clone(), ..MinitaurConfig::deterministic() })
+            .unwrap();
+    assert_eq!(env.observation_space().dim(), 24 + 3 * 8);
+    let mut obs = vec![0.0f32; 48];
+    env.reset(Some(0), &mut obs).unwrap();
+    let mut previous = Vec::new();
+    for k in 0..4 {
+        previous.push(obs[..8].to_vec());
+        env.step(&[0.3; 8], &mut obs).unwrap();
+        if k >= 2 {
+            // History = the motor angles of the last 3 steps (oldest first), current included.
+            assert_eq!(&obs[24 + 16..24 + 24], &obs[..8]);
+            assert_eq!(&obs[24 + 8..24 + 16], previous[k].as_slice());
+            assert_eq!(&obs[24..24 + 8], previous[k - 1].as_slice());
+        }
+    }
+    let mut walker =
+        LocomotionEnv::new(LocomotionConfig { obs: obs_opts, ..LocomotionConfig::walker2d() }).unwrap();
+    // Walker2d: 17 − 1 (torso angle) + 3 × 6 joint positions.
+    assert_eq!(walker.observation_space().dim(), 16 + 18);
+    let mut wobs = vec![0.0f32; 34];
+    walker.reset(Some(0), &mut wobs).unwrap();
+    assert_eq!(walker.qpos()[1] as f32, wobs[0], "the height stays");
+    assert_eq!(walker.qpos()[3] as f32, wobs[1], "the torso angle (qpos[2]) is gone");
+}
