@@ -375,6 +375,15 @@ impl MinitaurConfig {
         MinitaurConfig { randomization: None, ..Self::default() }
     }
 
+    /// v0 with 3.3 ms physics steps (3 per control step instead of 5): 1.7× faster, with the
+    /// motor model updated at 300 Hz instead of PyBullet's 500 Hz. Measured against the 2 ms
+    /// default (30 random-action episodes; 10 s open-loop trot): return −1.40 vs −1.37,
+    /// length 699 vs 793; the trot covers 2.55 m instead of 2.78 m (PyBullet: 3.05 m).
+    pub fn fast() -> Self {
+        let base = Self::default();
+        MinitaurConfig { sim: SimConfig { dt: 0.01 / 3.0, ..base.sim.clone() }, action_repeat: 3, ..base }
+    }
+
     /// Checks the numbers.
     pub fn validate(&self) -> Result<(), EnvError> {
         let bad = |what: &str| Err(EnvError::Other(format!("MinitaurConfig: {what}")));
