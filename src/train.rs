@@ -187,7 +187,11 @@ pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> R
         y: "episode return (training, mean ± std)".into(),
     };
     for ext in ["svg", "png"] {
-        match plot_curves(&opts.out.join(format!("learning_curve.{ext}")), &labels, std::slice::from_ref(&curve)) {
+        match plot_curves(
+            &opts.out.join(format!("learning_curve.{ext}")),
+            &labels,
+            std::slice::from_ref(&curve),
+        ) {
             Ok(()) | Err(PlotError::Empty { .. }) => {}
             Err(e) => return Err(e.into()),
         }

@@ -256,17 +256,13 @@ impl Mlp {
             );
             let b = &self.params[layer.b..layer.b + layer.n_out];
             let hidden = l + 1 < n_layers;
-            for col in out.chunks_exact_mut(layer.n_out) {
-                match (hidden, self.activation) {
-                    (false, _) => col.iter_mut().zip(b).for_each(|(z, b)| *z += b),
-                    (true, Activation::Tanh) => {
-                        col.iter_mut().zip(b).for_each(|(z, b)| *z = tanh_fast(*z + b))
-                    }
-                    (true, Activation::Relu) => {
-                        col.iter_mut().zip(b).for_each(|(z, b)| *z = (*z + b).max(0.0))
-                    }
-                }
-            }
+            let act = self.activation;
+            // Elementwise loops compiled for AVX2/FMA when the CPU has them (runtime
+            // dispatch); the arithmetic is the same on every path.
+            pulp::Arch::new().dispatch(
+                #[inline(always)]
+                || bias_activation(out, b, hidden.then_some(act)),
+            );
         }
         &buf.h[n_layers - 1][..self.n_out() * batch]
     }
@@ -371,9 +367,14 @@ impl Mlp {
                 // ∂ℓ/∂b_l = δ_l 1
                 let gb = &mut g[layer.b..layer.b + layer.n_out];
                 gb.fill(0.0);
-                for col in d_cur[..layer.n_out * batch].chunks_exact(layer.n_out) {
-                    gb.iter_mut().zip(col).for_each(|(g, d)| *g += d);
-                }
+                pulp::Arch::new().dispatch(
+                    #[inline(always)]
+                    || {
+                        for col in d_cur[..layer.n_out * batch].chunks_exact(layer.n_out) {
+                            gb.iter_mut().zip(col).for_each(|(g, d)| *g += d);
+                        }
+                    },
+                );
             }
             let w = view(&self.params[layer.w..], layer.n_out, layer.n_in);
             if l == 0 {
@@ -400,14 +401,11 @@ impl Mlp {
                 Par::Seq,
             );
             let h_prev = &h[l - 1][..layer.n_in * batch];
-            match self.activation {
-                Activation::Tanh => d_prev.iter_mut().zip(h_prev).for_each(|(d, h)| *d *= 1.0 - h * h),
-                Activation::Relu => d_prev.iter_mut().zip(h_prev).for_each(|(d, h)| {
-                    if *h <= 0.0 {
-                        *d = 0.0
-                    }
-                }),
-            }
+            let act = self.activation;
+            pulp::Arch::new().dispatch(
+                #[inline(always)]
+                || activation_backward(d_prev, h_prev, act),
+            );
             src = match src {
                 Src::Dy | Src::D1 => Src::D0,
                 Src::D0 => Src::D1,
@@ -423,6 +421,28 @@ impl Mlp {
     }
 }
 
+/// `z ← σ(z + b)` column by column (`σ` = identity for the output layer).
+#[inline(always)]
+fn bias_activation(out: &mut [f32], b: &[f32], act: Option<Activation>) {
+    for col in out.chunks_exact_mut(b.len()) {
+        match act {
+            None => col.iter_mut().zip(b).for_each(|(z, b)| *z += b),
+            Some(Activation::Tanh) => col.iter_mut().zip(b).for_each(|(z, b)| *z = tanh_fast(*z + b)),
+            Some(Activation::Relu) => col.iter_mut().zip(b).for_each(|(z, b)| *z = (*z + b).max(0.0)),
+        }
+    }
+}
+
+/// `δ ← δ ⊙ σ'(z)` from the stored activations `h`.
+#[inline(always)]
+fn activation_backward(d: &mut [f32], h: &[f32], act: Activation) {
+    match act {
+        Activation::Tanh => d.iter_mut().zip(h).for_each(|(d, h)| *d *= 1.0 - h * h),
+        // A select, not a branch: ReLU signs are random, branches mispredict.
+        Activation::Relu => d.iter_mut().zip(h).for_each(|(d, h)| *d = if *h > 0.0 { *d } else { 0.0 }),
+    }
+}
+
 /// Polyak averaging `θ' ← τ θ + (1 − τ) θ'` (Lillicrap et al. 2016, eq. after Alg. 1).
 #[track_caller]
 pub fn polyak(target: &mut [f32], source: &[f32], tau: f32) {
@@ -432,9 +452,14 @@ pub fn polyak(target: &mut [f32], source: &[f32], tau: f32) {
         target.len(),
         source.len()
     );
-    for (t, s) in target.iter_mut().zip(source) {
-        *t = (1.0 - tau) * *t + tau * s;
-    }
+    pulp::Arch::new().dispatch(
+        #[inline(always)]
+        || {
+            for (t, s) in target.iter_mut().zip(source) {
+                *t = (1.0 - tau) * *t + tau * s;
+            }
+        },
+    );
 }
 
 /// Fills `w` (`rows × cols`, column-major) with a random orthogonal matrix times `gain`,

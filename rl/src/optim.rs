@@ -63,11 +63,18 @@ impl Adam {
         let step_size = (lr as f64 / bc1) as f32;
         let inv_sqrt_bc2 = (1.0 / bc2.sqrt()) as f32;
         let eps = self.eps;
-        for ((p, g), (m, v)) in params.iter_mut().zip(grads).zip(self.m.iter_mut().zip(self.v.iter_mut())) {
-            *m = b1 * *m + (1.0 - b1) * g;
-            *v = b2 * *v + (1.0 - b2) * g * g;
-            *p -= step_size * *m / (v.sqrt() * inv_sqrt_bc2 + eps);
-        }
+        let (ms, vs) = (&mut self.m, &mut self.v);
+        // Compiled for AVX2/FMA when available (runtime dispatch); same arithmetic either way.
+        pulp::Arch::new().dispatch(
+            #[inline(always)]
+            || {
+                for ((p, g), (m, v)) in params.iter_mut().zip(grads).zip(ms.iter_mut().zip(vs.iter_mut())) {
+                    *m = b1 * *m + (1.0 - b1) * g;
+                    *v = b2 * *v + (1.0 - b2) * g * g;
+                    *p -= step_size * *m / (v.sqrt() * inv_sqrt_bc2 + eps);
+                }
+            },
+        );
     }
 
     /// Number of parameters.

@@ -266,6 +266,16 @@ struct Work {
     critic_buf: MlpBuffers,
 }
 
+/// Loss terms of one minibatch.
+#[derive(Clone, Copy, Debug)]
+struct MinibatchLoss {
+    policy_loss: f64,
+    value_loss: f64,
+    entropy: f64,
+    approx_kl: f64,
+    clip_fraction: f64,
+}
+
 /// A PPO learner; see the module documentation.
 pub struct Ppo {
     config: PpoConfig,
@@ -515,12 +525,87 @@ impl Ppo {
         }
     }
 
+    /// The loss of one minibatch (in `work.mb_*`, first `b` entries) and its gradients in
+    /// `actor.grads`, `log_std_grad` and `critic.grads` (see the module doc for `L`).
+    fn minibatch_gradients(&mut self, b: usize) -> MinibatchLoss {
+        let (od, ad) = (self.obs_space.dim(), self.act_space.dim());
+        let clip = self.config.clip_coef as f32;
+        let (ent_coef, vf_coef) = (self.config.ent_coef as f32, self.config.vf_coef as f32);
+        let w = &mut self.work;
+        // Advantage normalisation with the unbiased std (as torch's `.std()`).
+        if self.config.norm_adv && b > 1 {
+            let adv = &mut w.mb_adv[..b];
+            let mean = adv.iter().map(|a| *a as f64).sum::<f64>() / b as f64;
+            let var = adv.iter().map(|a| (*a as f64 - mean).powi(2)).sum::<f64>() / (b - 1) as f64;
+            let inv = 1.0 / (var.sqrt() + 1e-8);
+            adv.iter_mut().for_each(|a| *a = ((*a as f64 - mean) * inv) as f32);
+        }
+
+        // Policy loss: clipped surrogate, gradient through log π.
+        let mean = self.actor.forward(&mut w.actor_buf, &w.mb_obs[..b * od], b);
+        self.log_std_grad.fill(0.0);
+        let (mut pg, mut kl, mut cf) = (0.0f64, 0.0f64, 0.0f64);
+        for j in 0..b {
+            let (a, mu) = (&w.mb_actions[j * ad..(j + 1) * ad], &mean[j * ad..(j + 1) * ad]);
+            let log_ratio = gaussian_log_prob(a, mu, &self.log_std) - w.mb_log_probs[j];
+            let ratio = log_ratio.exp();
+            let adv = w.mb_adv[j];
+            let pg1 = -adv * ratio;
+            let pg2 = -adv * ratio.clamp(1.0 - clip, 1.0 + clip);
+            // ∂/∂ratio of max(pg1, pg2): −Â where pg1 is active, 0 where the clip is.
+            let (loss, d_ratio) =
+                if !self.config.clip_policy || pg1 >= pg2 { (pg1, -adv) } else { (pg2, 0.0) };
+            pg += loss as f64;
+            kl += ((ratio - 1.0) - log_ratio) as f64;
+            cf += ((ratio - 1.0).abs() > clip) as u8 as f64;
+            let d_logp = d_ratio * ratio / b as f32;
+            gaussian_log_prob_grad(a, mu, &self.log_std, &mut w.d_mu, &mut w.d_ls);
+            for i in 0..ad {
+                w.d_mean[j * ad + i] = d_logp * w.d_mu[i];
+                self.log_std_grad[i] += d_logp * w.d_ls[i];
+            }
+        }
+        // Entropy bonus: H = Σ (½ + ½ log 2π + log σ), ∂H/∂log σᵢ = 1.
+        let entropy = gaussian_entropy(&self.log_std);
+        self.log_std_grad.iter_mut().for_each(|g| *g -= ent_coef);
+        self.actor.backward(&mut w.actor_buf, &w.mb_obs[..b * od], &w.d_mean[..b * ad], b, None);
+
+        // Value loss, optionally clipped around the rollout's values.
+        let v = self.critic.forward(&mut w.critic_buf, &w.mb_obs[..b * od], b);
+        let mut vl = 0.0f64;
+        for j in 0..b {
+            let (vj, ret, old) = (v[j], w.mb_returns[j], w.mb_values[j]);
+            let lu = (vj - ret) * (vj - ret);
+            let (loss, dv) = if self.config.clip_vloss {
+                let vc = old + (vj - old).clamp(-clip, clip);
+                let lc = (vc - ret) * (vc - ret);
+                if lu >= lc {
+                    (lu, vj - ret)
+                } else {
+                    (lc, if (vj - old).abs() < clip { vc - ret } else { 0.0 })
+                }
+            } else {
+                (lu, vj - ret)
+            };
+            vl += 0.5 * loss as f64;
+            w.d_value[j] = vf_coef * dv / b as f32;
+        }
+        self.critic.backward(&mut w.critic_buf, &w.mb_obs[..b * od], &w.d_value[..b], b, None);
+
+        MinibatchLoss {
+            policy_loss: pg / b as f64,
+            value_loss: vl / b as f64,
+            entropy: entropy as f64,
+            approx_kl: kl / b as f64,
+            clip_fraction: cf / b as f64,
+        }
+    }
+
     /// `n_epochs` passes of minibatch gradient steps; fills the loss metrics.
     fn update(&mut self, lr: f32, m: &mut UpdateMetrics) -> Result<(), RlError> {
         let (od, ad) = (self.obs_space.dim(), self.act_space.dim());
         let len = self.rollout.len();
         let bs = self.config.batch_size.min(len);
-        let clip = self.config.clip_coef as f32;
         let (ent_coef, vf_coef) = (self.config.ent_coef as f32, self.config.vf_coef as f32);
         let (mut pg_sum, mut v_sum, mut kl_sum, mut cf_sum, mut n_mb) =
             (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0u64);
@@ -542,68 +627,8 @@ impl Ppo {
                     w.mb_returns[j] = r.returns[k];
                     w.mb_values[j] = r.values[k];
                 }
-                // Advantage normalisation with the unbiased std (as torch's `.std()`).
-                if self.config.norm_adv && b > 1 {
-                    let adv = &mut w.mb_adv[..b];
-                    let mean = adv.iter().map(|a| *a as f64).sum::<f64>() / b as f64;
-                    let var = adv.iter().map(|a| (*a as f64 - mean).powi(2)).sum::<f64>() / (b - 1) as f64;
-                    let inv = 1.0 / (var.sqrt() + 1e-8);
-                    adv.iter_mut().for_each(|a| *a = ((*a as f64 - mean) * inv) as f32);
-                }
-
-                // Policy loss: clipped surrogate, gradient through log π.
-                let mean = self.actor.forward(&mut w.actor_buf, &w.mb_obs[..b * od], b);
-                self.log_std_grad.fill(0.0);
-                let (mut pg, mut kl, mut cf) = (0.0f64, 0.0f64, 0.0f64);
-                for j in 0..b {
-                    let (a, mu) = (&w.mb_actions[j * ad..(j + 1) * ad], &mean[j * ad..(j + 1) * ad]);
-                    let log_ratio = gaussian_log_prob(a, mu, &self.log_std) - w.mb_log_probs[j];
-                    let ratio = log_ratio.exp();
-                    let adv = w.mb_adv[j];
-                    let pg1 = -adv * ratio;
-                    let pg2 = -adv * ratio.clamp(1.0 - clip, 1.0 + clip);
-                    // ∂/∂ratio of max(pg1, pg2): −Â where pg1 is active, 0 where the clip is.
-                    let (loss, d_ratio) =
-                        if !self.config.clip_policy || pg1 >= pg2 { (pg1, -adv) } else { (pg2, 0.0) };
-                    pg += loss as f64;
-                    kl += ((ratio - 1.0) - log_ratio) as f64;
-                    cf += ((ratio - 1.0).abs() > clip) as u8 as f64;
-                    let d_logp = d_ratio * ratio / b as f32;
-                    gaussian_log_prob_grad(a, mu, &self.log_std, &mut w.d_mu, &mut w.d_ls);
-                    for i in 0..ad {
-                        w.d_mean[j * ad + i] = d_logp * w.d_mu[i];
-                        self.log_std_grad[i] += d_logp * w.d_ls[i];
-                    }
-                }
-                // Entropy bonus: H = Σ (½ + ½ log 2π + log σ), ∂H/∂log σᵢ = 1.
-                let entropy = gaussian_entropy(&self.log_std);
-                self.log_std_grad.iter_mut().for_each(|g| *g -= ent_coef);
-                self.actor.backward(&mut w.actor_buf, &w.mb_obs[..b * od], &w.d_mean[..b * ad], b, None);
-
-                // Value loss, optionally clipped around the rollout's values.
-                let v = self.critic.forward(&mut w.critic_buf, &w.mb_obs[..b * od], b);
-                let mut vl = 0.0f64;
-                for j in 0..b {
-                    let (vj, ret, old) = (v[j], w.mb_returns[j], w.mb_values[j]);
-                    let lu = (vj - ret) * (vj - ret);
-                    let (loss, dv) = if self.config.clip_vloss {
-                        let vc = old + (vj - old).clamp(-clip, clip);
-                        let lc = (vc - ret) * (vc - ret);
-                        if lu >= lc {
-                            (lu, vj - ret)
-                        } else {
-                            (lc, if (vj - old).abs() < clip { vc - ret } else { 0.0 })
-                        }
-                    } else {
-                        (lu, vj - ret)
-                    };
-                    vl += 0.5 * loss as f64;
-                    w.d_value[j] = vf_coef * dv / b as f32;
-                }
-                self.critic.backward(&mut w.critic_buf, &w.mb_obs[..b * od], &w.d_value[..b], b, None);
-
-                let (pg, vl, kl) = (pg / b as f64, vl / b as f64, kl / b as f64);
-                let loss = pg + vf_coef as f64 * vl - ent_coef as f64 * entropy as f64;
+                let mb = self.minibatch_gradients(b);
+                let loss = mb.policy_loss + vf_coef as f64 * mb.value_loss - ent_coef as f64 * mb.entropy;
                 if !loss.is_finite() {
                     return Err(RlError::Diverged { algo: "ppo", update: self.updates + 1, what: "loss" });
                 }
@@ -617,13 +642,13 @@ impl Ppo {
                 self.opt_log_std.step(&mut self.log_std, &self.log_std_grad, lr);
                 self.opt_critic.step(&mut self.critic.params, &self.critic.grads, lr);
 
-                pg_sum += pg;
-                v_sum += vl;
-                kl_sum += kl;
-                cf_sum += cf / b as f64;
+                pg_sum += mb.policy_loss;
+                v_sum += mb.value_loss;
+                kl_sum += mb.approx_kl;
+                cf_sum += mb.clip_fraction;
                 n_mb += 1;
-                m.entropy = entropy as f64;
-                epoch_kl = kl;
+                m.entropy = mb.entropy;
+                epoch_kl = mb.approx_kl;
             }
             if self.config.target_kl.is_some_and(|t| epoch_kl > t) {
                 break 'epochs;
@@ -793,5 +818,145 @@ impl Algorithm for Ppo {
 
     fn steps_done(&self) -> u64 {
         self.steps_done
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::distributions::HALF_LOG_2PI;
+
+    /// `y = W₂ tanh(W₁ x + b₁) + b₂` in f64 from the flat (column-major) parameters.
+    fn mlp_f64(p: &[f64], sizes: [usize; 3], x: &[f64]) -> Vec<f64> {
+        let [n0, n1, n2] = sizes;
+        let (w1, b1) = (&p[..n1 * n0], &p[n1 * n0..n1 * n0 + n1]);
+        let o = n1 * n0 + n1;
+        let (w2, b2) = (&p[o..o + n2 * n1], &p[o + n2 * n1..o + n2 * n1 + n2]);
+        let h: Vec<f64> =
+            (0..n1).map(|i| (b1[i] + (0..n0).map(|j| w1[j * n1 + i] * x[j]).sum::<f64>()).tanh()).collect();
+        (0..n2).map(|i| b2[i] + (0..n1).map(|j| w2[j * n2 + i] * h[j]).sum::<f64>()).collect()
+    }
+
+    struct Batch {
+        obs: Vec<f64>,
+        actions: Vec<f64>,
+        old_log_probs: Vec<f64>,
+        adv: Vec<f64>,
+        returns: Vec<f64>,
+        old_values: Vec<f64>,
+    }
+
+    /// The PPO loss written plainly from the module documentation, in f64.
+    fn reference_loss(c: &PpoConfig, actor: &[f64], log_std: &[f64], critic: &[f64], d: &Batch) -> f64 {
+        let b = d.adv.len();
+        let mean = d.adv.iter().sum::<f64>() / b as f64;
+        let std = (d.adv.iter().map(|a| (a - mean).powi(2)).sum::<f64>() / (b - 1) as f64).sqrt();
+        let (eps, sigma) = (c.clip_coef, log_std[0].exp());
+        let (mut pg, mut vl) = (0.0, 0.0);
+        for j in 0..b {
+            let s = &d.obs[3 * j..3 * j + 3];
+            let mu = mlp_f64(actor, [3, 4, 1], s)[0];
+            let z = (d.actions[j] - mu) / sigma;
+            let logp = -0.5 * z * z - log_std[0] - 0.5 * (2.0 * std::f64::consts::PI).ln();
+            let r = (logp - d.old_log_probs[j]).exp();
+            let a = (d.adv[j] - mean) / (std + 1e-8);
+            pg += (-a * r).max(-a * r.clamp(1.0 - eps, 1.0 + eps));
+            let v = mlp_f64(critic, [3, 4, 1], s)[0];
+            let old = d.old_values[j];
+            let clipped = old + (v - old).clamp(-eps, eps);
+            vl += 0.5 * (v - d.returns[j]).powi(2).max((clipped - d.returns[j]).powi(2));
+        }
+        let entropy = 0.5 + HALF_LOG_2PI as f64 + log_std[0];
+        pg / b as f64 + c.vf_coef * vl / b as f64 - c.ent_coef * entropy
+    }
+
+    /// One minibatch's loss and gradients (clipped surrogate with both branches active,
+    /// clipped value loss, entropy bonus, advantage normalisation) against a plain f64
+    /// reference implementation and its central differences.
+    #[test]
+    fn minibatch_loss_and_gradients_match_reference() {
+        let config = PpoConfig {
+            n_steps: 8,
+            batch_size: 8,
+            ent_coef: 0.01,
+            actor_hidden: vec![4],
+            critic_hidden: vec![4],
+            ..PpoConfig::default()
+        };
+        let obs_space = BoxSpace::unbounded(3);
+        let act_space = BoxSpace::symmetric(1, 2.0);
+        let mut ppo = Ppo::new(config.clone(), &obs_space, &act_space, 1).unwrap();
+        let mut rng = Rng::seed_from_u64(3);
+        // Larger weights than the init (policy head gain 0.01) so that every term matters.
+        for p in ppo.actor.params.iter_mut().chain(ppo.critic.params.iter_mut()) {
+            *p = rng.normal() as f32 * 0.7;
+        }
+        ppo.log_std[0] = -0.3;
+        let b = 8;
+        let obs: Vec<f32> = (0..3 * b).map(|_| rng.normal() as f32).collect();
+        let actions: Vec<f32> = (0..b).map(|_| rng.normal() as f32).collect();
+        // Current log-probs and values, then old ones offset so that ratios spread over
+        // [0.55, 1.6] (several clipped) and values move up to ±0.45 (some value clipping).
+        let mean = ppo.actor.forward(&mut ppo.work.actor_buf, &obs, b).to_vec();
+        let values = ppo.critic.forward(&mut ppo.work.critic_buf, &obs, b).to_vec();
+        let ratio_targets = [0.55f32, 0.75, 0.95, 1.05, 1.15, 1.3, 1.6, 0.85];
+        let value_offsets = [0.45f32, -0.1, 0.3, -0.45, 0.05, -0.3, 0.15, 0.4];
+        let d = Batch {
+            obs: obs.iter().map(|x| *x as f64).collect(),
+            actions: actions.iter().map(|x| *x as f64).collect(),
+            old_log_probs: (0..b)
+                .map(|j| {
+                    (gaussian_log_prob(&actions[j..j + 1], &mean[j..j + 1], &ppo.log_std)
+                        - ratio_targets[j].ln()) as f64
+                })
+                .collect(),
+            adv: (0..b).map(|_| rng.normal()).collect(),
+            returns: (0..b).map(|_| rng.normal()).collect(),
+            old_values: (0..b).map(|j| (values[j] - value_offsets[j]) as f64).collect(),
+        };
+        let fill = |ppo: &mut Ppo| {
+            let w = &mut ppo.work;
+            w.mb_obs[..3 * b].copy_from_slice(&obs);
+            w.mb_actions[..b].copy_from_slice(&actions);
+            for j in 0..b {
+                w.mb_log_probs[j] = d.old_log_probs[j] as f32;
+                w.mb_adv[j] = d.adv[j] as f32;
+                w.mb_returns[j] = d.returns[j] as f32;
+                w.mb_values[j] = d.old_values[j] as f32;
+            }
+        };
+        fill(&mut ppo);
+        let mb = ppo.minibatch_gradients(b);
+        assert!(mb.clip_fraction > 0.2 && mb.clip_fraction < 0.8, "clip fraction {}", mb.clip_fraction);
+
+        let to64 = |v: &[f32]| v.iter().map(|x| *x as f64).collect::<Vec<f64>>();
+        let (actor, log_std, critic) =
+            (to64(&ppo.actor.params), to64(&ppo.log_std), to64(&ppo.critic.params));
+        let want = reference_loss(&config, &actor, &log_std, &critic, &d);
+        let got = mb.policy_loss + config.vf_coef * mb.value_loss - config.ent_coef * mb.entropy;
+        assert!((got - want).abs() < 1e-5, "loss {got} vs reference {want}");
+
+        let h = 1e-6;
+        let fd = |f: &dyn Fn(f64) -> f64| (f(h) - f(-h)) / (2.0 * h);
+        let mut worst = 0.0f64;
+        for i in 0..actor.len() {
+            let g = fd(&|e| {
+                let mut a = actor.clone();
+                a[i] += e;
+                reference_loss(&config, &a, &log_std, &critic, &d)
+            });
+            worst = worst.max((g - ppo.actor.grads[i] as f64).abs());
+        }
+        for i in 0..critic.len() {
+            let g = fd(&|e| {
+                let mut c = critic.clone();
+                c[i] += e;
+                reference_loss(&config, &actor, &log_std, &c, &d)
+            });
+            worst = worst.max((g - ppo.critic.grads[i] as f64).abs());
+        }
+        let g = fd(&|e| reference_loss(&config, &actor, &[log_std[0] + e], &critic, &d));
+        worst = worst.max((g - ppo.log_std_grad[0] as f64).abs());
+        assert!(worst < 1e-4, "largest gradient error {worst:e}");
     }
 }
