@@ -8,6 +8,7 @@ pub use centaur_envs as envs;
 pub use centaur_mpc as mpc;
 pub use centaur_rl as rl;
 
+pub mod control;
 pub mod plot;
 pub mod registry;
 pub mod train;

@@ -708,4 +708,11 @@ impl RobotEnv for LocomotionEnv {
     fn push(&mut self, force: Vector3<f64>, duration: f64) {
         self.push = Some((force, self.episode_time + duration));
     }
+
+    /// `action = τ / gear`, clipped to the control range.
+    fn action_for_torques(&self, tau: &[f64], out: &mut [f32]) {
+        for (k, ((_, gear), o)) in self.robot.actuators.iter().zip(out.iter_mut()).enumerate() {
+            *o = ((tau[k] / gear) as f32).clamp(self.act_space.low[k], self.act_space.high[k]);
+        }
+    }
 }

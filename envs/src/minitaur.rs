@@ -235,6 +235,24 @@ impl MotorModel {
     }
 }
 
+impl MotorModel {
+    /// The PWM that produces the actual torque `tau` (motor frame) at motor velocity `qd`:
+    /// the torque table inverted to a current, then `pwm = (I R + (Kt + b) q̇) / V`, clipped
+    /// to [−1, 1] (torques beyond the table's 3.5 N·m saturate).
+    pub fn pwm_for_torque(&self, tau: f64, qd: f64) -> f64 {
+        let t = (tau / self.strength).abs().min(TORQUE_TABLE[TORQUE_TABLE.len() - 1]);
+        let current = tau.signum() * interp(t, &TORQUE_TABLE, &CURRENT_TABLE);
+        ((current * self.resistance + (self.torque_constant + self.viscous_damping) * qd) / self.voltage)
+            .clamp(-1.0, 1.0)
+    }
+
+    /// The desired motor angle whose position control produces `tau` at `(q, qd)`:
+    /// `q* = q + (pwm + kd q̇) / kp`.
+    pub fn angle_for_torque(&self, tau: f64, q: f64, qd: f64) -> f64 {
+        q + (self.pwm_for_torque(tau, qd) + self.kd * qd) / self.kp
+    }
+}
+
 /// Piecewise-linear interpolation, clamped at the ends (numpy's `interp`).
 fn interp(x: f64, xs: &[f64], ys: &[f64]) -> f64 {
     if x <= xs[0] {
@@ -879,5 +897,27 @@ impl RobotEnv for MinitaurEnv {
 
     fn push(&mut self, force: Vector3<f64>, duration: f64) {
         self.push = Some((force, self.episode_time + duration));
+    }
+
+    /// Inverts the motor model at the current motor state: joint torque → motor-frame
+    /// torque → PWM → desired motor angle (position modes) → leg model (clipped to ±1).
+    fn action_for_torques(&self, tau: &[f64], out: &mut [f32]) {
+        let (q, qd) = self.motor_state();
+        let mut cmd = [0.0f64; 8];
+        for i in 0..8 {
+            let t = MOTOR_DIRECTION[i] * tau[i];
+            cmd[i] = match (&self.config.motor_control, self.config.action) {
+                (MotorControl::Accurate(_), MinitaurAction::Pwm) => self.motor.pwm_for_torque(t, qd[i]),
+                (MotorControl::Accurate(_), _) => self.motor.angle_for_torque(t, q[i], qd[i]),
+                (MotorControl::Pd { kp, kd, .. }, _) => q[i] + (t + kd * qd[i]) / kp,
+            };
+        }
+        let a = match self.config.action {
+            MinitaurAction::LegModel => motor_angles_to_leg_model(&cmd),
+            MinitaurAction::MotorAngles | MinitaurAction::Pwm => cmd,
+        };
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = (a[k] as f32).clamp(self.act_space.low[k], self.act_space.high[k]);
+        }
     }
 }

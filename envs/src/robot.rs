@@ -51,6 +51,12 @@ pub trait RobotEnv: Env {
     fn episode_time(&self) -> f64;
     /// Applies a force (N, world frame) to the base for the next `duration` seconds.
     fn push(&mut self, force: Vector3<f64>, duration: f64);
+    /// The action that applies the joint torques `tau` (N·m or N, joint frame, one per
+    /// actuated joint in [`RobotEnv::actuated_joints`] order) as closely as the action space
+    /// allows at the current state (clipped to the action bounds). This is how a
+    /// controller's torques become actions, for the controller alone and for the residual
+    /// (hybrid) policy alike.
+    fn action_for_torques(&self, tau: &[f64], out: &mut [f32]);
 }
 
 /// Observation options shared by every environment (one seed paper ablates them).
