@@ -108,6 +108,8 @@ struct Layer {
 pub struct Mlp {
     sizes: Vec<usize>,
     activation: Activation,
+    /// Apply the activation to the output layer too (a trunk feeding heads).
+    output_activation: bool,
     layers: Vec<Layer>,
     /// Parameters `[W_1, b_1, …, W_L, b_L]`.
     pub params: Vec<f32>,
@@ -163,7 +165,14 @@ impl Mlp {
             layers.push(Layer { n_in, n_out, w: off, b: off + n_in * n_out });
             off += n_in * n_out + n_out;
         }
-        Mlp { sizes: sizes.to_vec(), activation, layers, params: vec![0.0; off], grads: vec![0.0; off] }
+        Mlp {
+            sizes: sizes.to_vec(),
+            activation,
+            output_activation: false,
+            layers,
+            params: vec![0.0; off],
+            grads: vec![0.0; off],
+        }
     }
 
     /// Re-draws every parameter.
@@ -186,6 +195,13 @@ impl Mlp {
                 }
             }
         }
+    }
+
+    /// The same network with the activation applied to its output too, `y = σ(z_L)`: a
+    /// feature trunk shared by several heads.
+    pub fn with_output_activation(mut self) -> Mlp {
+        self.output_activation = true;
+        self
     }
 
     /// Layer sizes `[n_in, hidden…, n_out]`.
@@ -255,7 +271,7 @@ impl Mlp {
                 Par::Seq,
             );
             let b = &self.params[layer.b..layer.b + layer.n_out];
-            let hidden = l + 1 < n_layers;
+            let hidden = l + 1 < n_layers || self.output_activation;
             let act = self.activation;
             // Elementwise loops compiled for AVX2/FMA when the CPU has them (runtime
             // dispatch); the arithmetic is the same on every path.
@@ -345,6 +361,13 @@ impl Mlp {
             D1,
         }
         let mut src = Src::Dy;
+        if self.output_activation {
+            // δ_L = dy ⊙ σ'(z_L), staged in d1 (the loop then writes δ_{L-1} to d0).
+            let n = self.n_out() * batch;
+            d1[..n].copy_from_slice(dy);
+            activation_backward(&mut d1[..n], &h[self.layers.len() - 1][..n], self.activation);
+            src = Src::D1;
+        }
         for l in (0..self.layers.len()).rev() {
             let layer = self.layers[l];
             let (d_cur, d_next): (&[f32], &mut [f32]) = match src {
@@ -565,10 +588,13 @@ mod tests {
         y.iter().zip(c).map(|(y, c)| (*c as f64) * (*y as f64) + 0.5 * (*y as f64).powi(2)).sum()
     }
 
-    fn check_gradients(sizes: &[usize], activation: Activation) {
+    fn check_gradients(sizes: &[usize], activation: Activation, output_activation: bool) {
         let mut rng = Rng::seed_from_u64(42);
         let mut net =
             Mlp::new(sizes, activation, Init::Orthogonal { hidden_gain: 1.0, output_gain: 1.0 }, &mut rng);
+        if output_activation {
+            net = net.with_output_activation();
+        }
         // Non-zero biases so ReLU kinks are not hit at zero.
         for v in net.params.iter_mut() {
             *v += 0.1 * rng.normal() as f32;
@@ -617,10 +643,12 @@ mod tests {
 
     #[test]
     fn gradients_match_finite_differences() {
-        check_gradients(&[3, 8, 2], Activation::Tanh);
-        check_gradients(&[4, 7, 5, 3], Activation::Tanh);
-        check_gradients(&[3, 8, 6, 1], Activation::Relu);
-        check_gradients(&[2, 3], Activation::Relu);
+        check_gradients(&[3, 8, 2], Activation::Tanh, false);
+        check_gradients(&[4, 7, 5, 3], Activation::Tanh, false);
+        check_gradients(&[3, 8, 6, 1], Activation::Relu, false);
+        check_gradients(&[2, 3], Activation::Relu, false);
+        check_gradients(&[3, 6, 4], Activation::Tanh, true);
+        check_gradients(&[3, 6, 4], Activation::Relu, true);
     }
 
     #[test]

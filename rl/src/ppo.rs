@@ -6,7 +6,7 @@
 //!
 //! | detail | config switch |
 //! |---|---|
-//! | separate actor and critic networks (always: no shared trunk) | — |
+//! | separate actor and critic networks (off: one trunk, two linear heads) | `separate_networks` |
 //! | orthogonal init, gains √2 / 0.01 (policy) / 1 (value), zero biases | `ortho_init` |
 //! | Adam with ε = 10⁻⁵ | `adam_eps` |
 //! | linear learning-rate annealing to 0 | `anneal_lr` |
@@ -120,6 +120,10 @@ pub struct PpoConfig {
     /// Bootstrap truncated episodes with `V(final observation)`; off: treat them as
     /// terminal (default: true).
     pub bootstrap_truncation: bool,
+    /// Separate actor and critic networks; off: one trunk of `actor_hidden` layers
+    /// feeding a linear mean head and a linear value head (`critic_hidden` unused), trained
+    /// on the joint loss (default: true).
+    pub separate_networks: bool,
     /// Actor hidden layer sizes (default: [64, 64]).
     pub actor_hidden: Vec<usize>,
     /// Critic hidden layer sizes (default: [64, 64]).
@@ -161,6 +165,7 @@ impl Default for PpoConfig {
             clip_reward: 10.0,
             clip_actions: true,
             bootstrap_truncation: true,
+            separate_networks: true,
             actor_hidden: vec![64, 64],
             critic_hidden: vec![64, 64],
             activation: Activation::Tanh,
@@ -264,6 +269,10 @@ struct Work {
     d_ls: Vec<f32>,
     actor_buf: MlpBuffers,
     critic_buf: MlpBuffers,
+    trunk_buf: MlpBuffers,
+    /// `∂ℓ/∂features` from the two heads (shared trunk only).
+    d_feat: Vec<f32>,
+    d_feat_critic: Vec<f32>,
 }
 
 /// Loss terms of one minibatch.
@@ -282,10 +291,15 @@ pub struct Ppo {
     obs_space: BoxSpace,
     act_space: BoxSpace,
     n_envs: usize,
+    /// The mean network, or the mean head on `trunk`.
     actor: Mlp,
     log_std: Vec<f32>,
     log_std_grad: Vec<f32>,
+    /// The value network, or the value head on `trunk`.
     critic: Mlp,
+    /// The shared feature trunk when `separate_networks` is off.
+    trunk: Option<Mlp>,
+    opt_trunk: Adam,
     opt_actor: Adam,
     opt_log_std: Adam,
     opt_critic: Adam,
@@ -326,8 +340,28 @@ impl Ppo {
             (Init::TorchDefault, Init::TorchDefault)
         };
         let sizes = |hidden: &[usize], out: usize| [&[od][..], hidden, &[out]].concat();
-        let actor = Mlp::new(&sizes(&config.actor_hidden, ad), config.activation, actor_init, &mut rng);
-        let critic = Mlp::new(&sizes(&config.critic_hidden, 1), config.activation, critic_init, &mut rng);
+        let (trunk, actor, critic) = if config.separate_networks {
+            let actor = Mlp::new(&sizes(&config.actor_hidden, ad), config.activation, actor_init, &mut rng);
+            let critic = Mlp::new(&sizes(&config.critic_hidden, 1), config.activation, critic_init, &mut rng);
+            (None, actor, critic)
+        } else {
+            // Trunk: every layer is hidden (gain √2); heads: the output gains.
+            let trunk_init = match actor_init {
+                Init::Orthogonal { hidden_gain, .. } => {
+                    Init::Orthogonal { hidden_gain, output_gain: hidden_gain }
+                }
+                other => other,
+            };
+            let trunk_sizes = [&[od][..], &config.actor_hidden].concat();
+            let trunk =
+                Mlp::new(&trunk_sizes, config.activation, trunk_init, &mut rng).with_output_activation();
+            let f = trunk.n_out();
+            let actor = Mlp::new(&[f, ad], config.activation, actor_init, &mut rng);
+            let critic = Mlp::new(&[f, 1], config.activation, critic_init, &mut rng);
+            (Some(trunk), actor, critic)
+        };
+        let trunk_params = trunk.as_ref().map_or(0, |t| t.n_params());
+        let feat = trunk.as_ref().map_or(0, |t| t.n_out());
         let eps = config.adam_eps as f32;
         let len = config.n_steps * n_envs;
         let cap = n_envs.max(config.batch_size.min(len));
@@ -362,8 +396,15 @@ impl Ppo {
             d_ls: vec![0.0; ad],
             actor_buf: actor.buffers(cap),
             critic_buf: critic.buffers(cap),
+            trunk_buf: trunk
+                .as_ref()
+                .map_or_else(|| Mlp::zeros(&[1, 1], config.activation).buffers(0), |t| t.buffers(cap)),
+            d_feat: vec![0.0; feat * b],
+            d_feat_critic: vec![0.0; feat * b],
         };
         Ok(Ppo {
+            opt_trunk: Adam::new(trunk_params, eps),
+            trunk,
             opt_actor: Adam::new(actor.n_params(), eps),
             opt_log_std: Adam::new(ad, eps),
             opt_critic: Adam::new(critic.n_params(), eps),
@@ -397,6 +438,36 @@ impl Ppo {
         &self.config
     }
 
+    /// `μ(s)` for a batch, through the shared trunk if there is one.
+    fn actor_forward<'b>(
+        trunk: Option<&Mlp>,
+        trunk_buf: &'b mut MlpBuffers,
+        actor: &Mlp,
+        actor_buf: &'b mut MlpBuffers,
+        obs: &[f32],
+        b: usize,
+    ) -> &'b [f32] {
+        match trunk {
+            None => actor.forward(actor_buf, obs, b),
+            Some(t) => actor.forward(actor_buf, t.forward(trunk_buf, obs, b), b),
+        }
+    }
+
+    /// `V(s)` for a batch, through the shared trunk if there is one.
+    fn critic_forward<'b>(
+        trunk: Option<&Mlp>,
+        trunk_buf: &'b mut MlpBuffers,
+        critic: &Mlp,
+        critic_buf: &'b mut MlpBuffers,
+        obs: &[f32],
+        b: usize,
+    ) -> &'b [f32] {
+        match trunk {
+            None => critic.forward(critic_buf, obs, b),
+            Some(t) => critic.forward(critic_buf, t.forward(trunk_buf, obs, b), b),
+        }
+    }
+
     /// Normalises raw observations into the policy input (identity if disabled).
     fn policy_input(&self, raw: &[f32], out: &mut [f32]) {
         if self.config.norm_obs {
@@ -412,7 +483,14 @@ impl Ppo {
         let mut w = std::mem::take(&mut self.work.obs);
         for t in 0..self.config.n_steps {
             // π(·|s_t) and V(s_t) for all environments at once.
-            let mean = self.actor.forward(&mut self.work.actor_buf, &w, n);
+            let mean = Ppo::actor_forward(
+                self.trunk.as_ref(),
+                &mut self.work.trunk_buf,
+                &self.actor,
+                &mut self.work.actor_buf,
+                &w,
+                n,
+            );
             for i in 0..n {
                 let (a, m) = (&mut self.work.actions[i * ad..(i + 1) * ad], &mean[i * ad..(i + 1) * ad]);
                 for j in 0..ad {
@@ -420,7 +498,14 @@ impl Ppo {
                 }
                 self.rollout.log_probs[t * n + i] = gaussian_log_prob(a, m, &self.log_std);
             }
-            let values = self.critic.forward(&mut self.work.critic_buf, &w, n);
+            let values = Ppo::critic_forward(
+                self.trunk.as_ref(),
+                &mut self.work.trunk_buf,
+                &self.critic,
+                &mut self.work.critic_buf,
+                &w,
+                n,
+            );
             self.rollout.values[t * n..(t + 1) * n].copy_from_slice(values);
             self.rollout.obs[t * n * od..(t + 1) * n * od].copy_from_slice(&w);
             self.rollout.actions[t * n * ad..(t + 1) * n * ad].copy_from_slice(&self.work.actions);
@@ -481,13 +566,27 @@ impl Ppo {
                         dst.copy_from_slice(raw);
                     }
                 }
-                let v = self.critic.forward(&mut self.work.critic_buf, &self.work.final_obs[..m * od], m);
+                let v = Ppo::critic_forward(
+                    self.trunk.as_ref(),
+                    &mut self.work.trunk_buf,
+                    &self.critic,
+                    &mut self.work.critic_buf,
+                    &self.work.final_obs[..m * od],
+                    m,
+                );
                 for (slot, &i) in self.work.final_idx.iter().enumerate() {
                     self.rollout.final_values[t * n + i] = v[slot];
                 }
             }
         }
-        let last = self.critic.forward(&mut self.work.critic_buf, &w, n);
+        let last = Ppo::critic_forward(
+            self.trunk.as_ref(),
+            &mut self.work.trunk_buf,
+            &self.critic,
+            &mut self.work.critic_buf,
+            &w,
+            n,
+        );
         self.work.last_values.copy_from_slice(last);
         self.work.obs = w;
         Ok(())
@@ -542,7 +641,14 @@ impl Ppo {
         }
 
         // Policy loss: clipped surrogate, gradient through log π.
-        let mean = self.actor.forward(&mut w.actor_buf, &w.mb_obs[..b * od], b);
+        let mean = Ppo::actor_forward(
+            self.trunk.as_ref(),
+            &mut w.trunk_buf,
+            &self.actor,
+            &mut w.actor_buf,
+            &w.mb_obs[..b * od],
+            b,
+        );
         self.log_std_grad.fill(0.0);
         let (mut pg, mut kl, mut cf) = (0.0f64, 0.0f64, 0.0f64);
         for j in 0..b {
@@ -568,10 +674,30 @@ impl Ppo {
         // Entropy bonus: H = Σ (½ + ½ log 2π + log σ), ∂H/∂log σᵢ = 1.
         let entropy = gaussian_entropy(&self.log_std);
         self.log_std_grad.iter_mut().for_each(|g| *g -= ent_coef);
-        self.actor.backward(&mut w.actor_buf, &w.mb_obs[..b * od], &w.d_mean[..b * ad], b, None);
+        match &self.trunk {
+            None => self.actor.backward(&mut w.actor_buf, &w.mb_obs[..b * od], &w.d_mean[..b * ad], b, None),
+            Some(t) => {
+                let f = t.n_out();
+                let feat = t.output(&w.trunk_buf, b);
+                self.actor.backward(
+                    &mut w.actor_buf,
+                    feat,
+                    &w.d_mean[..b * ad],
+                    b,
+                    Some(&mut w.d_feat[..f * b]),
+                );
+            }
+        }
 
         // Value loss, optionally clipped around the rollout's values.
-        let v = self.critic.forward(&mut w.critic_buf, &w.mb_obs[..b * od], b);
+        let v = Ppo::critic_forward(
+            self.trunk.as_ref(),
+            &mut w.trunk_buf,
+            &self.critic,
+            &mut w.critic_buf,
+            &w.mb_obs[..b * od],
+            b,
+        );
         let mut vl = 0.0f64;
         for j in 0..b {
             let (vj, ret, old) = (v[j], w.mb_returns[j], w.mb_values[j]);
@@ -590,7 +716,24 @@ impl Ppo {
             vl += 0.5 * loss as f64;
             w.d_value[j] = vf_coef * dv / b as f32;
         }
-        self.critic.backward(&mut w.critic_buf, &w.mb_obs[..b * od], &w.d_value[..b], b, None);
+        match &mut self.trunk {
+            None => self.critic.backward(&mut w.critic_buf, &w.mb_obs[..b * od], &w.d_value[..b], b, None),
+            Some(t) => {
+                // Both heads' gradients meet in the trunk (its activations are those of the
+                // critic pass, equal to the actor pass's: same input, same parameters).
+                let f = t.n_out();
+                let feat = t.output(&w.trunk_buf, b);
+                self.critic.backward(
+                    &mut w.critic_buf,
+                    feat,
+                    &w.d_value[..b],
+                    b,
+                    Some(&mut w.d_feat_critic[..f * b]),
+                );
+                w.d_feat[..f * b].iter_mut().zip(&w.d_feat_critic[..f * b]).for_each(|(a, c)| *a += c);
+                t.backward(&mut w.trunk_buf, &w.mb_obs[..b * od], &w.d_feat[..f * b], b, None);
+            }
+        }
 
         MinibatchLoss {
             policy_loss: pg / b as f64,
@@ -633,14 +776,26 @@ impl Ppo {
                     return Err(RlError::Diverged { algo: "ppo", update: self.updates + 1, what: "loss" });
                 }
                 if self.config.clip_grad_norm {
+                    let trunk_grads: &mut [f32] = match &mut self.trunk {
+                        Some(t) => &mut t.grads,
+                        None => &mut [],
+                    };
                     clip_grad_norm(
-                        &mut [&mut self.actor.grads, &mut self.log_std_grad, &mut self.critic.grads],
+                        &mut [
+                            &mut self.actor.grads,
+                            &mut self.log_std_grad,
+                            &mut self.critic.grads,
+                            trunk_grads,
+                        ],
                         self.config.max_grad_norm as f32,
                     );
                 }
                 self.opt_actor.step(&mut self.actor.params, &self.actor.grads, lr);
                 self.opt_log_std.step(&mut self.log_std, &self.log_std_grad, lr);
                 self.opt_critic.step(&mut self.critic.params, &self.critic.grads, lr);
+                if let Some(t) = &mut self.trunk {
+                    self.opt_trunk.step(&mut t.params, &t.grads, lr);
+                }
 
                 pg_sum += mb.policy_loss;
                 v_sum += mb.value_loss;
@@ -709,6 +864,10 @@ impl Ppo {
         c.read_adam("adam/actor", &mut p.opt_actor)?;
         c.read_adam("adam/log_std", &mut p.opt_log_std)?;
         c.read_adam("adam/critic", &mut p.opt_critic)?;
+        if let Some(t) = &mut p.trunk {
+            c.read_mlp("trunk", t)?;
+            c.read_adam("adam/trunk", &mut p.opt_trunk)?;
+        }
         c.read_rms("obs_rms", &mut p.obs_rms)?;
         c.read_rms("return_rms", &mut p.reward_scaler.stats)?;
         p.reward_scaler.returns.copy_from_slice(c.f64("discounted_returns", Some(n_envs))?);
@@ -799,6 +958,10 @@ impl Algorithm for Ppo {
         c.put_adam("adam/actor", &self.opt_actor);
         c.put_adam("adam/log_std", &self.opt_log_std);
         c.put_adam("adam/critic", &self.opt_critic);
+        if let Some(t) = &self.trunk {
+            c.put_f32("trunk", &t.params);
+            c.put_adam("adam/trunk", &self.opt_trunk);
+        }
         c.put_rms("obs_rms", &self.obs_rms);
         c.put_rms("return_rms", &self.reward_scaler.stats);
         c.put_f64("discounted_returns", &self.reward_scaler.returns);
@@ -813,7 +976,18 @@ impl Algorithm for Ppo {
             var: self.obs_rms.var.clone(),
             clip: self.config.clip_obs,
         });
-        Policy::new(PolicyHead::GaussianMean, self.actor.clone(), norm, &self.act_space)
+        let actor = match &self.trunk {
+            None => self.actor.clone(),
+            // Trunk (activated output) + linear head = one MLP with the layers concatenated;
+            // the flat parameter layouts concatenate too.
+            Some(t) => {
+                let sizes = [t.sizes(), &self.actor.sizes()[1..]].concat();
+                let mut net = Mlp::zeros(&sizes, t.activation());
+                net.params.copy_from_slice(&[&t.params[..], &self.actor.params[..]].concat());
+                net
+            }
+        };
+        Policy::new(PolicyHead::GaussianMean, actor, norm, &self.act_space)
     }
 
     fn steps_done(&self) -> u64 {
@@ -958,5 +1132,128 @@ mod tests {
         let g = fd(&|e| reference_loss(&config, &actor, &[log_std[0] + e], &critic, &d));
         worst = worst.max((g - ppo.log_std_grad[0] as f64).abs());
         assert!(worst < 1e-4, "largest gradient error {worst:e}");
+    }
+}
+
+#[cfg(test)]
+mod shared_trunk_tests {
+    use super::*;
+
+    /// With `separate_networks` off, the analytic gradients of the joint loss (through both
+    /// heads into the trunk) match central differences of the loss itself.
+    #[test]
+    fn shared_trunk_gradients_match_finite_differences() {
+        let config = PpoConfig {
+            n_steps: 6,
+            batch_size: 6,
+            ent_coef: 0.01,
+            separate_networks: false,
+            actor_hidden: vec![5, 4],
+            ..PpoConfig::default()
+        };
+        let mut ppo = Ppo::new(config, &BoxSpace::unbounded(3), &BoxSpace::symmetric(2, 1.0), 1).unwrap();
+        let mut rng = Rng::seed_from_u64(8);
+        let b = 6;
+        let obs: Vec<f32> = (0..3 * b).map(|_| rng.normal() as f32).collect();
+        let actions: Vec<f32> = (0..2 * b).map(|_| rng.normal() as f32 * 0.5).collect();
+        let adv: Vec<f32> = (0..b).map(|_| rng.normal() as f32).collect();
+        let returns: Vec<f32> = (0..b).map(|_| rng.normal() as f32).collect();
+        for p in ppo.actor.params.iter_mut() {
+            *p = rng.normal() as f32 * 0.5;
+        }
+        // Old log-probs near the current ones (ratios in [0.9, 1.1]: no clipping kinks), old
+        // values far from the current ones only where clipping should be inactive.
+        let mean = Ppo::actor_forward(
+            ppo.trunk.as_ref(),
+            &mut ppo.work.trunk_buf,
+            &ppo.actor,
+            &mut ppo.work.actor_buf,
+            &obs,
+            b,
+        )
+        .to_vec();
+        let old_lp: Vec<f32> = (0..b)
+            .map(|j| {
+                gaussian_log_prob(&actions[2 * j..2 * j + 2], &mean[2 * j..2 * j + 2], &ppo.log_std)
+                    + 0.03 * (j as f32 - 2.5)
+            })
+            .collect();
+        let values = Ppo::critic_forward(
+            ppo.trunk.as_ref(),
+            &mut ppo.work.trunk_buf,
+            &ppo.critic,
+            &mut ppo.work.critic_buf,
+            &obs,
+            b,
+        )
+        .to_vec();
+        let loss = |ppo: &mut Ppo| {
+            let w = &mut ppo.work;
+            w.mb_obs[..3 * b].copy_from_slice(&obs);
+            w.mb_actions[..2 * b].copy_from_slice(&actions);
+            w.mb_log_probs[..b].copy_from_slice(&old_lp);
+            w.mb_adv[..b].copy_from_slice(&adv);
+            w.mb_returns[..b].copy_from_slice(&returns);
+            w.mb_values[..b].copy_from_slice(&values);
+            let m = ppo.minibatch_gradients(b);
+            m.policy_loss + 0.5 * m.value_loss - 0.01 * m.entropy
+        };
+        loss(&mut ppo);
+        let grads: Vec<f32> = [
+            &ppo.trunk.as_ref().unwrap().grads[..],
+            &ppo.actor.grads[..],
+            &ppo.critic.grads[..],
+            &ppo.log_std_grad[..],
+        ]
+        .concat();
+        let h = 1e-2f32;
+        let mut k = 0;
+        let mut worst = 0.0f64;
+        for group in 0..4 {
+            let n = match group {
+                0 => ppo.trunk.as_ref().unwrap().n_params(),
+                1 => ppo.actor.n_params(),
+                2 => ppo.critic.n_params(),
+                _ => ppo.log_std.len(),
+            };
+            for i in 0..n {
+                let nudge = |ppo: &mut Ppo, delta: f32| {
+                    let p = match group {
+                        0 => &mut ppo.trunk.as_mut().unwrap().params[i],
+                        1 => &mut ppo.actor.params[i],
+                        2 => &mut ppo.critic.params[i],
+                        _ => &mut ppo.log_std[i],
+                    };
+                    *p += delta;
+                };
+                nudge(&mut ppo, h);
+                let lp = loss(&mut ppo);
+                nudge(&mut ppo, -2.0 * h);
+                let lm = loss(&mut ppo);
+                nudge(&mut ppo, h);
+                let fd = (lp - lm) / (2.0 * h as f64);
+                worst = worst.max((fd - grads[k] as f64).abs() / (1.0 + fd.abs()));
+                k += 1;
+            }
+        }
+        assert!(worst < 5e-3, "worst relative gradient error {worst:e}");
+        // The deployed policy (trunk and head fused into one MLP) gives the training mean.
+        let mut policy = ppo.policy();
+        let mut a = [0.0f32; 2];
+        policy.act(&obs[..3], &mut a);
+        // (the policy normalises observations with the initial statistics: mean 0, var 1)
+        let norm: Vec<f32> = obs[..3].iter().map(|x| (*x as f64 / (1.0f64 + 1e-8).sqrt()) as f32).collect();
+        let mean_n = Ppo::actor_forward(
+            ppo.trunk.as_ref(),
+            &mut ppo.work.trunk_buf,
+            &ppo.actor,
+            &mut ppo.work.actor_buf,
+            &norm,
+            1,
+        )
+        .to_vec();
+        for i in 0..2 {
+            assert_eq!(a[i], mean_n[i].clamp(-1.0, 1.0));
+        }
     }
 }

@@ -134,6 +134,8 @@ fn resume_equals_uninterrupted(
 #[test]
 fn resumed_training_continues_the_same_learning_curve() {
     resume_equals_uninterrupted(&|e| Box::new(Ppo::for_env(small_ppo(), e).unwrap()), 2, 512, 1024);
+    let shared = PpoConfig { separate_networks: false, ..small_ppo() };
+    resume_equals_uninterrupted(&|e| Box::new(Ppo::for_env(shared.clone(), e).unwrap()), 2, 512, 1024);
     resume_equals_uninterrupted(&|e| Box::new(Sac::for_env(small_sac(), e).unwrap()), 2, 600, 1200);
     let a2c = A2cConfig {
         seed: 3,
