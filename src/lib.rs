@@ -10,5 +10,7 @@ pub use centaur_rl as rl;
 
 pub mod control;
 pub mod plot;
+pub mod recording;
 pub mod registry;
+pub mod residual;
 pub mod train;

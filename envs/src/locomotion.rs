@@ -295,6 +295,8 @@ pub struct LocomotionEnv {
     foot_frames: Vec<String>,
     contacts: Vec<FootContact>,
     actuated: Vec<usize>,
+    /// Torques applied at the last step, per actuator.
+    applied: Vec<f64>,
     history: JointHistory,
     joint_scratch: Vec<f32>,
     base_obs: Vec<f32>,
@@ -333,6 +335,7 @@ impl LocomotionEnv {
             feet: Vec::new(),
             foot_frames: feet_names,
             contacts: vec![FootContact::default(); config.robot.feet().len()],
+            applied: vec![0.0; actuated.len()],
             actuated,
             history: JointHistory::new(config.obs.joint_history, n_joints_obs),
             joint_scratch: vec![0.0; n_joints_obs],
@@ -500,9 +503,10 @@ impl LocomotionEnv {
         for (c, cs) in self.contacts.iter_mut().zip(&self.feet) {
             *c = FootContact::default();
             for &h in cs {
-                if let Some((f, _)) = self.sim.contact_force(h) {
+                if let Some((f, p)) = self.sim.contact_force(h) {
                     c.in_contact = true;
                     c.force += f;
+                    c.point = p;
                 }
             }
         }
@@ -609,6 +613,9 @@ impl Env for LocomotionEnv {
             self.tau[*iv] = gear * a;
         }
         self.sim.set_joint_torques(&self.tau);
+        for (k, (iv, _)) in self.robot.actuators.iter().enumerate() {
+            self.applied[k] = self.tau[*iv];
+        }
         let mut energy = 0.0;
         for _ in 0..self.config.frame_skip {
             if let Some((f, until)) = self.push {
@@ -707,6 +714,10 @@ impl RobotEnv for LocomotionEnv {
 
     fn push(&mut self, force: Vector3<f64>, duration: f64) {
         self.push = Some((force, self.episode_time + duration));
+    }
+
+    fn last_torques(&self) -> &[f64] {
+        &self.applied
     }
 
     /// `action = τ / gear`, clipped to the control range.

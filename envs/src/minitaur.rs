@@ -450,6 +450,8 @@ pub struct MinitaurEnv {
     motor_enabled: [bool; 8],
     overheat_counter: [usize; 8],
     observed_torque: [f64; 8],
+    /// Torque applied at the last physics step, joint frame.
+    applied_torque: [f64; 8],
     state: RobotState,
     contacts: [FootContact; 4],
     last_position: Vector3<f64>,
@@ -515,6 +517,7 @@ impl MinitaurEnv {
             motor_enabled: [true; 8],
             overheat_counter: [0; 8],
             observed_torque: [0.0; 8],
+            applied_torque: [0.0; 8],
             contacts: [FootContact::default(); 4],
             last_position: Vector3::zeros(),
             steps: 0,
@@ -595,6 +598,7 @@ impl MinitaurEnv {
             }
             self.observed_torque[i] = observed;
             let applied = if self.motor_enabled[i] { actual } else { 0.0 };
+            self.applied_torque[i] = MOTOR_DIRECTION[i] * applied;
             self.sim.set_joint_torque(self.motor_dofs[i], MOTOR_DIRECTION[i] * applied);
             power += applied * qd;
         }
@@ -647,9 +651,10 @@ impl MinitaurEnv {
         for (leg, cs) in self.foot_colliders.iter().enumerate() {
             let mut c = FootContact::default();
             for &h in cs {
-                if let Some((f, _)) = self.sim.contact_force(h) {
+                if let Some((f, p)) = self.sim.contact_force(h) {
                     c.in_contact = true;
                     c.force += f;
+                    c.point = p;
                 }
             }
             self.contacts[leg] = c;
@@ -901,6 +906,10 @@ impl RobotEnv for MinitaurEnv {
 
     /// Inverts the motor model at the current motor state: joint torque → motor-frame
     /// torque → PWM → desired motor angle (position modes) → leg model (clipped to ±1).
+    fn last_torques(&self) -> &[f64] {
+        &self.applied_torque
+    }
+
     fn action_for_torques(&self, tau: &[f64], out: &mut [f32]) {
         let (q, qd) = self.motor_state();
         let mut cmd = [0.0f64; 8];

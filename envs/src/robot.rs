@@ -12,6 +12,8 @@ pub struct FootContact {
     pub in_contact: bool,
     /// Ground reaction force on the foot (N, world frame) at the end of the step.
     pub force: Vector3<f64>,
+    /// Where it acts: the impulse-weighted mean contact point (world frame).
+    pub point: Vector3<f64>,
 }
 
 /// How joint commands reach the robot when a controller drives it directly.
@@ -57,6 +59,9 @@ pub trait RobotEnv: Env {
     /// controller's torques become actions, for the controller alone and for the residual
     /// (hybrid) policy alike.
     fn action_for_torques(&self, tau: &[f64], out: &mut [f32]);
+    /// Torques the actuators applied during the last physics step (N·m or N, joint frame,
+    /// [`RobotEnv::actuated_joints`] order).
+    fn last_torques(&self) -> &[f64];
 }
 
 /// Observation options shared by every environment (one seed paper ablates them).

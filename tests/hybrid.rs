@@ -1,0 +1,215 @@
+//! The residual (hybrid) environment and the MCAP recordings.
+
+use centaur::control::{ActionMapping, controller_config, make_robot_env};
+use centaur::recording::{Frame, Recorder, TOPICS};
+use centaur::residual::{RESIDUAL_TERM, ResidualConfig, ResidualEnv};
+use centaur_mpc::{Command, Gait, LocomotionController};
+use centaur_rl::{Env, EnvError, Rng};
+
+/// Observations and rewards (as bits) of the controller alone for `steps` steps.
+fn controller_alone(env_name: &str, command: Command, steps: usize) -> Vec<u64> {
+    let mut env = make_robot_env(env_name, None).unwrap();
+    let mut ctrl = LocomotionController::new(env.model(), controller_config(env_name).unwrap()).unwrap();
+    let mut mapping = ActionMapping::new(env.as_ref(), &ctrl).unwrap();
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    let mut action = vec![0.0f32; env.action_space().dim()];
+    env.reset(Some(3), &mut obs).unwrap();
+    let mut trace: Vec<u64> = obs.iter().map(|x| x.to_bits() as u64).collect();
+    for _ in 0..steps {
+        let t = env.episode_time();
+        let cmd = ctrl.tick(env.robot_state(), &command, t);
+        mapping.action(env.as_ref(), cmd, &mut action);
+        let s = env.step(&action, &mut obs).unwrap();
+        trace.extend(obs.iter().map(|x| x.to_bits() as u64));
+        trace.push(s.reward.to_bits());
+        if s.done() {
+            break;
+        }
+    }
+    trace
+}
+
+#[test]
+fn a_zero_residual_acts_exactly_like_the_controller() {
+    for env_name in ["minitaur", "walker2d"] {
+        let command = Command::forward(0.3, if env_name == "walker2d" { Gait::Walk } else { Gait::Trot });
+        let reference = controller_alone(env_name, command, 80);
+        let mut env =
+            ResidualEnv::for_env(env_name, ResidualConfig { command, ..ResidualConfig::default() }).unwrap();
+        let n_env = env.inner().observation_space().dim();
+        let mut obs = vec![0.0f32; env.observation_space().dim()];
+        env.reset(Some(3), &mut obs).unwrap();
+        let mut trace: Vec<u64> = obs[..n_env].iter().map(|x| x.to_bits() as u64).collect();
+        let zero = vec![0.0f32; env.action_space().dim()];
+        for _ in 0..80 {
+            let s = env.step(&zero, &mut obs).unwrap();
+            assert_eq!(s.info.reward_terms[RESIDUAL_TERM], 0.0);
+            trace.extend(obs[..n_env].iter().map(|x| x.to_bits() as u64));
+            trace.push(s.reward.to_bits());
+            if s.done() {
+                break;
+            }
+        }
+        assert_eq!(trace, reference, "{env_name}: a zero residual changed the trajectory");
+    }
+}
+
+#[test]
+fn the_residual_is_bounded_by_its_scale_and_the_action_space() {
+    let scale = 0.2;
+    let mut env =
+        ResidualEnv::for_env("walker2d", ResidualConfig { scale: vec![scale], ..ResidualConfig::default() })
+            .unwrap();
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    env.reset(Some(0), &mut obs).unwrap();
+    let m = env.action_space().dim();
+    let (low, high) = (env.inner().action_space().low.clone(), env.inner().action_space().high.clone());
+    let mut rng = Rng::seed_from_u64(4);
+    for _ in 0..30 {
+        let reference = env.reference().to_vec();
+        // Residuals far outside [−1, 1] are clipped to ±1 before scaling.
+        let action: Vec<f32> = (0..m).map(|_| rng.range(-5.0, 5.0) as f32).collect();
+        let s = env.step(&action, &mut obs).unwrap();
+        for k in 0..m {
+            let a = env.applied()[k];
+            assert!(low[k] <= a && a <= high[k], "applied action outside the env's bounds");
+            let expected = (reference[k] + scale as f32 * action[k].clamp(-1.0, 1.0)).clamp(low[k], high[k]);
+            assert_eq!(a, expected);
+        }
+        assert!(s.info.reward_terms[RESIDUAL_TERM] <= scale + 1e-6, "the RMS residual exceeds the scale");
+        if s.done() {
+            break;
+        }
+    }
+}
+
+#[test]
+fn the_observation_carries_phase_command_and_reference() {
+    let command = Command::forward(0.4, Gait::Trot);
+    let mut env =
+        ResidualEnv::for_env("minitaur", ResidualConfig { command, ..ResidualConfig::default() }).unwrap();
+    let n_env = env.inner().observation_space().dim();
+    let m = env.action_space().dim();
+    assert_eq!(env.observation_space().dim(), n_env + 5 + m);
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    env.reset(Some(1), &mut obs).unwrap();
+    for _ in 0..20 {
+        env.step(&vec![0.1; m], &mut obs).unwrap();
+        let (s, c) = (obs[n_env], obs[n_env + 1]);
+        assert!(((s * s + c * c) - 1.0).abs() < 1e-5, "phase is not on the unit circle");
+        assert_eq!(&obs[n_env + 2..n_env + 5], &[0.4, 0.0, 0.0]);
+        assert_eq!(&obs[n_env + 5..], env.reference());
+    }
+    // Without the reference in the observation.
+    let env = ResidualEnv::for_env(
+        "minitaur",
+        ResidualConfig { include_reference: false, ..ResidualConfig::default() },
+    )
+    .unwrap();
+    assert_eq!(env.observation_space().dim(), n_env + 5);
+}
+
+#[test]
+fn bad_residuals_and_configs_are_refused() {
+    let mut env = ResidualEnv::for_env("walker2d", ResidualConfig::default()).unwrap();
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    env.reset(Some(0), &mut obs).unwrap();
+    let m = env.action_space().dim();
+    let mut bad = vec![0.0f32; m];
+    bad[2] = f32::NAN;
+    assert!(matches!(env.step(&bad, &mut obs), Err(EnvError::NonFiniteAction { index: 2, .. })));
+    assert!(matches!(env.step(&vec![0.0; m + 1], &mut obs), Err(EnvError::ActionLength { .. })));
+    assert!(
+        ResidualEnv::for_env(
+            "walker2d",
+            ResidualConfig { scale: vec![0.1, 0.2], ..ResidualConfig::default() }
+        )
+        .is_err()
+    );
+    assert!(
+        ResidualEnv::for_env("walker2d", ResidualConfig { scale: vec![-1.0], ..ResidualConfig::default() })
+            .is_err()
+    );
+    assert!(
+        ResidualEnv::for_env("hopper", ResidualConfig::default()).is_err(),
+        "no controller for the Hopper"
+    );
+}
+
+#[test]
+fn mcap_recordings_have_foxglove_schemas_and_one_message_per_step() {
+    let dir = std::env::temp_dir().join(format!("centaur-mcap-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("walk.mcap");
+    let mut env = ResidualEnv::for_env("minitaur", ResidualConfig::default()).unwrap();
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    env.reset(Some(0), &mut obs).unwrap();
+    let mut rec = Recorder::create(&path, env.inner().model()).unwrap();
+    let steps = 25;
+    let zero = vec![0.0f32; env.action_space().dim()];
+    for _ in 0..steps {
+        let s = env.step(&zero, &mut obs).unwrap();
+        let robot = env.inner();
+        let contacts: Vec<_> =
+            robot.foot_contacts().iter().filter(|c| c.in_contact).map(|c| (c.point, c.force)).collect();
+        rec.record(&Frame {
+            time: robot.episode_time(),
+            state: Some(robot.robot_state()),
+            contacts: &contacts,
+            planned_com: &env.controller().status().planned_com,
+            foot_targets: &env.controller().status().foot_targets,
+            reference: env.reference(),
+            residual: &zero,
+            applied: env.applied(),
+            reward: s.reward,
+            forward_velocity: s.info.forward_velocity,
+            energy: s.info.energy,
+        })
+        .unwrap();
+    }
+    rec.finish().unwrap();
+
+    let bytes = std::fs::read(&path).unwrap();
+    let summary = mcap::Summary::read(&bytes).unwrap().expect("a summary section");
+    let mut schema_names: Vec<String> = summary.schemas.values().map(|s| s.name.clone()).collect();
+    schema_names.sort();
+    assert_eq!(
+        schema_names,
+        ["centaur.Metrics", "centaur.Residual", "foxglove.FrameTransforms", "foxglove.SceneUpdate"]
+    );
+    for s in summary.schemas.values() {
+        assert_eq!(s.encoding, "jsonschema");
+        let parsed: serde_json::Value = serde_json::from_slice(&s.data).unwrap();
+        assert_eq!(parsed["title"], s.name.as_str());
+    }
+    let stats = summary.stats.expect("statistics");
+    let mut per_topic = std::collections::BTreeMap::new();
+    for (id, n) in &stats.channel_message_counts {
+        let ch = &summary.channels[id];
+        assert_eq!(ch.message_encoding, "json");
+        per_topic.insert(ch.topic.clone(), *n);
+    }
+    for topic in TOPICS {
+        assert_eq!(per_topic.get(topic), Some(&(steps as u64)), "{topic}");
+    }
+    // The robot moves: the base link's transform changes between the first and last message.
+    let mut base = Vec::new();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        if m.channel.topic == "/tf" {
+            let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+            let t = v["transforms"].as_array().unwrap();
+            assert_eq!(t.len(), env.inner().model().frames.iter().filter(|f| f.is_link).count());
+            base.push(t[0]["translation"]["z"].as_f64().unwrap());
+        }
+        if m.channel.topic == "/robot" {
+            let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+            let e = &v["entities"][0];
+            let n = e["cubes"].as_array().unwrap().len() + e["cylinders"].as_array().unwrap().len();
+            assert!(n >= 17, "every link drawn ({n} primitives)");
+        }
+    }
+    assert_eq!(base.len(), steps);
+    assert!(base.iter().any(|z| (z - base[0]).abs() > 1e-5), "the base never moved");
+    std::fs::remove_dir_all(&dir).ok();
+}
