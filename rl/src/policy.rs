@@ -123,6 +123,16 @@ impl Policy {
                 spec.actor_sizes, spec.obs_dim, spec.act_dim
             )));
         }
+        // The parameter count the sizes imply must match the stored weights before anything
+        // is allocated from the (possibly corrupt) sizes.
+        let n_params = spec.actor_sizes.windows(2).map(|w| w[0] * w[1] + w[1]).sum::<usize>();
+        let stored = c.f32("policy/actor", None)?.len();
+        if stored != n_params {
+            return Err(bad(format!(
+                "policy actor sizes {:?} need {n_params} weights, {stored} stored",
+                spec.actor_sizes
+            )));
+        }
         let mut actor = Mlp::zeros(&spec.actor_sizes, spec.activation);
         c.read_f32_into("policy/actor", &mut actor.params)?;
         let obs_norm = match spec.obs_norm_clip {
