@@ -6,7 +6,7 @@
 //! | file | content |
 //! |---|---|
 //! | `metrics.csv` | one [`UpdateMetrics`] row per update / log interval |
-//! | `checkpoint` | the learner ([`centaur_rl::Checkpoint`] format): act with `Policy::load`, resume with `centaur_rl::algorithm::load` |
+//! | `checkpoint` | the learner ([`centaur_rl::Checkpoint`] format, plus the env name under `env`): act with `Policy::load`, resume with `centaur_rl::algorithm::load` |
 //! | `learning_curve.svg`, `learning_curve.png` | mean training episode return (± std band) against environment steps |
 //! | `summary.json` | `{"env", "algo", "seed", "steps", "wall_seconds", "steps_per_second", "final_return_mean", "final_return_std"}` |
 //!
@@ -46,7 +46,7 @@ pub struct TrainOptions {
     pub threads: usize,
     /// Number of environments.
     pub n_envs: usize,
-    /// Deterministic evaluation episodes at the end.
+    /// Deterministic evaluation episodes at the end (at least 10 are run).
     pub eval_episodes: usize,
 }
 
@@ -168,10 +168,12 @@ pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> R
     csv.flush().map_err(io(&csv_path))?;
 
     let ckpt = opts.out.join("checkpoint");
-    algo.save(&ckpt)?;
+    let mut checkpoint = algo.to_checkpoint();
+    checkpoint.set_meta("env", &opts.env);
+    checkpoint.write(&ckpt).map_err(RlError::from)?;
     let mut policy = Policy::load(&ckpt).map_err(RlError::from)?;
     let mut eval_env = make_env(&opts.env)?;
-    let eval = evaluate(&mut policy, eval_env.as_mut(), opts.eval_episodes.max(1), 1_000_000 + opts.seed)
+    let eval = evaluate(&mut policy, eval_env.as_mut(), opts.eval_episodes.max(10), 1_000_000 + opts.seed)
         .map_err(RlError::from)?;
 
     let curve = Series {

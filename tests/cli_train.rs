@@ -60,6 +60,11 @@ fn train_writes_every_artefact() {
     assert!(std::fs::read_to_string(out.join("learning_curve.svg")).unwrap().contains("<svg"));
     let policy = Policy::load(&out.join("checkpoint")).unwrap();
     assert_eq!((policy.obs_dim(), policy.act_dim()), (3, 1));
+    // The checkpoint resumes as a learner and records its environment.
+    let ckpt = centaur_rl::Checkpoint::read(&out.join("checkpoint")).unwrap();
+    assert_eq!(ckpt.get_meta::<String>("env").unwrap(), "pendulum");
+    let resumed = centaur_rl::algorithm::load(&out.join("checkpoint")).unwrap();
+    assert_eq!((resumed.name(), resumed.steps_done()), ("ppo", 2048));
     std::fs::remove_dir_all(&out).unwrap();
 }
 

@@ -49,7 +49,7 @@ enum Command {
         /// Number of parallel environments.
         #[arg(long, default_value_t = 1)]
         envs: usize,
-        /// Deterministic evaluation episodes at the end.
+        /// Deterministic evaluation episodes at the end (at least 10).
         #[arg(long, default_value_t = 10)]
         eval_episodes: usize,
     },
@@ -89,7 +89,7 @@ fn main() -> ExitCode {
                 s.steps_per_second,
                 s.final_return_mean,
                 s.final_return_std,
-                opts.eval_episodes,
+                opts.eval_episodes.max(10),
                 opts.out.display()
             );
             ExitCode::SUCCESS
