@@ -67,8 +67,9 @@ pub enum Init {
 /// `|x| < 4·10⁻⁴`. Max absolute error against `f64` tanh over `[−10, 10]`: 3.5·10⁻⁷ at
 /// `x ≈ −5.85` (6 ulp of `f32` near ±1; checked by `tanh_fast_is_accurate`), and the output
 /// stays within `[−1, 1]` so that `1 − h²` is never negative. It compiles to
-/// multiply-adds and one division, which vectorise: ~1 ns per value against ~28 ns for
-/// libm's `tanhf`.
+/// multiply-adds and one division, which vectorise. Measured on the 2-core Zen 4 machine:
+/// 1.1 ns per value in a vectorised loop (4.8 ns as an opaque scalar call) against 11.9 ns
+/// for `f32::tanh` (libm's `tanhf`; 28 ns in `shared/notes/dependencies.md`).
 #[inline(always)]
 pub fn tanh_fast(x: f32) -> f32 {
     const CLAMP: f32 = 7.905_311_107_635_498;
