@@ -8,7 +8,9 @@ pub use centaur_envs as envs;
 pub use centaur_mpc as mpc;
 pub use centaur_rl as rl;
 
+pub mod compare;
 pub mod control;
+pub mod experiment;
 pub mod plot;
 pub mod recording;
 pub mod registry;

@@ -54,6 +54,21 @@ impl Default for ResidualConfig {
 }
 
 impl ResidualConfig {
+    /// The default residual setup for a robot environment: the controller's gait and a
+    /// speed it follows reliably, and a residual scale in the env's action units (a quarter
+    /// of the Minitaur's leg-model range; 30 % of the Gymnasium robots' control range).
+    pub fn for_env(env_name: &str) -> Self {
+        let robot = env_name.trim_end_matches("-fast").trim_end_matches("27");
+        let (gait, speed, scale) = match robot {
+            "minitaur" => (centaur_mpc::Gait::Trot, 0.3, 0.25),
+            "ant" => (centaur_mpc::Gait::Trot, 0.3, 0.3),
+            "walker2d" => (centaur_mpc::Gait::Walk, 0.5, 0.3),
+            "humanoid" => (centaur_mpc::Gait::Stand, 0.0, 0.3),
+            _ => (centaur_mpc::Gait::Trot, 0.3, 0.3),
+        };
+        ResidualConfig { scale: vec![scale], include_reference: true, command: Command::forward(speed, gait) }
+    }
+
     /// Checks the scale.
     pub fn validate(&self, action_dim: usize) -> Result<(), EnvError> {
         if !(self.scale.len() == 1 || self.scale.len() == action_dim) {

@@ -685,6 +685,10 @@ impl Algorithm for A2c {
         Policy::new(PolicyHead::GaussianMean, self.actor.clone(), norm, &self.act_space)
     }
 
+    fn zero_policy_output(&mut self) {
+        self.actor.zero_output_rows(0..self.act_space.dim());
+    }
+
     fn steps_done(&self) -> u64 {
         self.steps_done
     }

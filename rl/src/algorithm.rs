@@ -47,6 +47,11 @@ pub trait Algorithm {
 
     /// Environment steps taken so far.
     fn steps_done(&self) -> u64;
+
+    /// Makes the policy's (mean) action exactly zero for every observation by zeroing the
+    /// actor's output rows (and its target copy): a residual policy then starts as a no-op
+    /// on top of its reference controller. Exploration noise is unchanged.
+    fn zero_policy_output(&mut self);
 }
 
 /// The algorithms, by CLI name.

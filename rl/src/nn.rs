@@ -205,6 +205,22 @@ impl Mlp {
         self
     }
 
+    /// Zeroes the output layer's weights and biases for the outputs in `rows`, so that
+    /// those outputs are exactly 0 for every input (e.g. a policy mean that must start at
+    /// zero). Gradients still reach those weights through the hidden activations.
+    #[track_caller]
+    pub fn zero_output_rows(&mut self, rows: std::ops::Range<usize>) {
+        let last = *self.layers.last().expect("an Mlp has at least one layer");
+        assert!(rows.end <= last.n_out, "zero_output_rows: rows {rows:?} beyond {} outputs", last.n_out);
+        for r in rows {
+            for c in 0..last.n_in {
+                // W is n_out × n_in, column-major.
+                self.params[last.w + r + c * last.n_out] = 0.0;
+            }
+            self.params[last.b + r] = 0.0;
+        }
+    }
+
     /// Layer sizes `[n_in, hidden…, n_out]`.
     pub fn sizes(&self) -> &[usize] {
         &self.sizes

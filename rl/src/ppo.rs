@@ -990,6 +990,10 @@ impl Algorithm for Ppo {
         Policy::new(PolicyHead::GaussianMean, actor, norm, &self.act_space)
     }
 
+    fn zero_policy_output(&mut self) {
+        self.actor.zero_output_rows(0..self.act_space.dim());
+    }
+
     fn steps_done(&self) -> u64 {
         self.steps_done
     }

@@ -557,6 +557,11 @@ impl Algorithm for Td3 {
         Policy::new(PolicyHead::TanhRescaled, self.actor.clone(), None, &self.act_space)
     }
 
+    fn zero_policy_output(&mut self) {
+        self.actor.zero_output_rows(0..self.act_space.dim());
+        self.actor_target = self.actor.clone();
+    }
+
     fn steps_done(&self) -> u64 {
         self.steps_done
     }

@@ -1,0 +1,490 @@
+//! Pure RL against the hybrid (residual RL on the controller) on the same benchmark, with
+//! the controller alone as a third agent.
+//!
+//! [`run_experiment`] trains a pure-RL agent on the robot environment and a hybrid agent on
+//! its [`ResidualEnv`] with the same algorithm, hyperparameters, seed and step budget,
+//! evaluates the two policies and the controller alone over the same evaluation seeds with
+//! deterministic actions, and writes:
+//!
+//! | file | content |
+//! |---|---|
+//! | `summary.json` | `{"hybrid": {...}, "pure_rl": {...}, "controller": {...}}` ([`AgentStats`] each) |
+//! | `{pure_rl,hybrid}/metrics.csv` | training metrics per update |
+//! | `{pure_rl,hybrid}/checkpoint` | the trained learner (`Policy::load` acts with it) |
+//! | `learning_curves.png`, `.svg` | training return against environment steps, both agents |
+//! | `{pure_rl,hybrid,controller}.mcap` | the first evaluation episode of each agent, for Foxglove |
+//!
+//! Evaluation metrics per episode: return; mean forward speed (base displacement along x over
+//! the episode's duration); fall (the episode terminated); energy `Σ |τ·q̇| dt`; torque RMS
+//! over steps and actuators. The cost of transport is `E / (m g d)` over all episodes
+//! (total energy over weight times total forward distance), reported only when the agent
+//! moved forward.
+
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use centaur_dynamics::nalgebra::Vector3;
+use centaur_envs::RobotEnv;
+use centaur_mpc::LocomotionController;
+use centaur_rl::{AlgoKind, Algorithm, Env, MetricsCsv, Policy, RlError, Step, UpdateMetrics, VecEnv};
+use serde::Serialize;
+
+use crate::control::{ActionMapping, ControlError, controller_config, make_robot_env};
+use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
+use crate::recording::{Frame, RecordError, Recorder};
+use crate::residual::{ResidualConfig, ResidualEnv};
+use crate::train::{TrainError, build_algorithm};
+
+/// Why an experiment failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ExperimentError {
+    /// Environment or controller.
+    #[error(transparent)]
+    Control(#[from] ControlError),
+    /// Learning.
+    #[error(transparent)]
+    Rl(#[from] RlError),
+    /// Building the learner.
+    #[error(transparent)]
+    Train(#[from] TrainError),
+    /// Recording.
+    #[error(transparent)]
+    Record(#[from] RecordError),
+    /// Plotting.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+    /// Writing outputs.
+    #[error("{path}: {source}")]
+    Io {
+        /// File.
+        path: PathBuf,
+        /// Cause.
+        source: std::io::Error,
+    },
+}
+
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> ExperimentError + '_ {
+    move |source| ExperimentError::Io { path: path.to_path_buf(), source }
+}
+
+/// How an agent did over the evaluation episodes (and its training cost).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct AgentStats {
+    /// Mean episode return.
+    pub return_mean: f64,
+    /// Standard deviation of the episode return.
+    pub return_std: f64,
+    /// Mean forward speed (m/s).
+    pub mean_speed: f64,
+    /// Episodes that ended by a fall.
+    pub falls: usize,
+    /// Evaluation episodes.
+    pub episodes: usize,
+    /// Cost of transport `E / (m g d)` (None if the agent did not move forward).
+    pub cost_of_transport: Option<f64>,
+    /// Mean energy per episode (J).
+    pub energy_mean: f64,
+    /// Torque RMS over steps and actuators (N·m).
+    pub torque_rms: f64,
+    /// Mean episode length (steps).
+    pub length_mean: f64,
+    /// Training environment steps (0 for the controller).
+    pub env_steps: u64,
+    /// Training wall-clock seconds (0 for the controller).
+    pub wall_seconds: f64,
+}
+
+/// The agent an evaluation runs.
+enum Driver {
+    Controller {
+        env: Box<dyn RobotEnv>,
+        controller: Box<LocomotionController>,
+        mapping: ActionMapping,
+        command: centaur_mpc::Command,
+    },
+    Pure {
+        env: Box<dyn RobotEnv>,
+        policy: Policy,
+    },
+    Hybrid {
+        env: Box<ResidualEnv>,
+        policy: Policy,
+    },
+}
+
+impl Driver {
+    fn robot(&self) -> &dyn RobotEnv {
+        match self {
+            Driver::Controller { env, .. } | Driver::Pure { env, .. } => env.as_ref(),
+            Driver::Hybrid { env, .. } => env.inner(),
+        }
+    }
+
+    fn obs_dim(&self) -> usize {
+        match self {
+            Driver::Controller { env, .. } | Driver::Pure { env, .. } => env.observation_space().dim(),
+            Driver::Hybrid { env, .. } => env.observation_space().dim(),
+        }
+    }
+
+    fn act_dim(&self) -> usize {
+        match self {
+            Driver::Controller { env, .. } | Driver::Pure { env, .. } => env.action_space().dim(),
+            Driver::Hybrid { env, .. } => env.action_space().dim(),
+        }
+    }
+
+    fn reset(&mut self, seed: u64, obs: &mut [f32]) -> Result<(), ExperimentError> {
+        match self {
+            Driver::Controller { env, controller, .. } => {
+                env.reset(Some(seed), obs).map_err(ControlError::from)?;
+                controller.reset();
+            }
+            Driver::Pure { env, .. } => env.reset(Some(seed), obs).map_err(ControlError::from)?,
+            Driver::Hybrid { env, .. } => env.reset(Some(seed), obs).map_err(ControlError::from)?,
+        }
+        Ok(())
+    }
+
+    /// One step; returns the step and fills `reference`, `residual`, `applied` for recording.
+    fn step(
+        &mut self,
+        obs: &mut [f32],
+        action: &mut [f32],
+        rec: &mut StepRecord,
+    ) -> Result<Step, ExperimentError> {
+        let step = match self {
+            Driver::Controller { env, controller, mapping, command } => {
+                let t = env.episode_time();
+                let cmd = controller.tick(env.robot_state(), command, t);
+                mapping.action(env.as_ref(), cmd, action);
+                rec.reference.clone_from_slice(action);
+                rec.applied.clone_from_slice(action);
+                rec.planned_com.clear();
+                rec.planned_com.extend_from_slice(&controller.status().planned_com);
+                rec.foot_targets.clear();
+                rec.foot_targets.extend_from_slice(&controller.status().foot_targets);
+                env.step(action, obs).map_err(ControlError::from)?
+            }
+            Driver::Pure { env, policy } => {
+                policy.act(obs, action);
+                rec.applied.clone_from_slice(action);
+                env.step(action, obs).map_err(ControlError::from)?
+            }
+            Driver::Hybrid { env, policy } => {
+                policy.act(obs, action);
+                rec.reference.clone_from_slice(env.reference());
+                rec.planned_com.clear();
+                rec.planned_com.extend_from_slice(&env.controller().status().planned_com);
+                rec.foot_targets.clear();
+                rec.foot_targets.extend_from_slice(&env.controller().status().foot_targets);
+                let s = env.step(action, obs).map_err(ControlError::from)?;
+                rec.applied.clone_from_slice(env.applied());
+                for k in 0..rec.residual.len() {
+                    rec.residual[k] = rec.applied[k] - rec.reference[k];
+                }
+                s
+            }
+        };
+        Ok(step)
+    }
+}
+
+#[derive(Default)]
+struct StepRecord {
+    reference: Vec<f32>,
+    residual: Vec<f32>,
+    applied: Vec<f32>,
+    planned_com: Vec<[f64; 3]>,
+    foot_targets: Vec<[f64; 3]>,
+}
+
+/// Base x position of a floating or planar robot.
+fn base_x(env: &dyn RobotEnv) -> f64 {
+    env.robot_state().q[0]
+}
+
+/// Evaluates an agent over `episodes` deterministic episodes (seeds `seed..seed+episodes`),
+/// recording the first one to `record` if given.
+fn evaluate(
+    driver: &mut Driver,
+    episodes: usize,
+    seed: u64,
+    record: Option<&Path>,
+) -> Result<AgentStats, ExperimentError> {
+    let mut obs = vec![0.0f32; driver.obs_dim()];
+    let mut action = vec![0.0f32; driver.act_dim()];
+    let m = driver.act_dim();
+    let mut rec = StepRecord {
+        reference: vec![0.0; m],
+        residual: vec![0.0; m],
+        applied: vec![0.0; m],
+        ..Default::default()
+    };
+    let mut recorder = match record {
+        Some(p) => Some(Recorder::create(p, driver.robot().model())?),
+        None => None,
+    };
+    let (mut returns, mut speeds, mut lengths) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut falls, mut energy, mut distance) = (0usize, 0.0, 0.0);
+    let (mut torque_sq, mut torque_n) = (0.0, 0usize);
+    let mut contacts: Vec<(Vector3<f64>, Vector3<f64>)> = Vec::new();
+    let mass = driver.robot().model().total_mass();
+    let g = driver.robot().model().gravity.norm().max(1e-9);
+    for ep in 0..episodes {
+        driver.reset(seed + ep as u64, &mut obs)?;
+        let x0 = base_x(driver.robot());
+        let (mut ret, mut n) = (0.0, 0usize);
+        loop {
+            let s = driver.step(&mut obs, &mut action, &mut rec)?;
+            ret += s.reward;
+            n += 1;
+            energy += s.info.energy;
+            for t in driver.robot().last_torques() {
+                torque_sq += t * t;
+                torque_n += 1;
+            }
+            if ep == 0
+                && let Some(r) = recorder.as_mut()
+            {
+                let robot = driver.robot();
+                contacts.clear();
+                contacts.extend(
+                    robot.foot_contacts().iter().filter(|c| c.in_contact).map(|c| (c.point, c.force)),
+                );
+                r.record(&Frame {
+                    time: robot.episode_time(),
+                    state: Some(robot.robot_state()),
+                    contacts: &contacts,
+                    planned_com: &rec.planned_com,
+                    foot_targets: &rec.foot_targets,
+                    reference: &rec.reference,
+                    residual: if matches!(driver, Driver::Hybrid { .. }) { &rec.residual } else { &[] },
+                    applied: &rec.applied,
+                    reward: s.reward,
+                    forward_velocity: s.info.forward_velocity,
+                    energy: s.info.energy,
+                })?;
+            }
+            if s.done() {
+                if s.terminated {
+                    falls += 1;
+                }
+                break;
+            }
+        }
+        let dx = base_x(driver.robot()) - x0;
+        let seconds = n as f64 * driver.robot().dt();
+        distance += dx;
+        returns.push(ret);
+        speeds.push(dx / seconds.max(1e-9));
+        lengths.push(n as f64);
+    }
+    if let Some(r) = recorder {
+        r.finish()?;
+    }
+    let k = episodes.max(1) as f64;
+    let mean = returns.iter().sum::<f64>() / k;
+    let std = (returns.iter().map(|r| (r - mean) * (r - mean)).sum::<f64>() / k).sqrt();
+    Ok(AgentStats {
+        return_mean: mean,
+        return_std: std,
+        mean_speed: speeds.iter().sum::<f64>() / k,
+        falls,
+        episodes,
+        cost_of_transport: (distance > 0.01).then(|| energy / (mass * g * distance)),
+        energy_mean: energy / k,
+        torque_rms: (torque_sq / torque_n.max(1) as f64).sqrt(),
+        length_mean: lengths.iter().sum::<f64>() / k,
+        env_steps: 0,
+        wall_seconds: 0.0,
+    })
+}
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct ExperimentOptions {
+    /// Robot environment (see [`crate::control::ROBOT_ENV_NAMES`]).
+    pub env: String,
+    /// Algorithm (the same for both agents).
+    pub algo: AlgoKind,
+    /// Training steps per agent.
+    pub steps: u64,
+    /// Seed (learners; evaluation seeds are `1_000_000 + seed + k`).
+    pub seed: u64,
+    /// Output directory.
+    pub out: PathBuf,
+    /// TOML hyperparameters shared by both agents (None: the algorithm's defaults).
+    pub algo_config: Option<String>,
+    /// Parallel environments per agent.
+    pub n_envs: usize,
+    /// Threads stepping them.
+    pub threads: usize,
+    /// Evaluation episodes per agent (≥ 10 recommended).
+    pub eval_episodes: usize,
+    /// The residual setup of the hybrid.
+    pub residual: ResidualConfig,
+    /// Write an MCAP recording per agent.
+    pub record: bool,
+}
+
+/// The three agents of an experiment.
+#[derive(Clone, Debug, Serialize)]
+pub struct ExperimentSummary {
+    /// Residual RL on the controller.
+    pub hybrid: AgentStats,
+    /// RL alone.
+    pub pure_rl: AgentStats,
+    /// The controller alone.
+    pub controller: AgentStats,
+}
+
+/// Training curve of one agent: `(env steps, mean training episode return)` per update.
+pub type Curve = Vec<(u64, f64)>;
+
+/// An experiment's summary and the two training curves.
+#[derive(Clone, Debug)]
+pub struct ExperimentResult {
+    /// Evaluation of the three agents.
+    pub summary: ExperimentSummary,
+    /// Pure RL's training curve.
+    pub pure_curve: Curve,
+    /// The hybrid's training curve.
+    pub hybrid_curve: Curve,
+}
+
+/// Which agent a progress report is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    /// Training the pure-RL agent.
+    TrainPure,
+    /// Training the hybrid agent.
+    TrainHybrid,
+    /// Evaluating.
+    Evaluate,
+}
+
+fn vec_env_of(
+    make: &mut dyn FnMut() -> Result<Box<dyn Env>, ExperimentError>,
+    n: usize,
+    threads: usize,
+) -> Result<VecEnv, ExperimentError> {
+    let envs = (0..n.max(1)).map(|_| make()).collect::<Result<Vec<_>, _>>()?;
+    Ok(VecEnv::new(envs, threads).map_err(ControlError::from)?)
+}
+
+/// Trains one agent; returns its checkpoint path, metrics and wall time.
+fn train_one(
+    opts: &ExperimentOptions,
+    dir: &Path,
+    env: &mut VecEnv,
+    phase: Phase,
+    progress: &mut dyn FnMut(Phase, &UpdateMetrics),
+) -> Result<(PathBuf, Vec<UpdateMetrics>, f64, u64), ExperimentError> {
+    std::fs::create_dir_all(dir).map_err(io_err(dir))?;
+    let cfg_path = dir.join("config.toml");
+    let mut algo: Box<dyn Algorithm> =
+        build_algorithm(opts.algo, opts.algo_config.as_deref(), &cfg_path, opts.seed, env)?;
+    if phase == Phase::TrainHybrid {
+        // Zero mean residual at the start: the untrained hybrid is the controller.
+        algo.zero_policy_output();
+    }
+    let csv_path = dir.join("metrics.csv");
+    let mut csv = MetricsCsv::create(&csv_path).map_err(io_err(&csv_path))?;
+    let mut rows = Vec::new();
+    let mut csv_error = None;
+    let t0 = Instant::now();
+    algo.learn(env, opts.steps, &mut |m| {
+        if let Err(e) = csv.write(m) {
+            csv_error = Some(e);
+            return ControlFlow::Break(());
+        }
+        rows.push(*m);
+        progress(phase, m);
+        ControlFlow::Continue(())
+    })?;
+    let wall = t0.elapsed().as_secs_f64();
+    if let Some(e) = csv_error {
+        return Err(ExperimentError::Io { path: csv_path, source: e });
+    }
+    csv.flush().map_err(io_err(&csv_path))?;
+    let ckpt = dir.join("checkpoint");
+    algo.save(&ckpt)?;
+    Ok((ckpt, rows, wall, algo.steps_done()))
+}
+
+/// Runs the experiment (see the module docs) and writes the output directory.
+pub fn run_experiment(
+    opts: &ExperimentOptions,
+    progress: &mut dyn FnMut(Phase, &UpdateMetrics),
+) -> Result<ExperimentResult, ExperimentError> {
+    std::fs::create_dir_all(&opts.out).map_err(io_err(&opts.out))?;
+    // Pure RL on the robot environment.
+    let mut pure_env =
+        vec_env_of(&mut || Ok(make_robot_env(&opts.env, None)? as Box<dyn Env>), opts.n_envs, opts.threads)?;
+    let (pure_ckpt, pure_rows, pure_wall, pure_steps) =
+        train_one(opts, &opts.out.join("pure_rl"), &mut pure_env, Phase::TrainPure, progress)?;
+    drop(pure_env);
+    // The hybrid on the residual environment.
+    let mut hybrid_env = vec_env_of(
+        &mut || Ok(Box::new(ResidualEnv::for_env(&opts.env, opts.residual.clone())?) as Box<dyn Env>),
+        opts.n_envs,
+        opts.threads,
+    )?;
+    let (hybrid_ckpt, hybrid_rows, hybrid_wall, hybrid_steps) =
+        train_one(opts, &opts.out.join("hybrid"), &mut hybrid_env, Phase::TrainHybrid, progress)?;
+    drop(hybrid_env);
+
+    // Evaluation: the policies as deployed (loaded back from their checkpoints).
+    let seed = 1_000_000 + opts.seed;
+    let rec = |name: &str| opts.record.then(|| opts.out.join(format!("{name}.mcap")));
+    let mut pure = Driver::Pure {
+        env: make_robot_env(&opts.env, None)?,
+        policy: Policy::load(&pure_ckpt).map_err(RlError::from)?,
+    };
+    let mut pure_stats = evaluate(&mut pure, opts.eval_episodes, seed, rec("pure_rl").as_deref())?;
+    pure_stats.env_steps = pure_steps;
+    pure_stats.wall_seconds = pure_wall;
+    let mut hybrid = Driver::Hybrid {
+        env: Box::new(ResidualEnv::for_env(&opts.env, opts.residual.clone())?),
+        policy: Policy::load(&hybrid_ckpt).map_err(RlError::from)?,
+    };
+    let mut hybrid_stats = evaluate(&mut hybrid, opts.eval_episodes, seed, rec("hybrid").as_deref())?;
+    hybrid_stats.env_steps = hybrid_steps;
+    hybrid_stats.wall_seconds = hybrid_wall;
+    let env = make_robot_env(&opts.env, None)?;
+    let controller =
+        LocomotionController::new(env.model(), controller_config(&opts.env)?).map_err(ControlError::from)?;
+    let mapping = ActionMapping::new(env.as_ref(), &controller)?;
+    let mut ctrl =
+        Driver::Controller { env, controller: Box::new(controller), mapping, command: opts.residual.command };
+    let ctrl_stats = evaluate(&mut ctrl, opts.eval_episodes, seed, rec("controller").as_deref())?;
+
+    let summary = ExperimentSummary { hybrid: hybrid_stats, pure_rl: pure_stats, controller: ctrl_stats };
+    let path = opts.out.join("summary.json");
+    let text = serde_json::to_string_pretty(&summary)
+        .map_err(|e| ExperimentError::Io { path: path.clone(), source: e.into() })?;
+    std::fs::write(&path, text + "\n").map_err(io_err(&path))?;
+    let curve = |label: &str, rows: &[UpdateMetrics]| Series {
+        label: label.to_string(),
+        x: rows.iter().map(|m| m.env_steps as f64).collect(),
+        y: rows.iter().map(|m| m.episode_return_mean).collect(),
+        lower: Some(rows.iter().map(|m| m.episode_return_mean - m.episode_return_std).collect()),
+        upper: Some(rows.iter().map(|m| m.episode_return_mean + m.episode_return_std).collect()),
+    };
+    let labels = PlotLabels {
+        title: format!("{} on {}: pure RL vs hybrid (seed {})", opts.algo.name(), opts.env, opts.seed),
+        x: "environment steps".into(),
+        y: "training episode return (mean ± std)".into(),
+    };
+    let series = [curve("pure RL", &pure_rows), curve("hybrid (residual on the controller)", &hybrid_rows)];
+    for ext in ["png", "svg"] {
+        match plot_curves(&opts.out.join(format!("learning_curves.{ext}")), &labels, &series) {
+            Ok(()) | Err(PlotError::Empty { .. }) => {}
+            Err(e) => return Err(e.into()),
+        }
+    }
+    let points = |rows: &[UpdateMetrics]| rows.iter().map(|m| (m.env_steps, m.episode_return_mean)).collect();
+    Ok(ExperimentResult { summary, pure_curve: points(&pure_rows), hybrid_curve: points(&hybrid_rows) })
+}
