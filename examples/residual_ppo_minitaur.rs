@@ -13,7 +13,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use centaur::experiment::{AgentStats, ExperimentOptions, Phase, run_experiment};
+use centaur::experiment::{ExperimentOptions, Phase, run_experiment};
 use centaur::residual::ResidualConfig;
 use centaur_mpc::{Command, Gait};
 use centaur_rl::AlgoKind;
@@ -35,14 +35,6 @@ ent_coef = 0.0
 
 fn arg<T: std::str::FromStr>(args: &[String], name: &str) -> Option<T> {
     args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|s| s.parse().ok())
-}
-
-fn row(name: &str, s: &AgentStats) -> String {
-    let cot = s.cost_of_transport.map_or("—".to_string(), |c| format!("{c:.2}"));
-    format!(
-        "| {name} | {:.2} ± {:.2} | {:.3} | {}/{} | {:.1} | {cot} | {:.2} |",
-        s.return_mean, s.return_std, s.mean_speed, s.falls, s.episodes, s.energy_mean, s.torque_rms
-    )
 }
 
 fn main() {
@@ -108,13 +100,7 @@ fn main() {
         "\nEvaluation over {} episodes (deterministic actions, same seeds for every agent):\n",
         opts.eval_episodes
     );
-    println!(
-        "| agent | return | mean forward speed (m/s) | falls | energy / episode (J) | cost of transport | torque RMS (N·m) |"
-    );
-    println!("|---|---:|---:|---:|---:|---:|---:|");
-    println!("{}", row("hybrid (residual PPO on the controller)", &summary.hybrid));
-    println!("{}", row("pure PPO", &summary.pure_rl));
-    println!("{}", row("controller alone", &summary.controller));
+    print!("{}", summary.markdown_table());
     println!(
         "\nTraining: hybrid {} steps in {:.0} s, pure {} steps in {:.0} s; total wall time {:.0} s.",
         summary.hybrid.env_steps,

@@ -340,6 +340,27 @@ pub struct ExperimentSummary {
     pub controller: AgentStats,
 }
 
+impl ExperimentSummary {
+    /// The evaluation table in Markdown: return, forward speed, falls, energy, cost of
+    /// transport and torque RMS of the three agents.
+    pub fn markdown_table(&self) -> String {
+        let row = |name: &str, s: &AgentStats| {
+            let cot = s.cost_of_transport.map_or("—".to_string(), |c| format!("{c:.2}"));
+            format!(
+                "| {name} | {:.2} ± {:.2} | {:.3} | {}/{} | {:.1} | {cot} | {:.2} |\n",
+                s.return_mean, s.return_std, s.mean_speed, s.falls, s.episodes, s.energy_mean, s.torque_rms
+            )
+        };
+        let mut t = String::from(
+            "| agent | return | mean forward speed (m/s) | falls | energy / episode (J) | cost of transport | torque RMS (N·m) |\n|---|---:|---:|---:|---:|---:|---:|\n",
+        );
+        t += &row("hybrid (residual RL on the controller)", &self.hybrid);
+        t += &row("pure RL", &self.pure_rl);
+        t += &row("controller alone", &self.controller);
+        t
+    }
+}
+
 /// Training curve of one agent: `(env steps, mean training episode return)` per update.
 pub type Curve = Vec<(u64, f64)>;
 
