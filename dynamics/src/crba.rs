@@ -65,24 +65,20 @@ pub fn crba<'a>(model: &Model, data: &'a mut Data, q: &[f64]) -> &'a DMatrix<f64
         let s: &[f64; 6] = jac[6 * c..6 * c + 6].try_into().expect("6 rows");
         let f = acc[model.joint_of_dof(c)]
             .mul_motion(&Motion::new(Vector3::new(s[0], s[1], s[2]), Vector3::new(s[3], s[4], s[5])));
-        fcrb[6 * c..6 * c + 6].copy_from_slice(&[
-            f.linear.x,
-            f.linear.y,
-            f.linear.z,
-            f.angular.x,
-            f.angular.y,
-            f.angular.z,
-        ]);
+        fcrb[6 * c..6 * c + 6].copy_from_slice(&[f.linear.x, f.linear.y, f.linear.z, f.angular.x, f.angular.y, f.angular.z]);
     }
+    // Row r against the contiguous columns of its subtree (Pinocchio's layout):
+    // M[r, c] = ⁰S_r · F_c for c in r..r + nv_subtree(r).
     let mm = data.mass_matrix.as_mut_slice();
-    for c in 0..nv {
-        let f: &[f64; 6] = fcrb[6 * c..6 * c + 6].try_into().expect("6 rows");
-        for &row in model.dof_support(c) {
-            let s: &[f64; 6] = jac[6 * row..6 * row + 6].try_into().expect("6 rows");
+    for r in 0..nv {
+        let s: &[f64; 6] = jac[6 * r..6 * r + 6].try_into().expect("6 rows");
+        let end = r + model.nv_subtree(r);
+        for (c, f) in fcrb[6 * r..6 * end].chunks_exact(6).enumerate() {
+            let c = r + c;
             let mrc = s[0] * f[0] + s[1] * f[1] + s[2] * f[2] + s[3] * f[3] + s[4] * f[4] + s[5] * f[5];
-            // Column-major storage: (row, c) lives at row + c·nv.
-            mm[row + c * nv] = mrc;
-            mm[c + row * nv] = mrc;
+            // Column-major storage: (r, c) lives at r + c·nv.
+            mm[r + c * nv] = mrc;
+            mm[c + r * nv] = mrc;
         }
     }
     data.mass[0] = acc[0].mass;
