@@ -87,7 +87,8 @@ fn main() {
     let names: Vec<&str> = names.into_iter().filter(|n| only.as_deref().is_none_or(|o| o == *n)).collect();
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     if json {
-        let fields: Vec<String> = names.iter().map(|n| format!("\"{n}\": {:.1}", single(n, seconds))).collect();
+        let fields: Vec<String> =
+            names.iter().map(|n| format!("\"{n}\": {:.1}", single(n, seconds))).collect();
         println!("{{{}}}", fields.join(", "));
         return;
     }

@@ -10,6 +10,7 @@ pub use centaur_rl as rl;
 
 pub mod compare;
 pub mod control;
+pub mod deploy;
 pub mod experiment;
 pub mod plot;
 pub mod recording;

@@ -182,21 +182,43 @@ impl ResidualEnv {
     }
 
     fn write_obs(&self, obs: &mut [f32]) {
-        let n = self.env_obs.len();
-        obs[..n].copy_from_slice(&self.env_obs);
-        let phase = self.controller.status().phase;
-        let (s, c) = (2.0 * std::f64::consts::PI * phase).sin_cos();
-        let cmd = &self.config.command;
-        obs[n..n + 5].copy_from_slice(&[
-            s as f32,
-            c as f32,
-            cmd.forward_velocity as f32,
-            cmd.lateral_velocity as f32,
-            cmd.yaw_rate as f32,
-        ]);
-        if self.config.include_reference {
-            obs[n + 5..].copy_from_slice(&self.reference);
-        }
+        let reference = if self.config.include_reference { Some(&self.reference[..]) } else { None };
+        write_residual_observation(
+            &self.env_obs,
+            self.controller.status().phase,
+            &self.config.command,
+            reference,
+            obs,
+        );
+    }
+}
+
+/// The residual policy's observation: the robot's observation, the gait phase
+/// `(sin 2πφ, cos 2πφ)`, the command `(v_x, v_y, ω_z)` and optionally the reference action.
+/// The one place this layout is defined: [`ResidualEnv`] (training) and
+/// [`crate::deploy::HybridStack`] (deployment) both call it.
+#[track_caller]
+pub fn write_residual_observation(
+    robot_obs: &[f32],
+    phase: f64,
+    command: &Command,
+    reference: Option<&[f32]>,
+    out: &mut [f32],
+) {
+    let n = robot_obs.len();
+    let m = reference.map_or(0, |r| r.len());
+    assert!(out.len() == n + 5 + m, "residual observation: {} entries, expected {}", out.len(), n + 5 + m);
+    out[..n].copy_from_slice(robot_obs);
+    let (s, c) = (2.0 * std::f64::consts::PI * phase).sin_cos();
+    out[n..n + 5].copy_from_slice(&[
+        s as f32,
+        c as f32,
+        command.forward_velocity as f32,
+        command.lateral_velocity as f32,
+        command.yaw_rate as f32,
+    ]);
+    if let Some(r) = reference {
+        out[n + 5..].copy_from_slice(r);
     }
 }
 

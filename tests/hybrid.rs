@@ -213,3 +213,48 @@ fn mcap_recordings_have_foxglove_schemas_and_one_message_per_step() {
     assert!(base.iter().any(|z| (z - base[0]).abs() > 1e-5), "the base never moved");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn the_deployed_stack_acts_exactly_like_the_residual_env_it_was_trained_in() {
+    use centaur::deploy::{HybridStack, Simulated};
+    use centaur_rl::{Algorithm, Ppo, PpoConfig, VecEnv};
+    // An untrained PPO policy: non-zero, deterministic outputs.
+    let config = ResidualConfig::for_env("minitaur");
+    let venv = VecEnv::new(
+        vec![Box::new(ResidualEnv::for_env("minitaur", config.clone()).unwrap()) as Box<dyn Env>],
+        1,
+    )
+    .unwrap();
+    let ppo = Ppo::for_env(PpoConfig { seed: 5, ..PpoConfig::default() }, &venv).unwrap();
+    let mut policy = ppo.policy();
+
+    // Training-side: the residual environment with the policy's actions.
+    let mut renv = ResidualEnv::for_env("minitaur", config.clone()).unwrap();
+    let mut robs = vec![0.0f32; renv.observation_space().dim()];
+    let mut act = vec![0.0f32; renv.action_space().dim()];
+    renv.reset(Some(9), &mut robs).unwrap();
+    let n_env = renv.inner().observation_space().dim();
+    let mut a: Vec<u32> = robs[..n_env].iter().map(|x| x.to_bits()).collect();
+    for _ in 0..60 {
+        policy.act(&robs, &mut act);
+        renv.step(&act, &mut robs).unwrap();
+        a.extend(robs[..n_env].iter().map(|x| x.to_bits()));
+    }
+
+    // Deployment-side: the plain environment driven by the embedded stack.
+    let mut env = make_robot_env("minitaur", None).unwrap();
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    env.reset(Some(9), &mut obs).unwrap();
+    let ctrl = controller_config("minitaur").unwrap();
+    let mut stack =
+        HybridStack::new(&Simulated { env: env.as_ref(), obs: &obs }, ctrl, Some(ppo.policy()), config)
+            .unwrap();
+    let mut b: Vec<u32> = obs.iter().map(|x| x.to_bits()).collect();
+    let mut command = vec![0.0f32; env.action_space().dim()];
+    for _ in 0..60 {
+        command.copy_from_slice(stack.tick(&Simulated { env: env.as_ref(), obs: &obs }));
+        env.step(&command, &mut obs).unwrap();
+        b.extend(obs.iter().map(|x| x.to_bits()));
+    }
+    assert!(a == b, "the deployed stack diverged from the training environment");
+}

@@ -1,0 +1,149 @@
+//! The shape robot software would embed: a trained residual policy (loaded from its
+//! checkpoint, no training code) on top of the controller, ticking at a fixed rate against a
+//! small robot interface, with the tick time and allocations per tick reported.
+//!
+//! ```text
+//! cargo run --release --example residual_ppo_minitaur        # produces the checkpoint
+//! cargo run --release --example embed_controller -- [--checkpoint PATH] [--seconds 10] [--controller-only] [--realtime]
+//! ```
+//! The "robot" here is the simulated Minitaur behind [`centaur::deploy::RobotInterface`];
+//! on hardware the same loop would read the estimator and sensors and write the motor
+//! drivers. `--realtime` sleeps to hold the 100 Hz period as a robot loop would.
+#![allow(unsafe_code)] // a counting global allocator is unsafe by definition
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
+
+use centaur::control::{controller_config, make_robot_env};
+use centaur::deploy::{HybridStack, Simulated};
+use centaur::residual::ResidualConfig;
+use centaur_rl::Policy;
+
+struct Counting;
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let arg = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).cloned();
+    let checkpoint = PathBuf::from(
+        arg("--checkpoint").unwrap_or_else(|| "runs/residual_ppo_minitaur/hybrid/checkpoint".into()),
+    );
+    let seconds: f64 = arg("--seconds").and_then(|s| s.parse().ok()).unwrap_or(10.0);
+    let realtime = args.iter().any(|a| a == "--realtime");
+    let policy = if args.iter().any(|a| a == "--controller-only") {
+        None
+    } else {
+        match Policy::load(&checkpoint) {
+            Ok(p) => Some(p),
+            Err(e) => {
+                eprintln!(
+                    "embed_controller: cannot load {}: {e}\n(run `cargo run --release --example residual_ppo_minitaur` first, or pass --controller-only)",
+                    checkpoint.display()
+                );
+                std::process::exit(1);
+            }
+        }
+    };
+    let has_policy = policy.is_some();
+
+    // The robot: a simulated Minitaur (the residual setup must be the one trained with).
+    let mut env = make_robot_env("minitaur", Some((seconds / 0.01) as usize + 1)).expect("minitaur");
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    env.reset(Some(2024), &mut obs).expect("reset");
+    let controller = controller_config("minitaur").expect("controller preset");
+    let mut stack = match HybridStack::new(
+        &Simulated { env: env.as_ref(), obs: &obs },
+        controller,
+        policy,
+        ResidualConfig::for_env("minitaur"),
+    ) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("embed_controller: {e}");
+            std::process::exit(1);
+        }
+    };
+
+    // The fixed-rate loop.
+    let period = Duration::from_secs_f64(env.dt());
+    let mut ticks_us = Vec::with_capacity((seconds / env.dt()) as usize + 1);
+    let (mut alloc_ticks, mut allocs) = (0usize, 0usize);
+    let mut command = vec![0.0f32; env.action_space().dim()];
+    let x0 = env.robot_state().q[0];
+    let mut next = Instant::now();
+    let mut fell = false;
+    while env.episode_time() < seconds {
+        let before = ALLOCATIONS.load(Ordering::Relaxed);
+        let start = Instant::now();
+        command.copy_from_slice(stack.tick(&Simulated { env: env.as_ref(), obs: &obs }));
+        let elapsed = start.elapsed();
+        let n = ALLOCATIONS.load(Ordering::Relaxed) - before;
+        if n > 0 {
+            alloc_ticks += 1;
+            allocs += n;
+        }
+        ticks_us.push(elapsed.as_secs_f64() * 1e6);
+        // "Write the motor drivers": here, one step of the simulation.
+        match env.step(&command, &mut obs) {
+            Ok(s) if s.terminated => {
+                fell = true;
+                break;
+            }
+            Ok(s) if s.truncated => break,
+            Ok(_) => {}
+            Err(e) => {
+                eprintln!("embed_controller: {e}");
+                std::process::exit(1);
+            }
+        }
+        if realtime {
+            next += period;
+            if let Some(wait) = next.checked_duration_since(Instant::now()) {
+                std::thread::sleep(wait);
+            }
+        }
+    }
+    ticks_us.sort_by(|a, b| a.total_cmp(b));
+    let pct = |p: f64| ticks_us[((ticks_us.len() - 1) as f64 * p) as usize];
+    println!(
+        "{} on the Minitaur for {:.1} s at {:.0} Hz: walked {:.2} m{}",
+        if has_policy { "controller + residual policy" } else { "controller alone" },
+        env.episode_time(),
+        1.0 / env.dt(),
+        env.robot_state().q[0] - x0,
+        if fell { " and fell" } else { "" }
+    );
+    println!(
+        "tick time (controller + policy): median {:.0} µs, p99 {:.0} µs, max {:.0} µs over {} ticks (budget {:.0} µs)",
+        pct(0.5),
+        pct(0.99),
+        pct(1.0),
+        ticks_us.len(),
+        period.as_secs_f64() * 1e6
+    );
+    let mpc_solves = stack.controller().status().ticks;
+    println!(
+        "allocations: {allocs} in {alloc_ticks} of {} ticks (Clarabel 0.11 rebuilds a timer map inside each MPC solve; \
+         everything else in the tick is allocation-free); controller ticks: {mpc_solves}",
+        ticks_us.len()
+    );
+}
