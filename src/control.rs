@@ -17,8 +17,17 @@ use centaur_mpc::{Command, ConfigError, ControllerConfig, Gait, JointCommand, Lo
 use centaur_rl::EnvError;
 
 /// Robot environments by name (the controllable ones and the pure-RL ones).
-pub const ROBOT_ENV_NAMES: &[&str] =
-    &["minitaur", "minitaur-fast", "ant", "ant27", "walker2d", "hopper", "halfcheetah", "humanoid"];
+pub const ROBOT_ENV_NAMES: &[&str] = &[
+    "minitaur",
+    "minitaur-fast",
+    "minitaur-deterministic",
+    "ant",
+    "ant27",
+    "walker2d",
+    "hopper",
+    "halfcheetah",
+    "humanoid",
+];
 
 /// Why a control run could not happen.
 #[derive(Debug, thiserror::Error)]
@@ -54,6 +63,11 @@ pub fn make_robot_env(
             let c = MinitaurConfig::default();
             Box::new(MinitaurEnv::new(MinitaurConfig { max_episode_steps: steps(c.max_episode_steps), ..c })?)
         }
+        "minitaur-deterministic" => {
+            // v0 without the per-reset mass, voltage, damping and friction randomisation.
+            let c = MinitaurConfig::deterministic();
+            Box::new(MinitaurEnv::new(MinitaurConfig { max_episode_steps: steps(c.max_episode_steps), ..c })?)
+        }
         "minitaur-fast" => {
             let c = MinitaurConfig::fast();
             Box::new(MinitaurEnv::new(MinitaurConfig { max_episode_steps: steps(c.max_episode_steps), ..c })?)
@@ -76,7 +90,7 @@ pub fn make_robot_env(
 
 /// The controller preset for a robot environment.
 pub fn controller_config(env_name: &str) -> Result<ControllerConfig, ControlError> {
-    let robot = env_name.trim_end_matches("-fast").trim_end_matches("27");
+    let robot = env_name.trim_end_matches("-fast").trim_end_matches("-deterministic").trim_end_matches("27");
     let preset = match robot {
         "minitaur" | "ant" | "walker2d" | "humanoid" => robot,
         _ => return Err(ControlError::NoController(env_name.to_string())),
@@ -92,6 +106,9 @@ pub struct ActionMapping {
     /// For each actuated joint: its `q` and `v` indices in the model.
     qv: Vec<(usize, usize)>,
     tau: Vec<f64>,
+    /// For each contact point of the controller: the env foot on the same link, if any.
+    contact_foot: Vec<Option<usize>>,
+    contacts: Vec<bool>,
 }
 
 impl ActionMapping {
@@ -110,7 +127,24 @@ impl ActionMapping {
             qv.push((model.joints[j].idx_q, model.joints[j].idx_v));
         }
         let n = cmd_index.len();
-        Ok(ActionMapping { cmd_index, qv, tau: vec![0.0; n] })
+        let contact_foot: Vec<Option<usize>> = controller
+            .contact_frames()
+            .iter()
+            .map(|f| env.foot_frames().iter().position(|g| g == f))
+            .collect();
+        let contacts = vec![false; contact_foot.len()];
+        Ok(ActionMapping { cmd_index, qv, tau: vec![0.0; n], contact_foot, contacts })
+    }
+
+    /// The env's measured foot contacts for the controller's contact points (contact order,
+    /// matched by link name; heel and toe of one foot share its flag), or `None` if a contact
+    /// point has no foot in the env.
+    pub fn contacts(&mut self, env: &dyn RobotEnv) -> Option<&[bool]> {
+        let feet = env.foot_contacts();
+        for (c, foot) in self.contacts.iter_mut().zip(&self.contact_foot) {
+            *c = feet.get((*foot)?)?.in_contact;
+        }
+        Some(&self.contacts)
     }
 
     /// The joint torques of `cmd` at the env's current state (action order).
@@ -237,7 +271,10 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
             env.push(Vector3::from(p.force), p.duration);
         }
         let start = Instant::now();
-        let cmd = ctrl.tick(env.robot_state(), &command, t);
+        let cmd = match mapping.contacts(env.as_ref()) {
+            Some(contacts) => ctrl.tick_with_contacts(env.robot_state(), &command, t, contacts),
+            None => ctrl.tick(env.robot_state(), &command, t),
+        };
         ticks.push(start.elapsed().as_secs_f64() * 1e6);
         mapping.action(env.as_ref(), cmd, &mut action);
         let status = ctrl.status();

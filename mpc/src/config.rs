@@ -61,6 +61,14 @@ pub struct ControllerConfig {
     pub mpc_period: f64,
     /// Swing apex height above the lift-off/touch-down points (m) (default: 0.06).
     pub swing_height: f64,
+    /// Use measured contacts (when given) to start each stance only at touch-down and to
+    /// end swings that touch the ground in their second half; without it measured contacts
+    /// only hold a robot that starts in the air in its stance until it has landed
+    /// (default: true).
+    pub touchdown_detection: bool,
+    /// Speed (m/s) at which a foot that has not touched down at the scheduled end of its
+    /// swing keeps descending (with measured contacts only) (default: 0.3).
+    pub touchdown_speed: f64,
     /// Swing-foot task gains `k_p` (1/s²) and `k_d` (1/s) (default: 400, 40).
     pub swing_gains: (f64, f64),
     /// Cheap-path Cartesian swing stiffness (N/m) and damping (N·s/m) (default: 300, 10).
@@ -79,7 +87,8 @@ pub struct ControllerConfig {
     /// Joint PD gains sent with swing-leg targets (N·m/rad, N·m·s/rad) (default: 0, 0:
     /// torques only; set them for position-controlled joints).
     pub swing_joint_gains: (f64, f64),
-    /// Joint PD gains sent with stance-leg targets (default: 0, 0).
+    /// Joint PD gains sent with stance-leg targets while walking (the targets carry the
+    /// body along its reference over the planted feet; standing uses none) (default: 0, 0).
     pub stance_joint_gains: (f64, f64),
     /// Posture PD gains of the invalid-state fallback (default: 20, 0.5).
     pub fallback_joint_gains: (f64, f64),
@@ -88,6 +97,13 @@ pub struct ControllerConfig {
     pub raibert_kv: f64,
     /// Rate limit of the commanded linear speed (m/s²) (default: 1.0).
     pub max_acceleration: f64,
+    /// Largest horizontal distance (m) between the position reference (the integral of the
+    /// commanded velocity) and the measured CoM; the reference is dragged along beyond it,
+    /// e.g. after a push (default: 0.1).
+    pub position_leash: f64,
+    /// Speed (m/s) at which the position reference of a robot standing still moves to the
+    /// centre of its support (the mean contact position) (default: 0.05).
+    pub recenter_speed: f64,
     /// Rate limit of the commanded yaw rate (rad/s²) (default: 2.0).
     pub max_yaw_acceleration: f64,
     /// Multiplies every gait period (default: 1.0).
@@ -107,6 +123,8 @@ impl ControllerConfig {
             mode: ControlMode::WholeBody,
             mpc_period: 0.02,
             swing_height: 0.06,
+            touchdown_detection: true,
+            touchdown_speed: 0.3,
             swing_gains: (400.0, 40.0),
             cheap_swing_gains: (300.0, 10.0),
             body_kp_pos: [0.0, 0.0, 100.0],
@@ -119,6 +137,8 @@ impl ControllerConfig {
             fallback_joint_gains: (20.0, 0.5),
             raibert_kv: 0.0,
             max_acceleration: 1.0,
+            position_leash: 0.1,
+            recenter_speed: 0.05,
             max_yaw_acceleration: 2.0,
             gait_period_scale: 1.0,
             ik_damping: 0.02,
@@ -134,7 +154,7 @@ impl ControllerConfig {
         let contacts = legs
             .iter()
             .enumerate()
-            .map(|(i, l)| ContactSpec { frame: format!("{l}_FOOT"), offset: [0.0; 3], leg: i })
+            .map(|(i, l)| ContactSpec { frame: format!("{l}_FOOT"), offset: [0.0; 3], radius: 0.0, leg: i })
             .collect();
         let mut nominal = Vec::new();
         for l in legs {
@@ -156,19 +176,31 @@ impl ControllerConfig {
         c
     }
 
-    /// Ant (`assets/mujoco/ant.urdf`, floating, 2 dof per leg, gear 150). Feet: the far end
-    /// of each `*_ankle_geom` capsule, `pos ± half-length · axis` = (±0.4, ±0.4, 0) in the
-    /// `ankle_k_body` frames (sidecar: pos (0.2, 0.2, 0), half-length 0.2828 along
-    /// (1, 1, 0)/√2). Legs FL = leg 1 (+x, +y), FR = leg 4 (+x, −y), HL = leg 2 (−x, +y),
-    /// HR = leg 3 (−x, −y). Standing pose: the XML's custom `init_qpos` (ankles ±1 rad).
-    /// The 2-dof legs cannot push in every direction; the WBC's torque limits and the
-    /// no-slip task sort out what is reachable.
+    /// Ant (`assets/mujoco/ant.urdf`, floating, 2 dof per leg, gear 150), tuned for
+    /// Gymnasium's 20 Hz control. Feet: spheres of radius 0.08 (the capsules' radius) at
+    /// the far end of each `*_ankle_geom` capsule, `pos ± half-length · axis` =
+    /// (±0.4, ±0.4, 0) in the `ankle_k_body` frames (sidecar: pos (0.2, 0.2, 0), half-length
+    /// 0.2828 along (1, 1, 0)/√2). Legs FL = leg 1 (+x, +y), FR = leg 4 (+x, −y),
+    /// HL = leg 2 (−x, +y), HR = leg 3 (−x, −y). Standing pose: the XML's custom
+    /// `init_qpos` (ankles ±1 rad).
+    ///
+    /// Torques are held for 50 ms, so the task gains are chosen for a zero-order hold of
+    /// `T = 0.05` s (`k_p T² ≤ 0.5`, `k_d T ≤ 1`: swing 200/20, body 100/15); gaits run at
+    /// twice their table periods (a 0.6 s trot, six ticks per half cycle) and the MPC steps
+    /// with the control period. A two-dof leg with its foot planted locks the body's height,
+    /// roll and pitch to its forward motion, so stance legs also get joint PD targets
+    /// (200 N·m/rad, 15 N·m·s/rad) that carry the body along its reference over the feet
+    /// ([`crate::controller::stance_target`]); the height task is soft (20/s²) and the WBC
+    /// follows the MPC forces loosely (weight 1). Touch-down detection is off: a 20 Hz
+    /// swing reaches the ground late often enough that waiting for contact costs more than
+    /// it saves. A standing Ant is not re-centred: planted two-dof legs cannot move the
+    /// body sideways without sliding their feet.
     pub fn ant() -> Self {
         let contacts = vec![
-            ContactSpec { frame: "ankle_1_body".into(), offset: [0.4, 0.4, 0.0], leg: 0 },
-            ContactSpec { frame: "ankle_4_body".into(), offset: [0.4, -0.4, 0.0], leg: 1 },
-            ContactSpec { frame: "ankle_2_body".into(), offset: [-0.4, 0.4, 0.0], leg: 2 },
-            ContactSpec { frame: "ankle_3_body".into(), offset: [-0.4, -0.4, 0.0], leg: 3 },
+            ContactSpec { frame: "ankle_1_body".into(), offset: [0.4, 0.4, 0.0], radius: 0.08, leg: 0 },
+            ContactSpec { frame: "ankle_4_body".into(), offset: [0.4, -0.4, 0.0], radius: 0.08, leg: 1 },
+            ContactSpec { frame: "ankle_2_body".into(), offset: [-0.4, 0.4, 0.0], radius: 0.08, leg: 2 },
+            ContactSpec { frame: "ankle_3_body".into(), offset: [-0.4, -0.4, 0.0], radius: 0.08, leg: 3 },
         ];
         let nominal = vec![
             ("ankle_1".to_string(), 1.0),
@@ -187,6 +219,19 @@ impl ControllerConfig {
             loop_closures: vec![],
         });
         c.swing_height = 0.08;
+        c.mpc.dt = 0.05;
+        c.gait_period_scale = 2.0;
+        c.swing_gains = (200.0, 20.0);
+        c.body_kp_pos = [0.0, 0.0, 20.0];
+        c.body_kd_vel = [15.0; 3];
+        c.body_kp_ori = [100.0; 3];
+        c.body_kd_ang = [15.0; 3];
+        c.posture_gains = (20.0, 4.0);
+        c.stance_joint_gains = (200.0, 15.0);
+        c.position_leash = 0.3;
+        c.recenter_speed = 0.0;
+        c.touchdown_detection = false;
+        c.wbc.w_force = 1.0;
         c
     }
 
@@ -198,8 +243,8 @@ impl ControllerConfig {
     pub fn walker2d() -> Self {
         let mut contacts = Vec::new();
         for (leg, f) in ["foot_left", "foot"].iter().enumerate() {
-            contacts.push(ContactSpec { frame: f.to_string(), offset: [-0.2, 0.0, 0.04], leg });
-            contacts.push(ContactSpec { frame: f.to_string(), offset: [0.0, 0.0, 0.04], leg });
+            contacts.push(ContactSpec { frame: f.to_string(), offset: [-0.2, 0.0, 0.1], radius: 0.06, leg });
+            contacts.push(ContactSpec { frame: f.to_string(), offset: [0.0, 0.0, 0.1], radius: 0.06, leg });
         }
         let mut c = Self::with_robot(RobotSpec {
             base: BaseSpec::Planar {
@@ -226,8 +271,8 @@ impl ControllerConfig {
     /// move the CoM (hip strategy) since point feet give no ankle torque.
     pub fn humanoid() -> Self {
         let contacts = vec![
-            ContactSpec { frame: "left_foot".into(), offset: [0.0, 0.0, 0.025], leg: 0 },
-            ContactSpec { frame: "right_foot".into(), offset: [0.0, 0.0, 0.025], leg: 1 },
+            ContactSpec { frame: "left_foot".into(), offset: [0.0, 0.0, 0.1], radius: 0.075, leg: 0 },
+            ContactSpec { frame: "right_foot".into(), offset: [0.0, 0.0, 0.1], radius: 0.075, leg: 1 },
         ];
         let mut c = Self::with_robot(RobotSpec {
             base: BaseSpec::Floating,
@@ -260,7 +305,8 @@ impl ControllerConfig {
         for (i, l) in legs.iter().enumerate() {
             contacts.push(ContactSpec {
                 frame: format!("lower_leg_{l}R_link"),
-                offset: [0.0, 0.005, 0.2],
+                offset: [0.0, 0.0, 0.195],
+                radius: 0.005,
                 leg: i,
             });
             closures.push(LoopClosureSpec {
@@ -288,6 +334,8 @@ impl ControllerConfig {
             loop_closures: closures,
         });
         c.swing_height = 0.04;
+        c.wbc.w_force = 10.0;
+        c.touchdown_detection = false;
         c
     }
 
@@ -310,6 +358,7 @@ impl ControllerConfig {
         let finite_nonneg = [
             ("mpc_period", self.mpc_period),
             ("swing_height", self.swing_height),
+            ("touchdown_speed", self.touchdown_speed),
             ("swing_gains.0", self.swing_gains.0),
             ("swing_gains.1", self.swing_gains.1),
             ("cheap_swing_gains.0", self.cheap_swing_gains.0),
@@ -324,6 +373,8 @@ impl ControllerConfig {
             ("fallback_joint_gains.1", self.fallback_joint_gains.1),
             ("raibert_kv", self.raibert_kv),
             ("max_acceleration", self.max_acceleration),
+            ("position_leash", self.position_leash),
+            ("recenter_speed", self.recenter_speed),
             ("max_yaw_acceleration", self.max_yaw_acceleration),
             ("ik_damping", self.ik_damping),
         ];

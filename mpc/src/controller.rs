@@ -7,9 +7,9 @@ use centaur_dynamics::nalgebra::{
     DVector, Matrix3, Matrix3xX, Matrix6xX, Rotation3, UnitQuaternion, Vector3,
 };
 use centaur_dynamics::{
-    Data, Model, ReferenceFrame, RobotState, crba, forward_kinematics_acceleration, frame_acceleration,
-    frame_classical_acceleration, frame_jacobian, frame_velocity, jacobian_center_of_mass, nonlinear_effects,
-    update_frame_placements,
+    Data, Model, ReferenceFrame, RobotState, crba, forward_kinematics, forward_kinematics_acceleration,
+    frame_acceleration, frame_classical_acceleration, frame_jacobian, frame_velocity,
+    jacobian_center_of_mass, nonlinear_effects, update_frame_placements,
 };
 
 use crate::config::{Command, ConfigError, ControlMode, ControllerConfig};
@@ -126,12 +126,23 @@ pub struct ControllerStatus {
     pub invalid_states: u64,
     /// Planned CoM positions over the horizon (world).
     pub planned_com: Vec<[f64; 3]>,
-    /// Contact forces applied this tick (world, N).
+    /// Contact forces the MPC plan (or its fallback) gives for this tick (world, N).
+    pub mpc_forces: Vec<[f64; 3]>,
+    /// Contact forces applied this tick (world, N): the whole-body QP's, or the MPC's on the
+    /// cheap path.
     pub forces: Vec<[f64; 3]>,
+    /// Measured position of each contact point (world).
+    pub foot_positions: Vec<[f64; 3]>,
     /// Target of each contact point: the swing curve point, or the current position in stance.
     pub foot_targets: Vec<[f64; 3]>,
     /// Planned touch-down point of each contact.
     pub footholds: Vec<[f64; 3]>,
+    /// Horizontal position reference of the CoM (world; z = 0).
+    pub position_reference: [f64; 3],
+    /// Body task of the whole-body QP: desired CoM and body angular acceleration (world).
+    pub body_acceleration_target: [f64; 6],
+    /// The same accelerations in the QP's solution (the difference is the task residual).
+    pub body_acceleration_planned: [f64; 6],
     /// Measured CoM (world).
     pub com: [f64; 3],
     /// Measured CoM velocity (world).
@@ -167,11 +178,23 @@ pub struct LocomotionController {
     v_cmd: Vector3<f64>,
     yaw_rate_cmd: f64,
     yaw_ref: f64,
+    p_ref: Vector3<f64>,
     last_t: Option<f64>,
     // Swing bookkeeping per contact.
     was_stance: Vec<bool>,
+    /// Measured contact flags of this tick (valid if `measured_valid`).
+    measured: Vec<bool>,
+    measured_valid: bool,
+    /// Contacts measured on the ground at least once, and whether all have been.
+    ever_touched: Vec<bool>,
+    landed: bool,
+    /// A scheduled stance whose foot has touched the ground (measured).
+    touched: Vec<bool>,
+    /// A swing that ended early by touching the ground in its second half (measured).
+    early: Vec<bool>,
     liftoff: Vec<Vector3<f64>>,
     foothold: Vec<Vector3<f64>>,
+    next_foothold: Vec<Vector3<f64>>,
     targets: Vec<PointTarget>,
     // MPC plan.
     plan_forces: Vec<Vector3<f64>>,
@@ -188,6 +211,7 @@ pub struct LocomotionController {
     lam_a: Vec<f64>,
     lam_b: Vec<f64>,
     passive_joint_v: Vec<usize>,
+    contact_frame_names: Vec<String>,
 }
 
 impl std::fmt::Debug for LocomotionController {
@@ -230,9 +254,14 @@ impl LocomotionController {
             wbc_failures: 0,
             invalid_states: 0,
             planned_com: vec![[0.0; 3]; h],
+            mpc_forces: vec![[0.0; 3]; nc],
             forces: vec![[0.0; 3]; nc],
+            foot_positions: vec![[0.0; 3]; nc],
             foot_targets: vec![[0.0; 3]; nc],
             footholds: vec![[0.0; 3]; nc],
+            position_reference: [0.0; 3],
+            body_acceleration_target: [0.0; 6],
+            body_acceleration_planned: [0.0; 6],
             com: [0.0; 3],
             com_velocity: [0.0; 3],
             rpy: [0.0; 3],
@@ -264,10 +293,18 @@ impl LocomotionController {
             v_cmd: Vector3::zeros(),
             yaw_rate_cmd: 0.0,
             yaw_ref: 0.0,
+            p_ref: Vector3::zeros(),
             last_t: None,
             was_stance: vec![true; nc],
+            measured: vec![false; nc],
+            measured_valid: false,
+            ever_touched: vec![false; nc],
+            landed: false,
+            touched: vec![true; nc],
+            early: vec![false; nc],
             liftoff: vec![Vector3::zeros(); nc],
             foothold: vec![Vector3::zeros(); nc],
+            next_foothold: vec![Vector3::zeros(); nc],
             targets: vec![PointTarget::default(); nc],
             plan_forces: vec![Vector3::zeros(); h * nc],
             plan_valid: false,
@@ -282,6 +319,7 @@ impl LocomotionController {
             lam_a: vec![0.0; nl * nl],
             lam_b: vec![0.0; nl],
             passive_joint_v,
+            contact_frame_names: config.robot.contacts.iter().map(|c| c.frame.clone()).collect(),
             data,
             robot,
             cfg: config,
@@ -308,6 +346,12 @@ impl LocomotionController {
         &self.status
     }
 
+    /// Generalized accelerations `q̈` the whole-body QP planned in the last tick that solved
+    /// it (model `v` layout).
+    pub fn planned_accelerations(&self) -> &DVector<f64> {
+        &self.wbc.output.qdd
+    }
+
     /// The last command.
     pub fn command(&self) -> &JointCommand {
         &self.command
@@ -330,6 +374,10 @@ impl LocomotionController {
         self.yaw_rate_cmd = 0.0;
         self.mpc_consecutive_failures = 0;
         self.was_stance.iter_mut().for_each(|s| *s = true);
+        self.touched.iter_mut().for_each(|s| *s = true);
+        self.early.iter_mut().for_each(|s| *s = false);
+        self.ever_touched.iter_mut().for_each(|s| *s = false);
+        self.landed = false;
     }
 
     /// One control step at time `t` (s). Never panics on a non-finite state (it falls back
@@ -339,6 +387,41 @@ impl LocomotionController {
     /// If `state` does not have the model's `nq`/`nv` (a programming error).
     #[track_caller]
     pub fn tick(&mut self, state: &RobotState, command: &Command, t: f64) -> &JointCommand {
+        self.measured_valid = false;
+        self.tick_inner(state, command, t)
+    }
+
+    /// [`LocomotionController::tick`] with measured contact flags, one per contact point in
+    /// [`LocomotionController::contact_frames`] order (e.g. from foot switches or the
+    /// simulator). A scheduled stance starts only when its foot touches the ground (until
+    /// then the foot keeps descending at `touchdown_speed`), and a swing that touches the
+    /// ground in its second half ends early.
+    ///
+    /// # Panics
+    /// If `state` does not have the model's `nq`/`nv` or `contacts` does not have one flag
+    /// per contact point (programming errors).
+    #[track_caller]
+    pub fn tick_with_contacts(
+        &mut self,
+        state: &RobotState,
+        command: &Command,
+        t: f64,
+        contacts: &[bool],
+    ) -> &JointCommand {
+        let nc = self.robot.n_contacts();
+        assert!(contacts.len() == nc, "{} contact flags for {nc} contact points", contacts.len());
+        self.measured.copy_from_slice(contacts);
+        self.measured_valid = true;
+        self.tick_inner(state, command, t)
+    }
+
+    /// Names of the frames the contact points are attached to, in contact order.
+    pub fn contact_frames(&self) -> &[String] {
+        &self.contact_frame_names
+    }
+
+    #[track_caller]
+    fn tick_inner(&mut self, state: &RobotState, command: &Command, t: f64) -> &JointCommand {
         let model_nq = self.robot.model.nq;
         let model_nv = self.robot.model.nv;
         assert!(
@@ -380,10 +463,26 @@ impl LocomotionController {
         self.kinematics();
         if first {
             self.yaw_ref = self.rpy.z;
+            self.p_ref = Vector3::new(self.com.x, self.com.y, 0.0);
         }
+        // With measured contacts, a robot that starts in the air (or was lifted) stands until
+        // every contact point has touched the ground once.
+        if self.measured_valid && !self.landed {
+            for (seen, m) in self.ever_touched.iter_mut().zip(&self.measured) {
+                *seen |= *m;
+            }
+            self.landed = self.ever_touched.iter().all(|s| *s);
+        }
+        let airborne = self.measured_valid && !self.landed;
+        if airborne {
+            // Nothing to hold the body to until it lands: references follow the state.
+            self.p_ref = Vector3::new(self.com.x, self.com.y, 0.0);
+            self.yaw_ref = self.rpy.z;
+        }
+        let command = if airborne { &Command::stand() } else { command };
         // Command shaping: rate-limited speeds, yaw reference integration.
         let cmd_gait = command.gait;
-        let (c, s) = (self.rpy.z.cos(), self.rpy.z.sin());
+        let (c, s) = (self.yaw_ref.cos(), self.yaw_ref.sin());
         let planar = self.cfg.mpc.planar;
         let lat = if planar { 0.0 } else { command.lateral_velocity };
         let target =
@@ -400,7 +499,8 @@ impl LocomotionController {
         let height = command.body_height.unwrap_or(self.robot.nominal_com_height);
 
         let changed = self.gait.update(t, cmd_gait);
-        self.update_swing(height);
+        self.update_position_reference(dt, &target);
+        self.update_swing(height, dt);
         // MPC.
         let due = self.last_mpc_t.is_none_or(|t0| t - t0 >= self.cfg.mpc_period - 1e-9 || t < t0);
         if due || changed || !self.plan_valid {
@@ -422,6 +522,39 @@ impl LocomotionController {
         &self.command
     }
 
+    /// The horizontal position reference `p_ref`: the integral of the (rate-limited)
+    /// commanded velocity; standing still, it moves at `recenter_speed` to the centre of
+    /// the support (the mean contact position), the statically safest place for the CoM;
+    /// it never strays more than `position_leash` from the measured CoM.
+    fn update_position_reference(&mut self, dt: f64, target_velocity: &Vector3<f64>) {
+        self.p_ref += self.v_cmd * dt;
+        self.p_ref.z = 0.0;
+        let nc = self.robot.n_contacts();
+        let standing = self.gait.pattern().gait == Gait::Stand
+            && target_velocity.norm() < 1e-9
+            && self.v_cmd.norm() < 1e-9;
+        if standing {
+            let mut target = Vector3::zeros();
+            for ci in 0..nc {
+                target += self.p_contact[ci];
+            }
+            target /= nc as f64;
+            let e = Vector3::new(target.x - self.p_ref.x, target.y - self.p_ref.y, 0.0);
+            let step = self.cfg.recenter_speed * dt;
+            let n = e.norm();
+            self.p_ref += if n > step { e * (step / n) } else { e };
+        }
+        if self.cfg.mpc.planar {
+            self.p_ref.y = self.com.y;
+        }
+        let e = Vector3::new(self.p_ref.x - self.com.x, self.p_ref.y - self.com.y, 0.0);
+        let n = e.norm();
+        let leash = self.cfg.position_leash;
+        if n > leash {
+            self.p_ref = Vector3::new(self.com.x, self.com.y, 0.0) + e * (leash / n);
+        }
+    }
+
     fn posture_fallback(&mut self) {
         self.status.invalid_states += 1;
         self.status.fallback = Fallback::PosturePd;
@@ -436,6 +569,9 @@ impl LocomotionController {
     }
 
     fn kinematics(&mut self) {
+        // Sphere contacts: the touching point depends on the link orientations.
+        forward_kinematics(&self.robot.model, &mut self.data, self.q.as_slice());
+        self.robot.update_sphere_contacts(&self.data);
         let model = &self.robot.model;
         let data = &mut self.data;
         let q = self.q.as_slice();
@@ -447,6 +583,7 @@ impl LocomotionController {
         }
         self.com_vel = cv;
         self.com = data.com[0];
+        self.wbc.input.j_body.fixed_rows_mut::<3>(0).copy_from(&data.jacobian_com);
         crba(model, data, q);
         self.wbc.input.mass_matrix.copy_from(&data.mass_matrix);
         for k in 0..model.nv {
@@ -454,6 +591,11 @@ impl LocomotionController {
         }
         nonlinear_effects(model, data, q, v);
         self.wbc.input.nle.copy_from(&data.nle);
+        // Joint viscous damping (`<dynamics damping>`) is part of the bias forces:
+        // M q̈ + C q̇ + g + D q̇ = Sᵀτ + Jᵀf.
+        for k in 0..model.nv {
+            self.wbc.input.nle[k] += model.damping[k] * v[k];
+        }
         forward_kinematics_acceleration(model, data, q, v, self.zeros_v.as_slice());
         update_frame_placements(model, data);
         // Body.
@@ -466,8 +608,23 @@ impl LocomotionController {
         let bv = frame_velocity(model, data, bf, ReferenceFrame::LocalWorldAligned);
         self.omega = bv.angular;
         frame_jacobian(model, data, bf, ReferenceFrame::LocalWorldAligned, &mut self.jac6);
-        self.wbc.input.j_body.copy_from(&self.jac6);
-        let lin = frame_classical_acceleration(model, data, bf);
+        self.wbc.input.j_body.fixed_rows_mut::<3>(3).copy_from(&self.jac6.fixed_rows::<3>(3));
+        // CoM drift J̇_com q̇ = (1/m) Σᵢ mᵢ R_i (aᵢ + αᵢ × cᵢ + ωᵢ × (vᵢ + ωᵢ × cᵢ)) with the
+        // body accelerations of q̈ = 0 (each body's CoM point, classical acceleration).
+        let mut m_acc = Vector3::zeros();
+        let mut m_tot = 0.0;
+        for i in 1..model.njoints() {
+            let inertia = &model.inertias[i];
+            if inertia.mass <= 0.0 {
+                continue;
+            }
+            let (vi, ai, c) = (&data.v[i], &data.a[i], &inertia.lever);
+            let a_local =
+                ai.linear + ai.angular.cross(c) + vi.angular.cross(&(vi.linear + vi.angular.cross(c)));
+            m_acc += data.o_m_i[i].rotation * a_local * inertia.mass;
+            m_tot += inertia.mass;
+        }
+        let lin = if m_tot > 0.0 { m_acc / m_tot } else { Vector3::zeros() };
         let ang = frame_acceleration(model, data, bf, ReferenceFrame::LocalWorldAligned).angular;
         for d in 0..3 {
             self.wbc.input.jdqd_body[d] = lin[d];
@@ -512,8 +669,17 @@ impl LocomotionController {
         }
     }
 
-    /// Lift-off bookkeeping, footholds and swing targets.
-    fn update_swing(&mut self, height: f64) {
+    /// Contact states, lift-off bookkeeping, footholds and swing targets.
+    ///
+    /// The effective contact of a point is its scheduled stance, refined by measured
+    /// contacts when [`LocomotionController::tick_with_contacts`] provides them: a stance
+    /// that has not touched down (also at the first tick) is still a swing whose foot
+    /// descends at `touchdown_speed` over the foothold, and a swing touching the ground in
+    /// its second half ends early; without measured contacts the schedule is followed.
+    /// Swing targets carry the mean reference acceleration over the coming control interval
+    /// `Δt` (the last tick interval), `ā = (v_ref(t + Δt) − v_ref(t))/Δt`, so that torques
+    /// held for `Δt` follow the curve.
+    fn update_swing(&mut self, height: f64, dt: f64) {
         let pat = *self.gait.pattern();
         let phase = self.gait.phase();
         let g = self.robot.model.gravity.z.abs().max(1e-3);
@@ -524,10 +690,30 @@ impl LocomotionController {
         for ci in 0..self.robot.n_contacts() {
             let leg = self.robot.contact_leg[ci];
             let stance = pat.in_stance(phase, leg);
+            let swing_progress = pat.swing_progress(phase, leg);
             if self.was_stance[ci] && !stance || self.status.ticks == 1 {
                 self.liftoff[ci] = self.p_contact[ci];
             }
+            if self.was_stance[ci] != stance || self.status.ticks == 1 {
+                // A new phase (or the first tick): a stance has not touched down yet, a swing
+                // has not ended early.
+                self.touched[ci] = false;
+                self.early[ci] = false;
+            }
             self.was_stance[ci] = stance;
+            let measured = (self.measured_valid && self.cfg.touchdown_detection).then(|| self.measured[ci]);
+            let (contact, late) = match measured {
+                None => (stance, false),
+                Some(m) if stance => {
+                    self.touched[ci] |= m;
+                    (self.touched[ci], !self.touched[ci])
+                }
+                Some(m) => {
+                    self.early[ci] |= m && swing_progress.unwrap_or(0.0) > 0.5;
+                    (self.early[ci], false)
+                }
+            };
+            self.status.contact[ci] = contact;
             // Hip reference: nominal contact under the body, rotated by yaw.
             let nb = self.robot.nominal_contacts_body[ci];
             let mut hip = body + Vector3::new(c * nb.x - s * nb.y, s * nb.x + c * nb.y, 0.0);
@@ -551,11 +737,50 @@ impl LocomotionController {
                 fh.y = self.p_contact[ci].y;
             }
             self.foothold[ci] = fh;
-            self.targets[ci] = match pat.swing_progress(phase, leg) {
-                Some(sp) => {
-                    swing_curve(&self.liftoff[ci], &fh, self.cfg.swing_height, sp, pat.swing_duration(leg))
+            // Where the MPC expects the next stance: this swing's foothold, or for a leg in
+            // stance the one after its coming swing (hip carried forward to that touch-down,
+            // Raibert term at the commanded velocity).
+            self.next_foothold[ci] = if stance && !late {
+                let t_next = self.gait.stance_time_left(leg) + pat.swing_duration(leg);
+                let mut p = hip + self.v_cmd * (t_next + 0.5 * pat.stance_duration(leg));
+                p.z = self.p_contact[ci].z;
+                if self.cfg.mpc.planar {
+                    p.y = self.p_contact[ci].y;
                 }
-                None => PointTarget { p: self.p_contact[ci], v: Vector3::zeros(), a: Vector3::zeros() },
+                p
+            } else {
+                fh
+            };
+            self.targets[ci] = if contact {
+                // A planted foot, seen from a body that follows the reference: the IK of the
+                // joint PD targets then moves the body along the reference over its feet.
+                stance_target(
+                    &self.p_contact[ci],
+                    &self.com,
+                    &self.rot,
+                    &Vector3::new(self.p_ref.x, self.p_ref.y, height),
+                    self.yaw_ref,
+                    &self.v_cmd,
+                    self.yaw_rate_cmd,
+                )
+            } else if late {
+                // Keep reaching down for the ground at `touchdown_speed` (faster than a falling
+                // body), over the foothold.
+                PointTarget {
+                    p: Vector3::new(fh.x, fh.y, self.p_contact[ci].z),
+                    v: Vector3::new(0.0, 0.0, self.com_vel.z.min(0.0) - self.cfg.touchdown_speed),
+                    a: Vector3::zeros(),
+                }
+            } else {
+                let sp = swing_progress.unwrap_or(1.0);
+                let t_sw = pat.swing_duration(leg);
+                let mut tg = swing_curve(&self.liftoff[ci], &fh, self.cfg.swing_height, sp, t_sw);
+                if dt > 0.0 {
+                    let ahead =
+                        swing_curve(&self.liftoff[ci], &fh, self.cfg.swing_height, sp + dt / t_sw, t_sw);
+                    tg.a = (ahead.v - tg.v) / dt;
+                }
+                tg
             };
         }
     }
@@ -589,8 +814,8 @@ impl LocomotionController {
             let r = &mut inp.x_ref[k];
             r.fill(0.0);
             r[2] = if planar { 0.0 } else { self.yaw_ref + self.yaw_rate_cmd * tk };
-            r[3] = x0[3] + self.v_cmd.x * tk;
-            r[4] = x0[4] + self.v_cmd.y * tk;
+            r[3] = self.p_ref.x + self.v_cmd.x * tk;
+            r[4] = if planar { x0[4] } else { self.p_ref.y + self.v_cmd.y * tk };
             r[5] = height;
             r[8] = self.yaw_rate_cmd;
             r[9] = self.v_cmd.x;
@@ -600,12 +825,14 @@ impl LocomotionController {
         for k in 0..h {
             for ci in 0..nc {
                 let leg = self.robot.contact_leg[ci];
-                let on = self.schedule[k][leg];
+                // Now: the effective contact; later: the schedule.
+                let on_at = |j: usize| if j == 0 { self.status.contact[ci] } else { self.schedule[j][leg] };
+                let on = on_at(k);
                 inp.contact[k][ci] = on;
                 // Current position while the stance that holds now lasts; afterwards the
                 // planned foothold (shifted by the commanded motion for later stances).
-                let continuous = (0..=k).all(|j| self.schedule[j][leg]);
-                inp.foot[k][ci] = if continuous { self.p_contact[ci] } else { self.foothold[ci] };
+                let continuous = (0..=k).all(on_at);
+                inp.foot[k][ci] = if continuous { self.p_contact[ci] } else { self.next_foothold[ci] };
                 if planar {
                     inp.foot[k][ci].y = x0[4];
                 }
@@ -639,9 +866,7 @@ impl LocomotionController {
     fn current_forces(&mut self, t: f64) {
         let nc = self.robot.n_contacts();
         let h = self.cfg.mpc.horizon;
-        let pat = *self.gait.pattern();
-        let phase = self.gait.phase();
-        let n_stance = (0..nc).filter(|&c| pat.in_stance(phase, self.robot.contact_leg[c])).count();
+        let n_stance = self.status.contact.iter().filter(|c| **c).count();
         let weight = self.robot.mass * self.robot.model.gravity.z.abs();
         let k = (((t - self.plan_t) / self.cfg.mpc.dt).floor().max(0.0) as usize).min(h - 1);
         let use_plan = self.plan_valid && t - self.plan_t < h as f64 * self.cfg.mpc.dt;
@@ -652,8 +877,7 @@ impl LocomotionController {
             1.0
         };
         for c in 0..nc {
-            let stance = pat.in_stance(phase, self.robot.contact_leg[c]);
-            self.status.contact[c] = stance;
+            let stance = self.status.contact[c];
             let mut f = Vector3::zeros();
             if stance {
                 let planned = if use_plan { self.plan_forces[k * nc + c] } else { Vector3::zeros() };
@@ -668,6 +892,7 @@ impl LocomotionController {
                 };
             }
             self.forces_now[c] = f;
+            self.status.mpc_forces[c] = [f.x, f.y, f.z];
         }
     }
 
@@ -689,11 +914,16 @@ impl LocomotionController {
             let tg = &self.targets[c];
             let (kp, kd) = cfg.swing_gains;
             inp.a_swing[c] = tg.a + (tg.p - self.p_contact[c]) * kp + (tg.v - self.v_contact[c]) * kd;
+            inp.swing_free_direction[c] = free_direction(&self.j_contact[c], &self.robot.joint_v);
         }
         // Body task: MPC wrench feed-forward + PD.
         let body = self.data.o_m_f[self.robot.body_frame].translation;
         let _ = body;
-        let pos_err = Vector3::new(0.0, 0.0, height - self.com.z);
+        let pos_err = Vector3::new(
+            self.p_ref.x - self.com.x,
+            if cfg.mpc.planar { 0.0 } else { self.p_ref.y - self.com.y },
+            height - self.com.z,
+        );
         let vel_err =
             Vector3::new(self.v_cmd.x - self.com_vel.x, self.v_cmd.y - self.com_vel.y, -self.com_vel.z);
         let a_lin = f_sum / m
@@ -735,6 +965,15 @@ impl LocomotionController {
         for c in 0..nc {
             self.forces_now[c] = self.wbc.output.forces[c];
         }
+        let inp = &self.wbc.input;
+        for d in 0..6 {
+            let mut a = inp.jdqd_body[d];
+            for k in 0..self.robot.model.nv {
+                a += inp.j_body[(d, k)] * self.wbc.output.qdd[k];
+            }
+            self.status.body_acceleration_target[d] = inp.a_body[d];
+            self.status.body_acceleration_planned[d] = a;
+        }
         true
     }
 
@@ -756,6 +995,9 @@ impl LocomotionController {
                 let j = &self.j_contact[c];
                 self.tau_full[k] += j[(0, k)] * f.x + j[(1, k)] * f.y + j[(2, k)] * f.z;
             }
+        }
+        for &k in &self.robot.actuated_v {
+            self.tau_full[k] += self.robot.model.damping[k] * self.v[k];
         }
         // Gravity compensation of the legs is left to the stance forces; passive joints:
         // find λ with (τ + J_lᵀ λ)_passive ≈ 0.
@@ -851,7 +1093,16 @@ impl LocomotionController {
                     }
                 }
             }
-            let (kp, kd) = if swing { self.cfg.swing_joint_gains } else { self.cfg.stance_joint_gains };
+            // Standing, the whole-body QP alone holds the robot; the stance PD targets only
+            // carry a walking body over its feet.
+            let standing = self.gait.pattern().gait == Gait::Stand;
+            let (kp, kd) = if swing {
+                self.cfg.swing_joint_gains
+            } else if standing {
+                (0.0, 0.0)
+            } else {
+                self.cfg.stance_joint_gains
+            };
             self.command.kp[i] = kp;
             self.command.kd[i] = kd;
         }
@@ -868,13 +1119,68 @@ impl LocomotionController {
             s.forces[c] = [self.forces_now[c].x, self.forces_now[c].y, self.forces_now[c].z];
             let p = self.targets[c].p;
             s.foot_targets[c] = [p.x, p.y, p.z];
+            let p = self.p_contact[c];
+            s.foot_positions[c] = [p.x, p.y, p.z];
             let f = self.foothold[c];
             s.footholds[c] = [f.x, f.y, f.z];
         }
         s.com = [self.com.x, self.com.y, self.com.z];
+        s.position_reference = [self.p_ref.x, self.p_ref.y, 0.0];
         s.com_velocity = [self.com_vel.x, self.com_vel.y, self.com_vel.z];
         s.rpy = [self.rpy.x, self.rpy.y, self.rpy.z];
     }
+}
+
+/// The horizontal direction a two-dof leg cannot follow, from a contact's linear Jacobian
+/// `j` and the `v` indices of the non-base joints: with `M = Σⱼ jⱼ jⱼᵀ` over those
+/// columns, a rank-2 `M` (`λ_min < 10⁻⁶ λ_max`) has a null eigenvector `n`, the direction
+/// the foot cannot move in; its horizontal part (normalised, if `n` is mostly horizontal)
+/// is returned, otherwise zero. Ant legs give the radial direction, Minitaur and Walker2d
+/// legs the lateral one.
+pub fn free_direction(j: &Matrix3xX<f64>, joint_v: &[usize]) -> Vector3<f64> {
+    let mut m = Matrix3::zeros();
+    for &k in joint_v {
+        let col = Vector3::new(j[(0, k)], j[(1, k)], j[(2, k)]);
+        m += col * col.transpose();
+    }
+    let eig = m.symmetric_eigen();
+    let (mut i_min, mut i_max) = (0, 0);
+    for i in 1..3 {
+        if eig.eigenvalues[i] < eig.eigenvalues[i_min] {
+            i_min = i;
+        }
+        if eig.eigenvalues[i] > eig.eigenvalues[i_max] {
+            i_max = i;
+        }
+    }
+    // (False for NaN data, which then gives no free direction.)
+    let rank_two = eig.eigenvalues[i_min] < 1e-6 * eig.eigenvalues[i_max];
+    if !rank_two {
+        return Vector3::zeros();
+    }
+    let n = eig.eigenvectors.column(i_min);
+    let h = Vector3::new(n[0], n[1], 0.0);
+    if h.norm() < 0.5 { Vector3::zeros() } else { h.normalize() }
+}
+
+/// The target of a planted foot at `p` for the stance joint PD: where the foot should be
+/// relative to the current body if the body (CoM `c`, orientation `R`) were at its
+/// reference (CoM `c*`, upright with yaw `ψ*`), `p* = c + R R*ᵀ (p − c*)`, and its
+/// velocity relative to a body moving at the commanded `v*` and yaw rate `ψ̇*`,
+/// `ṗ* = −v* − ψ̇* ẑ × (p − c)`.
+pub fn stance_target(
+    p: &Vector3<f64>,
+    c: &Vector3<f64>,
+    rot: &Matrix3<f64>,
+    c_ref: &Vector3<f64>,
+    yaw_ref: f64,
+    v_cmd: &Vector3<f64>,
+    yaw_rate_cmd: f64,
+) -> PointTarget {
+    let r_ref = Rotation3::from_axis_angle(&Vector3::z_axis(), yaw_ref);
+    let target = c + rot * (r_ref.matrix().transpose() * (p - c_ref));
+    let v = -v_cmd - Vector3::new(0.0, 0.0, yaw_rate_cmd).cross(&(p - c));
+    PointTarget { p: target, v, a: Vector3::zeros() }
 }
 
 /// Wraps an angle to `(−π, π]`.

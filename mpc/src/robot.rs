@@ -10,13 +10,18 @@ use centaur_dynamics::{
 
 use crate::ConfigError;
 
-/// A contact point: a point rigidly attached to a model frame.
+/// A contact: a point rigidly attached to a model frame, or a sphere (a round foot, a
+/// capsule's end) whose contact point is its lowest point, `c − r e_z`, recomputed from the
+/// link's orientation every tick (flat ground). The contact constraints then act on the
+/// material point of the link that touches the ground.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ContactSpec {
     /// Frame (link) the point moves with.
     pub frame: String,
-    /// Position of the point in that frame (m).
+    /// Position of the point (or the sphere's centre) in that frame (m).
     pub offset: [f64; 3],
+    /// Sphere radius `r` (m); 0 for a point.
+    pub radius: f64,
     /// Gait leg the point belongs to (several points may share a leg, e.g. heel and toe).
     pub leg: usize,
 }
@@ -96,6 +101,10 @@ pub struct LeggedRobot {
     pub model: Model,
     /// Frame of each contact point.
     pub contact_frames: Vec<usize>,
+    /// Sphere radius of each contact (0 for points).
+    pub contact_radius: Vec<f64>,
+    /// Sphere centre of each contact in its parent joint's frame.
+    pub contact_centre: Vec<Vector3<f64>>,
     /// Gait leg of each contact point.
     pub contact_leg: Vec<usize>,
     /// Number of gait legs.
@@ -138,6 +147,8 @@ pub struct LeggedRobot {
     /// Contact positions relative to the body frame origin, in body axes, at the nominal
     /// pose (the "hip" references of the foothold planner).
     pub nominal_contacts_body: Vec<Vector3<f64>>,
+    /// Centre of mass relative to the body frame origin, in body axes, at the nominal pose.
+    pub nominal_com_body: Vector3<f64>,
 }
 
 impl LeggedRobot {
@@ -185,6 +196,8 @@ impl LeggedRobot {
         };
         let mut contact_frames = Vec::new();
         let mut contact_leg = Vec::new();
+        let mut contact_radius = Vec::new();
+        let mut contact_centre = Vec::new();
         for (k, c) in spec.contacts.iter().enumerate() {
             let f = frame(&model, &c.frame)?;
             if c.leg >= spec.n_legs {
@@ -200,8 +213,17 @@ impl LeggedRobot {
                 f,
                 Se3::from_translation(Vector3::new(o[0], o[1], o[2])),
             );
+            if !(c.radius.is_finite() && c.radius >= 0.0) {
+                return Err(ConfigError::OutOfRange {
+                    field: "robot.contacts.radius",
+                    value: c.radius,
+                    range: "finite, >= 0",
+                });
+            }
+            contact_centre.push(model.frames[id].placement.translation);
             contact_frames.push(id);
             contact_leg.push(c.leg);
+            contact_radius.push(c.radius);
         }
         for leg in 0..spec.n_legs {
             if !contact_leg.contains(&leg) {
@@ -261,6 +283,8 @@ impl LeggedRobot {
         }
         let mut data = Data::new(&model);
         forward_kinematics(&model, &mut data, q.as_slice());
+        set_sphere_contacts(&mut model, &data, &contact_frames, &contact_radius, &contact_centre);
+        update_frame_placements(&model, &mut data);
         let zmin = contact_frames
             .iter()
             .map(|&f| frame_placement(&model, &data, f).translation.z)
@@ -270,11 +294,13 @@ impl LeggedRobot {
             Some([_, iz, _]) => q[iz] -= zmin,
         }
         forward_kinematics(&model, &mut data, q.as_slice());
+        set_sphere_contacts(&mut model, &data, &contact_frames, &contact_radius, &contact_centre);
         update_frame_placements(&model, &mut data);
         let body = data.o_m_f[body_frame];
         let nominal_contacts_body =
             contact_frames.iter().map(|&f| body.act_inv_point(&data.o_m_f[f].translation)).collect();
         let com = center_of_mass(&model, &mut data, q.as_slice());
+        let nominal_com_body = body.act_inv_point(&com);
         let whole = data.o_ycrb[0].to_inertia();
         // Inertia about the CoM in world axes, rotated to body axes.
         let r = body.rotation;
@@ -282,6 +308,8 @@ impl LeggedRobot {
         let mass = model.total_mass();
         Ok(LeggedRobot {
             contact_frames,
+            contact_radius,
+            contact_centre,
             contact_leg,
             n_legs: spec.n_legs,
             body_frame,
@@ -301,9 +329,23 @@ impl LeggedRobot {
             nominal_com_height: com.z,
             nominal_body_height: body.translation.z,
             nominal_contacts_body,
+            nominal_com_body,
             q_nominal: q,
             model,
         })
+    }
+
+    /// Moves every sphere contact to the lowest point of its sphere for the joint
+    /// orientations in `data.o_m_i` (after forward kinematics; call
+    /// [`update_frame_placements`] afterwards).
+    pub fn update_sphere_contacts(&mut self, data: &Data) {
+        set_sphere_contacts(
+            &mut self.model,
+            data,
+            &self.contact_frames,
+            &self.contact_radius,
+            &self.contact_centre,
+        );
     }
 
     /// Number of contact points.
@@ -314,5 +356,23 @@ impl LeggedRobot {
     /// Number of actuated joints.
     pub fn n_actuated(&self) -> usize {
         self.actuated_v.len()
+    }
+}
+
+/// Contact frame placements in their joints: `c + R_iᵀ (0, 0, −r)` for spheres.
+fn set_sphere_contacts(
+    model: &mut Model,
+    data: &Data,
+    frames: &[usize],
+    radius: &[f64],
+    centre: &[Vector3<f64>],
+) {
+    for (k, &f) in frames.iter().enumerate() {
+        if radius[k] <= 0.0 {
+            continue;
+        }
+        let j = model.frames[f].parent_joint;
+        let down = data.o_m_i[j].rotation.transpose() * Vector3::new(0.0, 0.0, -radius[k]);
+        model.frames[f].placement.translation = centre[k] + down;
     }
 }

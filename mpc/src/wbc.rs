@@ -6,7 +6,8 @@
 //!
 //! ```text
 //! minimise  Σ_tasks w ‖A x − b‖² + ε ‖x‖²
-//!   tasks:  body        J_b q̈ + J̇_b q̇ = a_b,des              (6 rows, linear and angular weights)
+//!   tasks:  body        J_com q̈ + J̇_com q̇ = c̈_des            (CoM, 3 rows, linear weight)
+//!                       J_ω q̈ + J̇_ω q̇ = ω̇_des                (body frame, 3 rows, angular weight)
 //!           stance feet J_c q̈ + J̇_c q̇ = 0                    (soft, high weight)
 //!           swing feet  J_c q̈ + J̇_c q̇ = a_c,des
 //!           posture     q̈_j = k_p (q_nom − q) − k_d q̇          (non-base joints)
@@ -62,10 +63,19 @@ pub struct WbcConfig {
     pub w_body_linear: f64,
     /// Weight of the body angular-acceleration task (default: 10).
     pub w_body_angular: f64,
+    /// Relative weights of the rows of the body task: CoM x, y, z, body roll, pitch, yaw
+    /// accelerations (default: all 1). A robot whose stance legs lock some body motions
+    /// (the Ant's two-dof legs couple height, roll and pitch to forward motion) should
+    /// favour the rows that matter for travel.
+    pub body_axis_weights: [f64; 6],
     /// Weight of the stance no-slip task (default: 1000).
     pub w_stance: f64,
     /// Weight of the swing-foot task (default: 20).
     pub w_swing: f64,
+    /// Relative weights of the x, y, z rows of the swing-foot task (default: [1, 1, 1]; legs
+    /// with fewer than three dof, e.g. the Ant's, cannot follow a 3-D curve and should favour
+    /// the height).
+    pub swing_axis_weights: [f64; 3],
     /// Weight of the posture task (default: 0.05).
     pub w_posture: f64,
     /// Weight of tracking the MPC forces, per N² (default: 0.01).
@@ -90,7 +100,9 @@ impl Default for WbcConfig {
             w_body_linear: 10.0,
             w_body_angular: 10.0,
             w_stance: 1000.0,
+            body_axis_weights: [1.0; 6],
             w_swing: 20.0,
+            swing_axis_weights: [1.0; 3],
             w_posture: 0.05,
             w_force: 0.01,
             regularization: 1e-6,
@@ -112,6 +124,14 @@ impl WbcConfig {
             ("wbc.w_body_angular", self.w_body_angular, self.w_body_angular >= 0.0),
             ("wbc.w_stance", self.w_stance, self.w_stance >= 0.0),
             ("wbc.w_swing", self.w_swing, self.w_swing >= 0.0),
+            (
+                "wbc.body_axis_weights",
+                self.body_axis_weights.iter().fold(f64::INFINITY, |a, b| a.min(*b)),
+                self.body_axis_weights.iter().all(|w| *w >= 0.0 && w.is_finite()),
+            ),
+            ("wbc.swing_axis_weights", self.swing_axis_weights[0], self.swing_axis_weights[0] >= 0.0),
+            ("wbc.swing_axis_weights", self.swing_axis_weights[1], self.swing_axis_weights[1] >= 0.0),
+            ("wbc.swing_axis_weights", self.swing_axis_weights[2], self.swing_axis_weights[2] >= 0.0),
             ("wbc.w_posture", self.w_posture, self.w_posture >= 0.0),
             ("wbc.w_force", self.w_force, self.w_force >= 0.0),
             ("wbc.regularization", self.regularization, self.regularization > 0.0),
@@ -142,9 +162,10 @@ pub struct WbcInput {
     pub j_contact: Vec<Matrix3xX<f64>>,
     /// `J̇ q̇` of each contact point.
     pub jdqd_contact: Vec<Vector3<f64>>,
-    /// Body-frame Jacobian (LocalWorldAligned).
+    /// Body-task Jacobian: rows 0–2 the centre-of-mass Jacobian `J_com` (world axes), rows
+    /// 3–5 the angular rows of the body frame's Jacobian (LocalWorldAligned).
     pub j_body: Matrix6xX<f64>,
-    /// `J̇ q̇` of the body frame.
+    /// `J̇ q̇` of the body task: CoM acceleration and body angular acceleration at `q̈ = 0`.
     pub jdqd_body: Vector6<f64>,
     /// Loop-closure rows `dᵀ(J_a − J_b)`.
     pub j_closure: DMatrix<f64>,
@@ -158,6 +179,11 @@ pub struct WbcInput {
     pub a_body: Vector6<f64>,
     /// Desired acceleration of each swing contact.
     pub a_swing: Vec<Vector3<f64>>,
+    /// Direction each swing contact's horizontal task ignores (a unit vector, or zero for
+    /// none): legs with two dof move their foot on a surface and cannot follow a 3-D curve;
+    /// tracking height and the other horizontal direction exactly beats a least-squares
+    /// compromise in all three.
+    pub swing_free_direction: Vec<Vector3<f64>>,
     /// Desired acceleration of each non-base joint (order of `LeggedRobot::joint_v`).
     pub qdd_posture: Vec<f64>,
     /// Weight `m g` (for the normal-force limit).
@@ -257,6 +283,7 @@ impl WholeBodyQp {
             f_ref: vec![Vector3::zeros(); nc],
             a_body: Vector6::zeros(),
             a_swing: vec![Vector3::zeros(); nc],
+            swing_free_direction: vec![Vector3::zeros(); nc],
             qdd_posture: vec![0.0; robot.joint_v.len()],
             weight: robot.mass * 9.81,
         };
@@ -355,17 +382,30 @@ impl WholeBodyQp {
             for c in 0..nv {
                 row[c] = inp.j_body[(d, c)];
             }
-            let w = if d < 3 { cfg.w_body_linear } else { cfg.w_body_angular };
+            let w = if d < 3 { cfg.w_body_linear } else { cfg.w_body_angular } * cfg.body_axis_weights[d];
             add_row(qp, &row, inp.a_body[d] - inp.jdqd_body[d], w);
         }
         for c in 0..nc {
             let (target, w) =
                 if inp.stance[c] { (Vector3::zeros(), cfg.w_stance) } else { (inp.a_swing[c], cfg.w_swing) };
-            for d in 0..3 {
+            // Task directions: world x, y, z; a swing with a free direction `n` uses
+            // (ẑ × n, n, ẑ) and drops the n row.
+            let n = inp.swing_free_direction[c];
+            let dirs = if inp.stance[c] || n == Vector3::zeros() {
+                [Vector3::x(), Vector3::y(), Vector3::z()]
+            } else {
+                [Vector3::z().cross(&n), n, Vector3::z()]
+            };
+            for (d, e) in dirs.iter().enumerate() {
                 for k in 0..nv {
-                    row[k] = inp.j_contact[c][(d, k)];
+                    let jc = &inp.j_contact[c];
+                    row[k] = e.x * jc[(0, k)] + e.y * jc[(1, k)] + e.z * jc[(2, k)];
                 }
-                add_row(qp, &row, target[d] - inp.jdqd_contact[c][d], w);
+                let mut wd = if inp.stance[c] { w } else { w * cfg.swing_axis_weights[d] };
+                if !inp.stance[c] && n != Vector3::zeros() && d == 1 {
+                    wd = 0.0;
+                }
+                add_row(qp, &row, e.dot(&(target - inp.jdqd_contact[c])), wd);
             }
         }
         self.row_buf = row;
@@ -538,7 +578,8 @@ impl WholeBodyQp {
         }
         for k in 0..nv {
             for d in 0..6 {
-                inp.j_body[(d, k)] = if sup_b[k] { 1.0 } else { 0.0 };
+                // The CoM rows involve every dof; the angular rows the body frame's support.
+                inp.j_body[(d, k)] = if d < 3 || sup_b[k] { 1.0 } else { 0.0 };
             }
             for l in 0..self.nl {
                 inp.j_closure[(l, k)] = if sup_l[k] { 1.0 } else { 0.0 };
