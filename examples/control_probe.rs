@@ -164,10 +164,10 @@ fn main() {
         if (push_y != 0.0 || push_x != 0.0) && (t - push_at).abs() < 0.5 * dt {
             env.push(Vector3::new(push_x, push_y, 0.0), push_dur);
         }
-        let contacts = if use_contacts { mapping.contacts(env.as_ref()).map(|c| c.to_vec()) } else { None };
-        let cmd = match &contacts {
-            Some(c) => ctrl.tick_with_contacts(env.robot_state(), &command, t, c),
-            None => ctrl.tick(env.robot_state(), &command, t),
+        let cmd = if use_contacts {
+            mapping.tick(&mut ctrl, env.as_ref(), &command, t)
+        } else {
+            ctrl.tick(env.robot_state(), &command, t)
         };
         mapping.action(env.as_ref(), cmd, &mut action);
         if let Some((amp, lift, period, sign)) = cpg {
@@ -227,8 +227,11 @@ fn main() {
             let fz: Vec<String> =
                 st.forces.iter().map(|f| format!("{:.1}/{:.1}/{:.1}", f[0], f[1], f[2])).collect();
             let tmax = tau.iter().fold(0.0f64, |m, t| m.max(t.abs()));
-            let rfz: Vec<String> =
-                env.foot_contacts().iter().map(|c| format!("{:.1}/{:.1}", c.force.x, c.force.z)).collect();
+            let rfz: Vec<String> = env
+                .foot_contacts()
+                .iter()
+                .map(|c| format!("{:.1}/{:.1}/{:.1}", c.force.x, c.force.y, c.force.z))
+                .collect();
             let feet_x: Vec<String> = st
                 .foot_targets
                 .iter()

@@ -16,6 +16,8 @@ use centaur_envs::{LocomotionConfig, LocomotionEnv, MinitaurConfig, MinitaurEnv,
 use centaur_mpc::{Command, ConfigError, ControllerConfig, Gait, JointCommand, LocomotionController};
 use centaur_rl::EnvError;
 
+use crate::deploy::CommandTorques;
+
 /// Robot environments by name (the controllable ones and the pure-RL ones).
 pub const ROBOT_ENV_NAMES: &[&str] = &[
     "minitaur",
@@ -50,6 +52,14 @@ pub enum ControlError {
     /// A bad option.
     #[error("{0}")]
     Invalid(String),
+    /// Writing the summary failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file or directory.
+        path: std::path::PathBuf,
+        /// The error.
+        source: std::io::Error,
+    },
 }
 
 /// A robot environment by name; `max_episode_steps` overrides the default length.
@@ -98,70 +108,65 @@ pub fn controller_config(env_name: &str) -> Result<ControllerConfig, ControlErro
     ControllerConfig::preset(preset).ok_or_else(|| ControlError::NoController(env_name.to_string()))
 }
 
-/// Maps a controller's joint command to an environment's actions.
+/// Maps a controller's joint command to an environment's actions, and ticks the controller
+/// with the environment's measured foot contacts.
 #[derive(Clone, Debug)]
 pub struct ActionMapping {
-    /// For each actuated joint of the env (action order): index in the command.
-    cmd_index: Vec<usize>,
-    /// For each actuated joint: its `q` and `v` indices in the model.
-    qv: Vec<(usize, usize)>,
-    tau: Vec<f64>,
-    /// For each contact point of the controller: the env foot on the same link, if any.
-    contact_foot: Vec<Option<usize>>,
+    torques: CommandTorques,
     contacts: Vec<bool>,
 }
 
 impl ActionMapping {
     /// Matches the env's actuated joints with the controller's joints by name.
     pub fn new(env: &dyn RobotEnv, controller: &LocomotionController) -> Result<ActionMapping, ControlError> {
-        let model = env.model();
-        let names = controller.joint_names();
-        let mut cmd_index = Vec::new();
-        let mut qv = Vec::new();
-        for &j in env.actuated_joints() {
-            let name = &model.joints[j].name;
-            let k = names.iter().position(|n| n == name).ok_or_else(|| {
-                ControlError::Invalid(format!("the controller does not drive joint `{name}`"))
-            })?;
-            cmd_index.push(k);
-            qv.push((model.joints[j].idx_q, model.joints[j].idx_v));
-        }
-        let n = cmd_index.len();
-        let contact_foot: Vec<Option<usize>> = controller
-            .contact_frames()
-            .iter()
-            .map(|f| env.foot_frames().iter().position(|g| g == f))
-            .collect();
-        let contacts = vec![false; contact_foot.len()];
-        Ok(ActionMapping { cmd_index, qv, tau: vec![0.0; n], contact_foot, contacts })
+        let torques = CommandTorques::new(env.model(), env.actuated_joints(), controller)
+            .map_err(ControlError::Invalid)?;
+        Ok(ActionMapping { torques, contacts: vec![false; controller.contact_frames().len()] })
     }
 
-    /// The env's measured foot contacts for the controller's contact points (contact order,
-    /// matched by link name; heel and toe of one foot share its flag), or `None` if a contact
-    /// point has no foot in the env.
-    pub fn contacts(&mut self, env: &dyn RobotEnv) -> Option<&[bool]> {
-        let feet = env.foot_contacts();
-        for (c, foot) in self.contacts.iter_mut().zip(&self.contact_foot) {
-            *c = feet.get((*foot)?)?.in_contact;
+    /// One controller tick at the env's state and time `t`: with the env's measured foot
+    /// contacts when every contact point of the controller has a foot in the env
+    /// ([`measured_contacts`]), else on the gait schedule alone. Every runner — `centaur
+    /// control`, the hybrid env, the experiment's controller baseline and the deployed stack —
+    /// ticks the controller this way, so they all run the same controller.
+    pub fn tick<'c>(
+        &mut self,
+        controller: &'c mut LocomotionController,
+        env: &dyn RobotEnv,
+        command: &Command,
+        t: f64,
+    ) -> &'c JointCommand {
+        if measured_contacts(env, controller.contact_frames(), &mut self.contacts) {
+            controller.tick_with_contacts(env.robot_state(), command, t, &self.contacts)
+        } else {
+            controller.tick(env.robot_state(), command, t)
         }
-        Some(&self.contacts)
     }
 
     /// The joint torques of `cmd` at the env's current state (action order).
     pub fn torques(&mut self, env: &dyn RobotEnv, cmd: &JointCommand) -> &[f64] {
-        let s = env.robot_state();
-        for (k, (&c, &(iq, iv))) in self.cmd_index.iter().zip(&self.qv).enumerate() {
-            self.tau[k] =
-                cmd.tau[c] + cmd.kp[c] * (cmd.q_des[c] - s.q[iq]) + cmd.kd[c] * (cmd.qd_des[c] - s.v[iv]);
-        }
-        &self.tau
+        self.torques.torques(env.robot_state(), cmd)
     }
 
     /// The env action realising `cmd` at the env's current state.
     pub fn action(&mut self, env: &dyn RobotEnv, cmd: &JointCommand, out: &mut [f32]) {
-        self.torques(env, cmd);
-        env.action_for_torques(&self.tau, out);
+        let tau = self.torques.torques(env.robot_state(), cmd);
+        env.action_for_torques(tau, out);
     }
+}
+
+/// The env's measured ground contact of each controller contact point (`frames`, link names;
+/// heel and toe of one foot share its flag) into `out`. Returns `false`, leaving `out`
+/// unspecified, when a contact point has no foot in the env. Allocation-free.
+pub fn measured_contacts(env: &dyn RobotEnv, frames: &[String], out: &mut [bool]) -> bool {
+    let (names, feet) = (env.foot_frames(), env.foot_contacts());
+    for (flag, frame) in out.iter_mut().zip(frames) {
+        match names.iter().position(|n| n == frame).and_then(|i| feet.get(i)) {
+            Some(foot) => *flag = foot.in_contact,
+            None => return false,
+        }
+    }
+    true
 }
 
 /// A push during a control run: force (N, world frame) on the base from `at` for `duration` s.
@@ -178,18 +183,35 @@ pub struct Push {
 /// What to run.
 #[derive(Clone, Debug)]
 pub struct ControlOptions {
-    /// Environment name (see [`ROBOT_ENV_NAMES`]).
+    /// Environment name (see [`ROBOT_ENV_NAMES`]) (default: "minitaur").
     pub env: String,
-    /// Gait.
+    /// Gait (default: trot).
     pub gait: Gait,
-    /// Commanded forward speed (m/s).
+    /// Commanded forward speed (m/s) (default: 0.3).
     pub speed: f64,
-    /// Duration (s).
+    /// Duration (s) (default: 10).
     pub seconds: f64,
-    /// Reset seed.
+    /// Reset seed (default: 0).
     pub seed: u64,
-    /// Optional push.
+    /// Optional push (default: none).
     pub push: Option<Push>,
+    /// Time (s) from which distance, mean speed, lateral and yaw drift are measured, e.g.
+    /// after the Ant, which Gymnasium drops from 0.75 m, has landed (default: 0).
+    pub measure_from: f64,
+}
+
+impl Default for ControlOptions {
+    fn default() -> Self {
+        ControlOptions {
+            env: "minitaur".into(),
+            gait: Gait::Trot,
+            speed: 0.3,
+            seconds: 10.0,
+            seed: 0,
+            push: None,
+            measure_from: 0.0,
+        }
+    }
 }
 
 /// The summary of a control run (`summary.json` of `centaur control`).
@@ -223,8 +245,27 @@ pub struct ControlSummary {
     pub qp_failures: u64,
     /// Simulated seconds actually run.
     pub seconds: f64,
+    /// Time from which distance, speed and drifts are measured (s).
+    pub measured_from: f64,
+    /// Largest |roll| or |pitch| of the body over the run (rad).
+    pub max_tilt: f64,
+    /// The push, if any: force (N, world) and its start and duration (s).
+    pub push: Option<PushSummary>,
     /// Environment return accumulated over the run.
     pub env_return: f64,
+}
+
+/// The push of a run, as recorded in the summary.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct PushSummary {
+    /// Force (N, world frame).
+    pub force: [f64; 3],
+    /// Start (s).
+    pub at: f64,
+    /// Duration (s).
+    pub duration: f64,
+    /// Impulse `|F| Δt` (N·s).
+    pub impulse: f64,
 }
 
 fn yaw_of(q: &[f64]) -> f64 {
@@ -253,11 +294,20 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     drop(probe);
     let mut env = make_robot_env(&opts.env, Some(steps + 1))?;
     let mut ctrl = LocomotionController::new(env.model(), controller_config(&opts.env)?)?;
+    let n_legs = ctrl.robot().n_legs;
+    if !opts.gait.supported(n_legs) {
+        return Err(ControlError::Invalid(format!(
+            "the gait `{}` is not defined for a robot with {n_legs} legs",
+            opts.gait.name()
+        )));
+    }
     let mut mapping = ActionMapping::new(env.as_ref(), &ctrl)?;
     let mut obs = vec![0.0f32; env.observation_space().dim()];
     let mut action = vec![0.0f32; env.action_space().dim()];
     env.reset(Some(opts.seed), &mut obs)?;
-    let (x0, y0, yaw0) = planar_pose(env.as_ref());
+    let (mut x0, mut y0, mut yaw0) = planar_pose(env.as_ref());
+    let mut t0 = 0.0;
+    let mut max_tilt = 0.0f64;
     let command = Command::forward(opts.speed, opts.gait);
     let mut ticks = Vec::with_capacity(steps);
     let (mut mpc_us, mut mpc_n, mut wbc_us, mut wbc_n) = (0.0, 0usize, 0.0, 0usize);
@@ -265,19 +315,21 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     let mut ret = 0.0;
     let mut t = 0.0;
     for k in 0..steps {
+        if opts.measure_from > 0.0 && t0 == 0.0 && t >= opts.measure_from - 1e-9 {
+            (x0, y0, yaw0) = planar_pose(env.as_ref());
+            t0 = t;
+        }
         if let Some(p) = opts.push
             && (t - p.at).abs() < 0.5 * env.dt()
         {
             env.push(Vector3::from(p.force), p.duration);
         }
         let start = Instant::now();
-        let cmd = match mapping.contacts(env.as_ref()) {
-            Some(contacts) => ctrl.tick_with_contacts(env.robot_state(), &command, t, contacts),
-            None => ctrl.tick(env.robot_state(), &command, t),
-        };
+        let cmd = mapping.tick(&mut ctrl, env.as_ref(), &command, t);
         ticks.push(start.elapsed().as_secs_f64() * 1e6);
         mapping.action(env.as_ref(), cmd, &mut action);
         let status = ctrl.status();
+        max_tilt = max_tilt.max(status.rpy[0].abs()).max(status.rpy[1].abs());
         if status.mpc_ran {
             mpc_us += status.mpc_solve_us;
             mpc_n += 1;
@@ -306,7 +358,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         env: opts.env.clone(),
         gait: opts.gait.name().to_string(),
         commanded_speed: opts.speed,
-        mean_speed: if t > 0.0 { distance / t } else { 0.0 },
+        mean_speed: if t > t0 { distance / (t - t0) } else { 0.0 },
         distance,
         fell,
         yaw_drift: centaur_mpc::controller::wrap_pi(yaw1 - yaw0).abs(),
@@ -317,8 +369,32 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         mean_wbc_solve_us: wbc_us / wbc_n.max(1) as f64,
         qp_failures: status.mpc_failures + status.wbc_failures,
         seconds: t,
+        measured_from: t0,
+        max_tilt,
+        push: opts.push.map(|p| PushSummary {
+            force: p.force,
+            at: p.at,
+            duration: p.duration,
+            impulse: Vector3::from(p.force).norm() * p.duration,
+        }),
         env_return: ret,
     })
+}
+
+/// Writes `summary` as `dir/summary.json` (pretty-printed), creating `dir`.
+pub fn write_summary(
+    dir: &std::path::Path,
+    summary: &ControlSummary,
+) -> Result<std::path::PathBuf, ControlError> {
+    let io = |path: &std::path::Path| {
+        let path = path.to_path_buf();
+        move |source| ControlError::Io { path, source }
+    };
+    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    let path = dir.join("summary.json");
+    let json = serde_json::to_string_pretty(summary).expect("a summary of numbers and strings serialises");
+    std::fs::write(&path, json + "\n").map_err(io(&path))?;
+    Ok(path)
 }
 
 /// Parses a gait name.

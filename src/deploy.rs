@@ -16,6 +16,7 @@ use centaur_envs::RobotEnv;
 use centaur_mpc::{Command, ConfigError, ControllerConfig, JointCommand, LocomotionController};
 use centaur_rl::{BoxSpace, Policy};
 
+use crate::control::measured_contacts;
 use crate::residual::{ResidualConfig, write_residual_observation};
 
 /// What a robot (or its simulation) provides to the locomotion stack.
@@ -36,6 +37,13 @@ pub trait RobotInterface {
     fn command_for_torques(&self, tau: &[f64], out: &mut [f32]);
     /// Time since start (s).
     fn time(&self) -> f64;
+    /// Measured ground contact of each of the controller's contact points (`frames`, link
+    /// names) into `out`; `false` when the robot cannot sense them, and the controller then
+    /// follows its gait schedule alone. The default senses nothing.
+    fn contacts(&self, frames: &[String], out: &mut [bool]) -> bool {
+        let _ = (frames, out);
+        false
+    }
 }
 
 /// Every robot environment is a robot interface (its observation is the sensor vector).
@@ -70,6 +78,9 @@ impl RobotInterface for Simulated<'_> {
     }
     fn time(&self) -> f64 {
         self.env.episode_time()
+    }
+    fn contacts(&self, frames: &[String], out: &mut [bool]) -> bool {
+        measured_contacts(self.env, frames, out)
     }
 }
 
@@ -121,6 +132,7 @@ pub struct HybridStack {
     reference: Vec<f32>,
     residual: Vec<f32>,
     command: Vec<f32>,
+    contacts: Vec<bool>,
 }
 
 impl HybridStack {
@@ -148,7 +160,6 @@ impl HybridStack {
         }
         let scale = (0..m).map(|k| *config.scale.get(k).unwrap_or(&config.scale[0]) as f32).collect();
         Ok(HybridStack {
-            controller,
             torques,
             policy,
             config,
@@ -158,6 +169,8 @@ impl HybridStack {
             reference: vec![0.0; m],
             residual: vec![0.0; m],
             command: vec![0.0; m],
+            contacts: vec![false; controller.contact_frames().len()],
+            controller,
         })
     }
 
@@ -178,7 +191,16 @@ impl HybridStack {
 
     /// One control period: reads the robot, returns the actuator command.
     pub fn tick(&mut self, robot: &dyn RobotInterface) -> &[f32] {
-        let cmd = self.controller.tick(robot.state(), &self.config.command, robot.time());
+        let cmd = if robot.contacts(self.controller.contact_frames(), &mut self.contacts) {
+            self.controller.tick_with_contacts(
+                robot.state(),
+                &self.config.command,
+                robot.time(),
+                &self.contacts,
+            )
+        } else {
+            self.controller.tick(robot.state(), &self.config.command, robot.time())
+        };
         let tau = self.torques.torques(robot.state(), cmd);
         robot.command_for_torques(tau, &mut self.reference);
         match self.policy.as_mut() {

@@ -157,7 +157,7 @@ impl Driver {
         let step = match self {
             Driver::Controller { env, controller, mapping, command } => {
                 let t = env.episode_time();
-                let cmd = controller.tick(env.robot_state(), command, t);
+                let cmd = mapping.tick(controller, env.as_ref(), command, t);
                 mapping.action(env.as_ref(), cmd, action);
                 rec.reference.clone_from_slice(action);
                 rec.applied.clone_from_slice(action);

@@ -177,7 +177,7 @@ impl ResidualEnv {
     /// Ticks the controller on the current state and stores the next reference action.
     fn update_reference(&mut self) {
         let t = self.env.episode_time();
-        let cmd = self.controller.tick(self.env.robot_state(), &self.config.command, t);
+        let cmd = self.mapping.tick(&mut self.controller, self.env.as_ref(), &self.config.command, t);
         self.mapping.action(self.env.as_ref(), cmd, &mut self.reference);
     }
 

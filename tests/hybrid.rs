@@ -17,7 +17,7 @@ fn controller_alone(env_name: &str, command: Command, steps: usize) -> Vec<u64> 
     let mut trace: Vec<u64> = obs.iter().map(|x| x.to_bits() as u64).collect();
     for _ in 0..steps {
         let t = env.episode_time();
-        let cmd = ctrl.tick(env.robot_state(), &command, t);
+        let cmd = mapping.tick(&mut ctrl, env.as_ref(), &command, t);
         mapping.action(env.as_ref(), cmd, &mut action);
         let s = env.step(&action, &mut obs).unwrap();
         trace.extend(obs.iter().map(|x| x.to_bits() as u64));

@@ -65,7 +65,14 @@ pub fn crba<'a>(model: &Model, data: &'a mut Data, q: &[f64]) -> &'a DMatrix<f64
         let s: &[f64; 6] = jac[6 * c..6 * c + 6].try_into().expect("6 rows");
         let f = acc[model.joint_of_dof(c)]
             .mul_motion(&Motion::new(Vector3::new(s[0], s[1], s[2]), Vector3::new(s[3], s[4], s[5])));
-        fcrb[6 * c..6 * c + 6].copy_from_slice(&[f.linear.x, f.linear.y, f.linear.z, f.angular.x, f.angular.y, f.angular.z]);
+        fcrb[6 * c..6 * c + 6].copy_from_slice(&[
+            f.linear.x,
+            f.linear.y,
+            f.linear.z,
+            f.angular.x,
+            f.angular.y,
+            f.angular.z,
+        ]);
     }
     // Row r against the contiguous columns of its subtree (Pinocchio's layout):
     // M[r, c] = ⁰S_r · F_c for c in r..r + nv_subtree(r).

@@ -265,7 +265,8 @@ impl LocomotionConfig {
                 "LocomotionConfig: frame_skip and max_episode_steps must be positive".into(),
             ));
         }
-        if !(self.reset_noise_scale >= 0.0)
+        if self.reset_noise_scale.is_nan()
+            || self.reset_noise_scale < 0.0
             || !self.forward_reward_weight.is_finite()
             || !self.ctrl_cost_weight.is_finite()
         {
@@ -384,7 +385,7 @@ impl LocomotionEnv {
         assert!(qpos.len() == self.robot.nq && qvel.len() == self.robot.nv, "qpos/qvel sizes");
         self.qpos.copy_from_slice(qpos);
         self.qvel.copy_from_slice(qvel);
-        self.robot.from_mujoco(qpos, qvel, &mut self.state);
+        self.robot.state_from_mujoco(qpos, qvel, &mut self.state);
         self.sim.set_state(&self.state);
         self.needs_reset = false;
     }

@@ -408,7 +408,11 @@ impl MinitaurConfig {
         if self.action_repeat == 0 || self.max_episode_steps == 0 {
             return bad("action_repeat and max_episode_steps must be positive");
         }
-        if !(self.latency >= 0.0 && self.latency.is_finite()) || !(self.observation_noise_std >= 0.0) {
+        let non_negative = |x: f64| x.is_finite() && x >= 0.0;
+        if !non_negative(self.latency)
+            || self.observation_noise_std.is_nan()
+            || self.observation_noise_std < 0.0
+        {
             return bad("latency and observation_noise_std must be finite and non-negative");
         }
         for w in [self.distance_weight, self.energy_weight, self.drift_weight, self.shake_weight] {

@@ -201,7 +201,7 @@ impl MjRobot {
     }
 
     /// The state of MuJoCo `qpos`, `qvel` (free-joint quaternion normalised, as MuJoCo does).
-    pub fn from_mujoco(&self, qpos: &[f64], qvel: &[f64], s: &mut RobotState) {
+    pub fn state_from_mujoco(&self, qpos: &[f64], qvel: &[f64], s: &mut RobotState) {
         let (mut p, mut v) = (0, 0);
         for (k, j) in self.sidecar.joints.iter().enumerate() {
             if j.kind == "free" {
@@ -261,7 +261,7 @@ impl MjRobot {
             let n = if normal_velocity { b * rng.normal() } else { rng.range(-b, b) };
             *x = self.sidecar.init_qvel[k] + n;
         }
-        self.from_mujoco(qpos, qvel, s);
+        self.state_from_mujoco(qpos, qvel, s);
         if self.free {
             // Report the normalised quaternion back in qpos, as MuJoCo's state would.
             let q = &s.q;

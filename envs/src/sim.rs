@@ -656,10 +656,10 @@ impl Sim {
                 }
             }
         }
-        if let Some((j, f)) = self.external {
-            if let Some(body) = self.bodies_of_joint[j] {
-                self.bodies[body].add_force(v3(&f), false);
-            }
+        if let Some((j, f)) = self.external
+            && let Some(body) = self.bodies_of_joint[j]
+        {
+            self.bodies[body].add_force(v3(&f), false);
         }
         self.pipeline.step(
             self.gravity,

@@ -50,7 +50,9 @@ fn random_actions_give_returns_and_lengths_in_the_references_range() {
     // (−278 / 1000), Humanoid 90 / 19 (118 / 25). Random-action statistics over 10
     // episodes vary that much between seeds in the references themselves; the bounds below
     // hold both reference runs with that margin.
-    let bounds: [(&str, (f64, f64), (f64, f64)); 6] = [
+    // (env, mean return range, mean length range)
+    type Range = (f64, f64);
+    let bounds: [(&str, Range, Range); 6] = [
         ("minitaur", (-3.0, 0.0), (450.0, 1000.0)),
         ("ant", (-250.0, 0.0), (60.0, 600.0)),
         ("walker2d", (-5.0, 25.0), (10.0, 60.0)),

@@ -20,6 +20,10 @@ use crate::robot::LeggedRobot;
 use crate::swing::{PointTarget, raibert_foothold, swing_curve};
 use crate::wbc::WholeBodyQp;
 
+/// Height (m) below which an unmeasured contact point counts as touching the ground plane
+/// z = 0 when the controller decides whether a robot that started in the air has landed.
+pub const LANDING_HEIGHT: f64 = 0.03;
+
 /// The command for the actuated joints, in [`LocomotionController::joint_names`] order
 /// (model order). The torque to apply is `tau + kp (q_des − q) + kd (qd_des − q̇)`.
 #[derive(Clone, Debug, PartialEq)]
@@ -465,15 +469,17 @@ impl LocomotionController {
             self.yaw_ref = self.rpy.z;
             self.p_ref = Vector3::new(self.com.x, self.com.y, 0.0);
         }
-        // With measured contacts, a robot that starts in the air (or was lifted) stands until
-        // every contact point has touched the ground once.
-        if self.measured_valid && !self.landed {
-            for (seen, m) in self.ever_touched.iter_mut().zip(&self.measured) {
-                *seen |= *m;
+        // A robot that starts in the air stands until every contact point has touched the
+        // ground once: measured contacts, or without them a contact point within
+        // `LANDING_HEIGHT` of the ground plane z = 0.
+        if !self.landed {
+            for (c, seen) in self.ever_touched.iter_mut().enumerate() {
+                *seen |=
+                    if self.measured_valid { self.measured[c] } else { self.p_contact[c].z < LANDING_HEIGHT };
             }
             self.landed = self.ever_touched.iter().all(|s| *s);
         }
-        let airborne = self.measured_valid && !self.landed;
+        let airborne = !self.landed;
         if airborne {
             // Nothing to hold the body to until it lands: references follow the state.
             self.p_ref = Vector3::new(self.com.x, self.com.y, 0.0);

@@ -76,7 +76,6 @@ pub mod controller;
 pub mod convex_mpc;
 pub mod friction;
 pub mod gait;
-pub mod minitaur;
 pub mod qp;
 pub mod robot;
 pub mod swing;

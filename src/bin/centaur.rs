@@ -1,12 +1,15 @@
-//! The `centaur` command line: `centaur train --env pendulum --algo sac --steps 20000 --seed 0 --out runs/sac`.
+//! The `centaur` command line: `centaur train --env pendulum --algo sac --steps 20000 --seed 0 --out runs/sac`;
+//! `centaur control --env minitaur --gait trot --speed 0.3 --seconds 10 --out runs/ctrl`.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use centaur::control::{ControlOptions, Push, parse_gait, run_control, write_summary};
 use centaur::registry::ENV_NAMES;
 use centaur::train::{TrainOptions, train};
+use centaur_mpc::Gait;
 use centaur_rl::AlgoKind;
-use clap::{Parser, Subcommand};
+use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
 #[derive(Parser)]
@@ -53,6 +56,91 @@ enum Command {
         #[arg(long, default_value_t = 10)]
         eval_episodes: usize,
     },
+    /// Run the model-based controller (convex MPC + whole-body QP) alone on a robot
+    /// environment; writes summary.json into --out.
+    Control(ControlArgs),
+}
+
+/// Arguments of `centaur control`.
+#[derive(Args)]
+struct ControlArgs {
+    /// Robot environment: minitaur, minitaur-deterministic, minitaur-fast, ant, walker2d or
+    /// humanoid.
+    #[arg(long)]
+    env: String,
+    /// Gait: stand, walk, trot, pace, bound, pronk or gallop (bipeds: stand or walk).
+    #[arg(long, value_parser = parse_gait_arg, default_value = "trot")]
+    gait: Gait,
+    /// Commanded forward speed (m/s).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    speed: f64,
+    /// Simulated seconds.
+    #[arg(long, default_value_t = 10.0)]
+    seconds: f64,
+    /// Reset seed.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Output directory.
+    #[arg(long)]
+    out: PathBuf,
+    /// Lateral push on the body (N, world +y; negative pushes to the right).
+    #[arg(long, allow_negative_numbers = true)]
+    push_force: Option<f64>,
+    /// Start of the push (s).
+    #[arg(long, default_value_t = 3.0)]
+    push_at: f64,
+    /// Duration of the push (s).
+    #[arg(long, default_value_t = 0.1)]
+    push_duration: f64,
+    /// Measure distance, speed and drifts from this time (s), e.g. after a landing.
+    #[arg(long, default_value_t = 0.0)]
+    measure_from: f64,
+}
+
+fn parse_gait_arg(s: &str) -> Result<Gait, String> {
+    parse_gait(s).map_err(|e| e.to_string())
+}
+
+/// `centaur control`: one closed-loop run, its summary printed and written.
+fn control(args: ControlArgs) -> ExitCode {
+    let opts = ControlOptions {
+        env: args.env,
+        gait: args.gait,
+        speed: args.speed,
+        seconds: args.seconds,
+        seed: args.seed,
+        push: args.push_force.map(|f| Push {
+            at: args.push_at,
+            force: [0.0, f, 0.0],
+            duration: args.push_duration,
+        }),
+        measure_from: args.measure_from,
+    };
+    let result = run_control(&opts).and_then(|s| write_summary(&args.out, &s).map(|path| (s, path)));
+    match result {
+        Ok((s, path)) => {
+            println!(
+                "{} {} at {} m/s for {:.1} s: mean speed {:.3} m/s, {}, yaw drift {:.3} rad, tick {:.0} µs mean / {:.0} µs p99 (MPC {:.0} µs, WBC {:.0} µs); wrote {}",
+                s.env,
+                s.gait,
+                s.commanded_speed,
+                s.seconds,
+                s.mean_speed,
+                if s.fell { "fell" } else { "did not fall" },
+                s.yaw_drift,
+                s.mean_tick_us,
+                s.p99_tick_us,
+                s.mean_mpc_solve_us,
+                s.mean_wbc_solve_us,
+                path.display()
+            );
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
 }
 
 fn parse_algo(s: &str) -> Result<AlgoKind, String> {
@@ -62,8 +150,12 @@ fn parse_algo(s: &str) -> Result<AlgoKind, String> {
 }
 
 fn main() -> ExitCode {
-    let Command::Train { env, algo, steps, seed, out, config, threads, envs, eval_episodes } =
-        Cli::parse().command;
+    let (env, algo, steps, seed, out, config, threads, envs, eval_episodes) = match Cli::parse().command {
+        Command::Train { env, algo, steps, seed, out, config, threads, envs, eval_episodes } => {
+            (env, algo, steps, seed, out, config, threads, envs, eval_episodes)
+        }
+        Command::Control(args) => return control(args),
+    };
     let opts = TrainOptions { env, algo, steps, seed, out, config, threads, n_envs: envs, eval_episodes };
     let bar = ProgressBar::new(steps);
     bar.set_style(
