@@ -13,25 +13,11 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use centaur::experiment::{ExperimentOptions, Phase, run_experiment};
+use centaur::experiment::{ExperimentOptions, Phase, run_experiment, tuned_config};
 use centaur::residual::ResidualConfig;
 use centaur_mpc::{Command, Gait};
 use centaur_rl::AlgoKind;
 use indicatif::{ProgressBar, ProgressStyle};
-
-/// PPO for the Minitaur: RL Zoo's MinitaurBulletEnv-v0 settings (normalised observations
-/// and rewards, n_steps 2048 per env, 10 epochs, learning rate 2.5e-4, clip 0.2,
-/// λ 0.95, γ 0.99), with 4 environments and minibatches of 512.
-const PPO_CONFIG: &str = r#"
-n_steps = 2048
-batch_size = 512
-n_epochs = 10
-learning_rate = 2.5e-4
-clip_coef = 0.2
-gae_lambda = 0.95
-gamma = 0.99
-ent_coef = 0.0
-"#;
 
 fn arg<T: std::str::FromStr>(args: &[String], name: &str) -> Option<T> {
     args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|s| s.parse().ok())
@@ -50,12 +36,12 @@ fn main() {
         residual.command = Command::forward(v, Gait::Trot);
     }
     let opts = ExperimentOptions {
-        env,
+        env: env.clone(),
         algo: AlgoKind::Ppo,
-        steps: arg(&args, "--steps").unwrap_or(600_000),
+        steps: arg(&args, "--steps").unwrap_or(300_000),
         seed: arg(&args, "--seed").unwrap_or(0),
         out: arg::<PathBuf>(&args, "--out").unwrap_or_else(|| PathBuf::from("runs/residual_ppo_minitaur")),
-        algo_config: Some(PPO_CONFIG.to_string()),
+        algo_config: tuned_config(&env, AlgoKind::Ppo).map(str::to_string),
         n_envs: arg(&args, "--envs").unwrap_or(4),
         threads,
         eval_episodes: arg(&args, "--eval-episodes").unwrap_or(10),

@@ -10,7 +10,7 @@
 
 use std::path::PathBuf;
 
-use centaur::experiment::{ExperimentOptions, Phase, run_experiment};
+use centaur::experiment::{ExperimentOptions, OFF_POLICY_LOCOMOTION_CONFIG, Phase, run_experiment};
 use centaur::residual::ResidualConfig;
 use centaur_rl::AlgoKind;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -29,7 +29,7 @@ fn main() {
         seed: arg(&args, "--seed").unwrap_or(0),
         out: arg::<PathBuf>(&args, "--out").unwrap_or_else(|| PathBuf::from("runs/residual_sac_walker2d")),
         // Stable-Baselines3's defaults, with a 5000-step random warm-up.
-        algo_config: Some("learning_starts = 5000\n".to_string()),
+        algo_config: Some(OFF_POLICY_LOCOMOTION_CONFIG.to_string()),
         n_envs: 1,
         threads: 1,
         eval_episodes: arg(&args, "--eval-episodes").unwrap_or(10),

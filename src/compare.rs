@@ -86,6 +86,27 @@ pub struct CompareSummary {
     pub controller: Aggregate,
 }
 
+impl CompareSummary {
+    /// The across-seed table in Markdown: return (mean ± std over seeds), forward speed,
+    /// falls over all evaluation episodes and cost of transport of the three agents.
+    pub fn markdown_table(&self) -> String {
+        let row = |name: &str, a: &Aggregate| {
+            let cot = a.cost_of_transport.map_or("—".to_string(), |c| format!("{c:.2}"));
+            format!(
+                "| {name} | {:.2} ± {:.2} | {:.3} ± {:.3} | {}/{} | {cot} |\n",
+                a.return_mean, a.return_std, a.mean_speed, a.mean_speed_std, a.falls, a.episodes
+            )
+        };
+        let mut t = String::from(
+            "| agent | return (mean ± std over seeds) | forward speed (m/s) | falls | cost of transport |\n|---|---:|---:|---:|---:|\n",
+        );
+        t += &row("hybrid (residual RL on the controller)", &self.hybrid);
+        t += &row("pure RL", &self.pure_rl);
+        t += &row("controller alone", &self.controller);
+        t
+    }
+}
+
 fn mean_std(xs: &[f64]) -> (f64, f64) {
     let n = xs.len().max(1) as f64;
     let m = xs.iter().sum::<f64>() / n;

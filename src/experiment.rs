@@ -361,6 +361,37 @@ impl ExperimentSummary {
     }
 }
 
+/// PPO for the Minitaur: RL Zoo's `MinitaurBulletEnv-v0` settings (normalised observations
+/// and rewards, n_steps 2048 per env, 10 epochs, learning rate 2.5e-4, clip 0.2, λ 0.95,
+/// γ 0.99), with minibatches of 512.
+pub const MINITAUR_PPO_CONFIG: &str = "n_steps = 2048
+batch_size = 512
+n_epochs = 10
+learning_rate = 2.5e-4
+clip_coef = 0.2
+gae_lambda = 0.95
+gamma = 0.99
+ent_coef = 0.0
+";
+
+/// Off-policy learners on the locomotion robots start learning after 5,000 steps.
+pub const OFF_POLICY_LOCOMOTION_CONFIG: &str = "learning_starts = 5000\n";
+
+/// The hyperparameters the examples and `centaur compare` use for `algo` on `env` when the
+/// user gives none: [`MINITAUR_PPO_CONFIG`] for PPO on the Minitaur,
+/// [`OFF_POLICY_LOCOMOTION_CONFIG`] for SAC, TD3 and DDPG on the other robots, else the
+/// algorithm's defaults (`None`).
+pub fn tuned_config(env: &str, algo: AlgoKind) -> Option<&'static str> {
+    let minitaur = env.starts_with("minitaur");
+    match algo {
+        AlgoKind::Ppo if minitaur => Some(MINITAUR_PPO_CONFIG),
+        AlgoKind::Sac | AlgoKind::SacV1 | AlgoKind::Td3 | AlgoKind::Ddpg if !minitaur => {
+            Some(OFF_POLICY_LOCOMOTION_CONFIG)
+        }
+        _ => None,
+    }
+}
+
 /// Training curve of one agent: `(env steps, mean training episode return)` per update.
 pub type Curve = Vec<(u64, f64)>;
 

@@ -1,5 +1,5 @@
 //! `centaur train` end to end on the Pendulum: every artefact written, the summary
-//! consistent with the checkpoint, bad config keys named.
+//! consistent with the checkpoint, bad config keys named; `centaur compare` over two seeds.
 
 use std::path::PathBuf;
 
@@ -92,4 +92,49 @@ fn unknown_config_keys_and_bad_values_are_named() {
     assert!(e.to_string().contains("gamma"), "{e}");
     let bad_env = TrainOptions { env: "cartpole".into(), config: None, ..opts };
     assert!(matches!(train(&bad_env, &mut |_| {}), Err(TrainError::Registry(_))));
+}
+
+#[test]
+fn compare_writes_the_across_seed_summary_and_every_seed_run() {
+    let out = out_dir("compare");
+    let config = out_dir("compare.toml");
+    std::fs::write(&config, "n_steps = 64\nbatch_size = 64\nn_epochs = 2\n").unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["compare", "--env", "minitaur", "--algo", "ppo", "--seeds", "2", "--steps", "512"])
+        .args(["--eval-episodes", "1", "--config"])
+        .arg(&config)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("| hybrid (residual RL on the controller) |"), "{stdout}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("compare.json")).unwrap()).unwrap();
+    assert_eq!((json["env"].as_str(), json["seeds"].as_u64()), (Some("minitaur"), Some(2)));
+    for agent in ["hybrid", "pure_rl", "controller"] {
+        let per_seed = json[agent]["per_seed"].as_array().unwrap();
+        assert_eq!(per_seed.len(), 2, "{agent}");
+        let returns: Vec<f64> = per_seed.iter().map(|s| s["return_mean"].as_f64().unwrap()).collect();
+        let mean = json[agent]["return_mean"].as_f64().unwrap();
+        assert!((mean - (returns[0] + returns[1]) / 2.0).abs() < 1e-9, "{agent}: {mean} vs {returns:?}");
+    }
+    for seed in ["seed_0", "seed_1"] {
+        assert!(out.join(seed).join("summary.json").is_file(), "{seed}");
+        assert!(out.join(seed).join("hybrid").join("checkpoint").exists(), "{seed}");
+    }
+    // MCAP recordings for the first seed only.
+    assert!(out.join("seed_0").join("hybrid.mcap").is_file());
+    assert!(!out.join("seed_1").join("hybrid.mcap").exists());
+    std::fs::remove_dir_all(&out).unwrap();
+
+    // A robot without a controller is refused with its name.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["compare", "--env", "pendulum", "--algo", "ppo", "--steps", "64", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("pendulum"));
 }

@@ -1,11 +1,15 @@
 //! The `centaur` command line: `centaur train --env pendulum --algo sac --steps 20000 --seed 0 --out runs/sac`;
-//! `centaur control --env minitaur --gait trot --speed 0.3 --seconds 10 --out runs/ctrl`.
+//! `centaur control --env minitaur --gait trot --speed 0.3 --seconds 10 --out runs/ctrl`;
+//! `centaur compare --env minitaur --algo ppo --seeds 5 --steps 150000 --out runs/cmp`.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use centaur::compare::{CompareOptions, run_compare};
 use centaur::control::{ControlOptions, Push, parse_gait, run_control, write_summary};
+use centaur::experiment::{Phase, tuned_config};
 use centaur::registry::ENV_NAMES;
+use centaur::residual::ResidualConfig;
 use centaur::train::{TrainOptions, train};
 use centaur_mpc::Gait;
 use centaur_rl::AlgoKind;
@@ -56,6 +60,10 @@ enum Command {
         #[arg(long, default_value_t = 10)]
         eval_episodes: usize,
     },
+    /// Train pure RL and the hybrid (residual RL on the controller) with the same budget over
+    /// several seeds, evaluate both and the controller alone; writes compare.json,
+    /// learning_curves.{png,svg} and one run directory per seed into --out.
+    Compare(CompareArgs),
     /// Run the model-based controller (convex MPC + whole-body QP) alone on a robot
     /// environment; writes summary.json into --out.
     Control(ControlArgs),
@@ -95,6 +103,105 @@ struct ControlArgs {
     /// Measure distance, speed and drifts from this time (s), e.g. after a landing.
     #[arg(long, default_value_t = 0.0)]
     measure_from: f64,
+}
+
+#[derive(Args)]
+struct CompareArgs {
+    /// Robot environment with a controller: minitaur, minitaur-fast, ant, walker2d, humanoid.
+    #[arg(long)]
+    env: String,
+    /// Algorithm: ppo, a2c, sac, sac1, td3 or ddpg.
+    #[arg(long, value_parser = parse_algo)]
+    algo: AlgoKind,
+    /// Number of seeds (0..seeds).
+    #[arg(long, default_value_t = 5)]
+    seeds: u64,
+    /// Training steps per agent and seed.
+    #[arg(long)]
+    steps: u64,
+    /// Output directory.
+    #[arg(long)]
+    out: PathBuf,
+    /// TOML file with hyperparameters for both agents (default: the examples' settings for
+    /// this robot and algorithm, else the algorithm's defaults).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Parallel environments per agent (default: 4 for PPO and A2C, 1 otherwise).
+    #[arg(long)]
+    envs: Option<usize>,
+    /// Threads stepping them.
+    #[arg(long, default_value_t = 1)]
+    threads: usize,
+    /// Evaluation episodes per agent and seed.
+    #[arg(long, default_value_t = 10)]
+    eval_episodes: usize,
+    /// Bound of the residual (fraction of the action range), default per robot.
+    #[arg(long)]
+    residual_scale: Option<f64>,
+}
+
+/// `centaur compare`: pure RL against the hybrid over several seeds.
+fn compare(args: CompareArgs) -> ExitCode {
+    let algo_config = match &args.config {
+        Some(path) => match std::fs::read_to_string(path) {
+            Ok(text) => Some(text),
+            Err(e) => {
+                eprintln!("error: {}: {e}", path.display());
+                return ExitCode::FAILURE;
+            }
+        },
+        None => tuned_config(&args.env, args.algo).map(str::to_string),
+    };
+    let mut residual = ResidualConfig::for_env(&args.env);
+    if let Some(s) = args.residual_scale {
+        residual.scale = vec![s];
+    }
+    let on_policy = matches!(args.algo, AlgoKind::Ppo | AlgoKind::A2c);
+    let opts = CompareOptions {
+        env: args.env,
+        algo: args.algo,
+        seeds: args.seeds,
+        steps: args.steps,
+        out: args.out,
+        algo_config,
+        n_envs: args.envs.unwrap_or(if on_policy { 4 } else { 1 }),
+        threads: args.threads,
+        eval_episodes: args.eval_episodes,
+        residual,
+    };
+    let seeds = opts.seeds.max(1);
+    let bar = ProgressBar::new(seeds * 2 * opts.steps);
+    bar.set_style(
+        ProgressStyle::with_template("{msg:>22} [{bar:40}] {pos}/{len} steps ({per_sec}, eta {eta})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    let steps = opts.steps;
+    let result = run_compare(&opts, &mut |seed, phase, m| {
+        let (offset, label) = match phase {
+            Phase::TrainPure => (0, "pure"),
+            Phase::TrainHybrid => (steps, "hybrid"),
+            Phase::Evaluate => (2 * steps, "evaluating"),
+        };
+        bar.set_message(format!("seed {seed} {label} {:.2}", m.episode_return_mean));
+        bar.set_position(seed * 2 * steps + offset + m.env_steps.min(steps));
+    });
+    bar.finish_and_clear();
+    match result {
+        Ok(summary) => {
+            println!(
+                "{} on {}: {} seeds × {} steps per agent, {} evaluation episodes each\n",
+                summary.algo, summary.env, summary.seeds, summary.steps, opts.eval_episodes
+            );
+            print!("{}", summary.markdown_table());
+            println!("\nwrote {}", opts.out.join("compare.json").display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
 }
 
 fn parse_gait_arg(s: &str) -> Result<Gait, String> {
@@ -155,6 +262,7 @@ fn main() -> ExitCode {
             (env, algo, steps, seed, out, config, threads, envs, eval_episodes)
         }
         Command::Control(args) => return control(args),
+        Command::Compare(args) => return compare(args),
     };
     let opts = TrainOptions { env, algo, steps, seed, out, config, threads, n_envs: envs, eval_episodes };
     let bar = ProgressBar::new(steps);
