@@ -15,11 +15,10 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use centaur::experiment::{ExperimentOptions, Phase, run_experiment, tuned_config};
+use centaur::experiment::{ExperimentOptions, run_experiment_with_progress, tuned_config};
 use centaur::residual::ResidualConfig;
 use centaur_mpc::{Command, Gait};
 use centaur_rl::AlgoKind;
-use indicatif::{ProgressBar, ProgressStyle};
 
 fn arg<T: std::str::FromStr>(args: &[String], name: &str) -> Option<T> {
     args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|s| s.parse().ok())
@@ -59,24 +58,8 @@ fn main() {
         opts.threads,
         opts.out.display()
     );
-    let bar = ProgressBar::new(2 * opts.steps);
-    bar.set_style(
-        ProgressStyle::with_template("{msg:>14} [{bar:40}] {pos}/{len} steps ({per_sec}, eta {eta})")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
     let t0 = Instant::now();
-    let steps = opts.steps;
-    let result = run_experiment(&opts, &mut |phase, m| {
-        let (offset, label) = match phase {
-            Phase::TrainPure => (0, "pure PPO"),
-            Phase::TrainHybrid => (steps, "hybrid PPO"),
-            Phase::Evaluate => (2 * steps, "evaluating"),
-        };
-        bar.set_message(format!("{label} {:.2}", m.episode_return_mean));
-        bar.set_position(offset + m.env_steps.min(steps));
-    });
-    bar.finish_and_clear();
+    let result = run_experiment_with_progress(&opts, "PPO");
     let summary = match result {
         Ok(r) => r.summary,
         Err(e) => {

@@ -10,10 +10,9 @@
 
 use std::path::PathBuf;
 
-use centaur::experiment::{ExperimentOptions, OFF_POLICY_LOCOMOTION_CONFIG, Phase, run_experiment};
+use centaur::experiment::{ExperimentOptions, OFF_POLICY_LOCOMOTION_CONFIG, run_experiment_with_progress};
 use centaur::residual::ResidualConfig;
 use centaur_rl::AlgoKind;
-use indicatif::{ProgressBar, ProgressStyle};
 
 fn arg<T: std::str::FromStr>(args: &[String], name: &str) -> Option<T> {
     args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|s| s.parse().ok())
@@ -43,22 +42,7 @@ fn main() {
         opts.seed,
         opts.out.display()
     );
-    let bar = ProgressBar::new(2 * steps);
-    bar.set_style(
-        ProgressStyle::with_template("{msg:>16} [{bar:40}] {pos}/{len} steps ({per_sec}, eta {eta})")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
-    let result = run_experiment(&opts, &mut |phase, m| {
-        let (offset, label) = match phase {
-            Phase::TrainPure => (0, "pure TD3"),
-            Phase::TrainHybrid => (steps, "hybrid TD3"),
-            Phase::Evaluate => (2 * steps, "evaluating"),
-        };
-        bar.set_message(format!("{label} {:.1}", m.episode_return_mean));
-        bar.set_position(offset + m.env_steps.min(steps));
-    });
-    bar.finish_and_clear();
+    let result = run_experiment_with_progress(&opts, "TD3");
     match result {
         Ok(r) => {
             println!("\nEvaluation over {} episodes:\n\n{}", opts.eval_episodes, r.summary.markdown_table());

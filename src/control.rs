@@ -16,7 +16,7 @@ use centaur_envs::{LocomotionConfig, LocomotionEnv, MinitaurConfig, MinitaurEnv,
 use centaur_mpc::{Command, ConfigError, ControllerConfig, Gait, JointCommand, LocomotionController};
 use centaur_rl::EnvError;
 
-use crate::deploy::CommandTorques;
+use crate::deploy::{CommandTorques, ContactMap};
 
 /// Robot environments by name (the controllable ones and the pure-RL ones).
 pub const ROBOT_ENV_NAMES: &[&str] = &[
@@ -113,22 +113,23 @@ pub fn controller_config(env_name: &str) -> Result<ControllerConfig, ControlErro
 #[derive(Clone, Debug)]
 pub struct ActionMapping {
     torques: CommandTorques,
-    contacts: Vec<bool>,
+    contacts: ContactMap,
 }
 
 impl ActionMapping {
-    /// Matches the env's actuated joints with the controller's joints by name.
+    /// Matches the env's actuated joints and feet with the controller's joints and contact
+    /// points by name.
     pub fn new(env: &dyn RobotEnv, controller: &LocomotionController) -> Result<ActionMapping, ControlError> {
         let torques = CommandTorques::new(env.model(), env.actuated_joints(), controller)
             .map_err(ControlError::Invalid)?;
-        Ok(ActionMapping { torques, contacts: vec![false; controller.contact_frames().len()] })
+        Ok(ActionMapping { torques, contacts: ContactMap::new(controller, env.foot_frames()) })
     }
 
     /// One controller tick at the env's state and time `t`: with the env's measured foot
-    /// contacts when every contact point of the controller has a foot in the env
-    /// ([`measured_contacts`]), else on the gait schedule alone. Every runner — `centaur
-    /// control`, the hybrid env, the experiment's controller baseline and the deployed stack —
-    /// ticks the controller this way, so they all run the same controller.
+    /// contacts when every contact point of the controller has a foot in the env, else on
+    /// the gait schedule alone ([`ContactMap`]). Every runner — `centaur control`, the
+    /// hybrid env, the experiment's controller baseline and the deployed stack — ticks the
+    /// controller this way, so they all run the same controller.
     pub fn tick<'c>(
         &mut self,
         controller: &'c mut LocomotionController,
@@ -136,11 +137,11 @@ impl ActionMapping {
         command: &Command,
         t: f64,
     ) -> &'c JointCommand {
-        if measured_contacts(env, controller.contact_frames(), &mut self.contacts) {
-            controller.tick_with_contacts(env.robot_state(), command, t, &self.contacts)
-        } else {
-            controller.tick(env.robot_state(), command, t)
-        }
+        self.contacts.tick(controller, env.robot_state(), command, t, |out| {
+            for (o, foot) in out.iter_mut().zip(env.foot_contacts()) {
+                *o = foot.in_contact;
+            }
+        })
     }
 
     /// The joint torques of `cmd` at the env's current state (action order).
@@ -153,20 +154,6 @@ impl ActionMapping {
         let tau = self.torques.torques(env.robot_state(), cmd);
         env.action_for_torques(tau, out);
     }
-}
-
-/// The env's measured ground contact of each controller contact point (`frames`, link names;
-/// heel and toe of one foot share its flag) into `out`. Returns `false`, leaving `out`
-/// unspecified, when a contact point has no foot in the env. Allocation-free.
-pub fn measured_contacts(env: &dyn RobotEnv, frames: &[String], out: &mut [bool]) -> bool {
-    let (names, feet) = (env.foot_frames(), env.foot_contacts());
-    for (flag, frame) in out.iter_mut().zip(frames) {
-        match names.iter().position(|n| n == frame).and_then(|i| feet.get(i)) {
-            Some(foot) => *flag = foot.in_contact,
-            None => return false,
-        }
-    }
-    true
 }
 
 /// A push during a control run: force (N, world frame) on the base from `at` for `duration` s.

@@ -16,7 +16,6 @@ use centaur_envs::RobotEnv;
 use centaur_mpc::{Command, ConfigError, ControllerConfig, JointCommand, LocomotionController};
 use centaur_rl::{BoxSpace, Policy};
 
-use crate::control::measured_contacts;
 use crate::residual::{ResidualConfig, write_residual_observation};
 
 /// What a robot (or its simulation) provides to the locomotion stack.
@@ -37,12 +36,16 @@ pub trait RobotInterface {
     fn command_for_torques(&self, tau: &[f64], out: &mut [f32]);
     /// Time since start (s).
     fn time(&self) -> f64;
-    /// Measured ground contact of each of the controller's contact points (`frames`, link
-    /// names) into `out`; `false` when the robot cannot sense them, and the controller then
-    /// follows its gait schedule alone. The default senses nothing.
-    fn contacts(&self, frames: &[String], out: &mut [bool]) -> bool {
-        let _ = (frames, out);
-        false
+    /// Links that carry a ground-contact sensor, in [`RobotInterface::contacts`] order. The
+    /// controller uses the sensors when every one of its contact points has one (matched by
+    /// link name once, at construction), else it follows its gait schedule alone. The
+    /// default senses nothing.
+    fn contact_frames(&self) -> &[String] {
+        &[]
+    }
+    /// The contact sensors' flags, in [`RobotInterface::contact_frames`] order, into `out`.
+    fn contacts(&self, out: &mut [bool]) {
+        let _ = out;
     }
 }
 
@@ -79,8 +82,13 @@ impl RobotInterface for Simulated<'_> {
     fn time(&self) -> f64 {
         self.env.episode_time()
     }
-    fn contacts(&self, frames: &[String], out: &mut [bool]) -> bool {
-        measured_contacts(self.env, frames, out)
+    fn contact_frames(&self) -> &[String] {
+        self.env.foot_frames()
+    }
+    fn contacts(&self, out: &mut [bool]) {
+        for (o, foot) in out.iter_mut().zip(self.env.foot_contacts()) {
+            *o = foot.in_contact;
+        }
     }
 }
 
@@ -120,6 +128,52 @@ impl CommandTorques {
     }
 }
 
+/// The controller's contact points matched by link name with a robot's contact sensors,
+/// once; then each tick reads the sensors without searching or allocating.
+#[derive(Clone, Debug)]
+pub struct ContactMap {
+    /// For each contact point of the controller: its sensor, or `None` if one has none.
+    sensor_of: Option<Vec<usize>>,
+    sensed: Vec<bool>,
+    flags: Vec<bool>,
+}
+
+impl ContactMap {
+    /// Matches `controller`'s contact frames with `sensor_frames`.
+    pub fn new(controller: &LocomotionController, sensor_frames: &[String]) -> Self {
+        let frames = controller.contact_frames();
+        let sensor_of = frames.iter().map(|f| sensor_frames.iter().position(|s| s == f)).collect();
+        ContactMap { sensor_of, sensed: vec![false; sensor_frames.len()], flags: vec![false; frames.len()] }
+    }
+
+    /// Whether every contact point has a sensor (the controller then uses them).
+    pub fn complete(&self) -> bool {
+        self.sensor_of.is_some()
+    }
+
+    /// One controller tick: with the sensed contacts (`read` fills them, in sensor order)
+    /// when the map is complete, else on the gait schedule alone.
+    pub fn tick<'c>(
+        &mut self,
+        controller: &'c mut LocomotionController,
+        state: &RobotState,
+        command: &Command,
+        t: f64,
+        read: impl FnOnce(&mut [bool]),
+    ) -> &'c JointCommand {
+        match &self.sensor_of {
+            Some(sensor_of) => {
+                read(&mut self.sensed);
+                for (flag, &k) in self.flags.iter_mut().zip(sensor_of) {
+                    *flag = self.sensed[k];
+                }
+                controller.tick_with_contacts(state, command, t, &self.flags)
+            }
+            None => controller.tick(state, command, t),
+        }
+    }
+}
+
 /// Controller + residual policy, with every buffer allocated at construction.
 pub struct HybridStack {
     controller: LocomotionController,
@@ -132,7 +186,7 @@ pub struct HybridStack {
     reference: Vec<f32>,
     residual: Vec<f32>,
     command: Vec<f32>,
-    contacts: Vec<bool>,
+    contacts: ContactMap,
 }
 
 impl HybridStack {
@@ -169,7 +223,7 @@ impl HybridStack {
             reference: vec![0.0; m],
             residual: vec![0.0; m],
             command: vec![0.0; m],
-            contacts: vec![false; controller.contact_frames().len()],
+            contacts: ContactMap::new(&controller, robot.contact_frames()),
             controller,
         })
     }
@@ -191,16 +245,13 @@ impl HybridStack {
 
     /// One control period: reads the robot, returns the actuator command.
     pub fn tick(&mut self, robot: &dyn RobotInterface) -> &[f32] {
-        let cmd = if robot.contacts(self.controller.contact_frames(), &mut self.contacts) {
-            self.controller.tick_with_contacts(
-                robot.state(),
-                &self.config.command,
-                robot.time(),
-                &self.contacts,
-            )
-        } else {
-            self.controller.tick(robot.state(), &self.config.command, robot.time())
-        };
+        let cmd = self.contacts.tick(
+            &mut self.controller,
+            robot.state(),
+            &self.config.command,
+            robot.time(),
+            |out| robot.contacts(out),
+        );
         let tau = self.torques.torques(robot.state(), cmd);
         robot.command_for_torques(tau, &mut self.reference);
         match self.policy.as_mut() {

@@ -466,6 +466,36 @@ fn train_one(
     Ok((ckpt, rows, wall, algo.steps_done()))
 }
 
+/// The progress-bar style of the examples and the command line.
+pub fn progress_style() -> indicatif::ProgressStyle {
+    indicatif::ProgressStyle::with_template("{msg:>22} [{bar:40}] {pos}/{len} steps ({per_sec}, eta {eta})")
+        .expect("a valid template")
+        .progress_chars("=> ")
+}
+
+/// [`run_experiment`] with a progress bar over both agents' training and the evaluation;
+/// `learner` names the algorithm in the bar (e.g. "PPO"). What the examples run.
+pub fn run_experiment_with_progress(
+    opts: &ExperimentOptions,
+    learner: &str,
+) -> Result<ExperimentResult, ExperimentError> {
+    let steps = opts.steps;
+    let bar = indicatif::ProgressBar::new(2 * steps);
+    bar.set_style(progress_style());
+    let (pure, hybrid) = (format!("pure {learner}"), format!("hybrid {learner}"));
+    let result = run_experiment(opts, &mut |phase, m| {
+        let (offset, label) = match phase {
+            Phase::TrainPure => (0, pure.as_str()),
+            Phase::TrainHybrid => (steps, hybrid.as_str()),
+            Phase::Evaluate => (2 * steps, "evaluating"),
+        };
+        bar.set_message(format!("{label} {:.2}", m.episode_return_mean));
+        bar.set_position(offset + m.env_steps.min(steps));
+    });
+    bar.finish_and_clear();
+    result
+}
+
 /// Runs the experiment (see the module docs) and writes the output directory.
 pub fn run_experiment(
     opts: &ExperimentOptions,

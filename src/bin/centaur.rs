@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use centaur::compare::{CompareOptions, run_compare};
 use centaur::control::{ControlOptions, Push, parse_gait, run_control, write_summary};
-use centaur::experiment::{Phase, tuned_config};
+use centaur::experiment::{Phase, progress_style, tuned_config};
 use centaur::registry::ENV_NAMES;
 use centaur::residual::ResidualConfig;
 use centaur::train::{TrainOptions, train};
@@ -171,11 +171,7 @@ fn compare(args: CompareArgs) -> ExitCode {
     };
     let seeds = opts.seeds.max(1);
     let bar = ProgressBar::new(seeds * 2 * opts.steps);
-    bar.set_style(
-        ProgressStyle::with_template("{msg:>22} [{bar:40}] {pos}/{len} steps ({per_sec}, eta {eta})")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
+    bar.set_style(progress_style());
     let steps = opts.steps;
     let result = run_compare(&opts, &mut |seed, phase, m| {
         let (offset, label) = match phase {
