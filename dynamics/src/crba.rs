@@ -9,7 +9,8 @@
 use nalgebra::{DMatrix, Matrix3xX, Matrix6xX, Vector3};
 
 use crate::data::{Data, check_len};
-use crate::model::Model;
+use crate::kinematics::joint_placement;
+use crate::model::{JointKind, Model};
 use crate::spatial::{Force, Motion, OriginInertia};
 
 /// Forward pass shared by the algorithms below: joint placements, world Jacobian columns
@@ -45,52 +46,80 @@ fn column(jac: &Matrix6xX<f64>, k: usize) -> Motion {
 }
 
 /// Joint-space inertia matrix `M(q)` into `data.mass_matrix` (both triangles filled).
-/// Also fills `data.jacobians`, `data.o_m_i`, and the robot's mass and centre of mass
-/// (`data.mass[0]`, `data.com[0]`).
+/// Also fills `data.li_m_i` and the robot's mass and centre of mass (`data.mass[0]`,
+/// `data.com[0]`).
+///
+/// Composite inertias are accumulated in the joint frames (Featherstone's original form,
+/// Pinocchio's default convention): `Fᶜ = Y_c,i S_c` is formed in the frame of joint `i`,
+/// each row block `M[i, subtree(i)] = S_iᵀ F` is read there, and the subtree's `F`
+/// columns and inertia are then moved to the parent frame. No world placement or world
+/// Jacobian is needed, and `S_iᵀ F` is a 3-term product for revolute joints.
 #[track_caller]
 pub fn crba<'a>(model: &Model, data: &'a mut Data, q: &[f64]) -> &'a DMatrix<f64> {
     check_len("q", q.len(), model.nq);
-    let mut acc = std::mem::take(&mut data.o_ycrb);
-    forward_world_inertias(model, data, q, &mut acc);
-    for i in (1..model.njoints()).rev() {
-        let p = model.joints[i].parent;
-        let yi = acc[i];
-        acc[p].add_assign(&yi);
-    }
-    // Small, separate loops: fusing them costs 10–20 % in register spills (measured).
     let nv = model.nv;
-    let jac = data.jacobians.as_slice();
-    let fcrb = data.f_crb.as_mut_slice();
-    for c in 0..nv {
-        let s: &[f64; 6] = jac[6 * c..6 * c + 6].try_into().expect("6 rows");
-        let f = acc[model.joint_of_dof(c)]
-            .mul_motion(&Motion::new(Vector3::new(s[0], s[1], s[2]), Vector3::new(s[3], s[4], s[5])));
-        fcrb[6 * c..6 * c + 6].copy_from_slice(&[
-            f.linear.x,
-            f.linear.y,
-            f.linear.z,
-            f.angular.x,
-            f.angular.y,
-            f.angular.z,
-        ]);
+    let ycrb = &mut data.ycrb;
+    ycrb[0] = OriginInertia::zero();
+    for i in 1..model.njoints() {
+        let j = &model.joints[i];
+        data.li_m_i[i] = joint_placement(&j.placement, &j.kind, &q[j.idx_q..j.idx_q + j.nq()]);
+        ycrb[i] = OriginInertia::from_inertia(&model.inertias[i]);
     }
-    // Row r against the contiguous columns of its subtree (Pinocchio's layout):
-    // M[r, c] = ⁰S_r · F_c for c in r..r + nv_subtree(r).
+    let fcrb = &mut data.f_crb;
     let mm = data.mass_matrix.as_mut_slice();
-    for r in 0..nv {
-        let s: &[f64; 6] = jac[6 * r..6 * r + 6].try_into().expect("6 rows");
-        let end = r + model.nv_subtree(r);
-        for (c, f) in fcrb[6 * r..6 * end].chunks_exact(6).enumerate() {
-            let c = r + c;
-            let mrc = s[0] * f[0] + s[1] * f[1] + s[2] * f[2] + s[3] * f[3] + s[4] * f[4] + s[5] * f[5];
-            // Column-major storage: (r, c) lives at r + c·nv.
-            mm[r + c * nv] = mrc;
-            mm[c + r * nv] = mrc;
+    for i in (1..model.njoints()).rev() {
+        let j = &model.joints[i];
+        let start = j.idx_v;
+        let end = start + if j.nv() > 0 { model.nv_subtree(start) } else { 0 };
+        let y = &ycrb[i];
+        for k in 0..j.nv() {
+            fcrb[start + k] = match &j.kind {
+                // `Y (0, a) = (a × h, I_O a)`.
+                JointKind::Revolute { axis } => {
+                    Force { linear: axis.cross(&y.first_moment), angular: y.rotational * axis }
+                }
+                kind => y.mul_motion(&kind.subspace_column(k)),
+            };
         }
+        // Row block `M[i, c] = S_iᵀ F_c` for c ≥ the row, specialised per joint kind.
+        let put = |mm: &mut [f64], r: usize, c: usize, m: f64| {
+            // Column-major storage: (r, c) lives at r + c·nv.
+            mm[r + c * nv] = m;
+            mm[c + r * nv] = m;
+        };
+        match &j.kind {
+            JointKind::Revolute { axis } => {
+                for (c, f) in fcrb.iter().enumerate().take(end).skip(start) {
+                    put(mm, start, c, axis.dot(&f.angular));
+                }
+            }
+            JointKind::Prismatic { axis } => {
+                for (c, f) in fcrb.iter().enumerate().take(end).skip(start) {
+                    put(mm, start, c, axis.dot(&f.linear));
+                }
+            }
+            JointKind::FreeFlyer => {
+                for (c, f) in fcrb.iter().enumerate().take(end).skip(start) {
+                    let parts = [f.linear.x, f.linear.y, f.linear.z, f.angular.x, f.angular.y, f.angular.z];
+                    for (k, &m) in parts.iter().enumerate().take(c - start + 1) {
+                        put(mm, start + k, c, m);
+                    }
+                }
+            }
+            JointKind::Universe => {}
+        }
+        let x = &data.li_m_i[i];
+        if j.parent > 0 {
+            for f in &mut fcrb[start..end] {
+                *f = x.act_force(f);
+            }
+        }
+        let moved = ycrb[i].transformed(x);
+        ycrb[j.parent].add_assign(&moved);
     }
-    data.mass[0] = acc[0].mass;
-    data.com[0] = if acc[0].mass > 0.0 { acc[0].first_moment / acc[0].mass } else { Vector3::zeros() };
-    data.o_ycrb = acc;
+    // The universe's composite is the whole robot in world axes.
+    data.mass[0] = ycrb[0].mass;
+    data.com[0] = if ycrb[0].mass > 0.0 { ycrb[0].first_moment / ycrb[0].mass } else { Vector3::zeros() };
     data.chol_ready = false;
     &data.mass_matrix
 }

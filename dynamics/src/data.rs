@@ -54,8 +54,10 @@ pub struct Data {
     pub kinetic_energy: f64,
     /// Potential energy from [`crate::potential_energy`].
     pub potential_energy: f64,
-    // CRBA workspace: composite inertia times each world subspace column.
-    pub(crate) f_crb: Matrix6xX<f64>,
+    // CRBA workspace: composite inertia of each subtree in its joint frame, and composite
+    // inertia times each subspace column (moved up the tree as the pass goes).
+    pub(crate) ycrb: Vec<OriginInertia>,
+    pub(crate) f_crb: Vec<Force>,
     // ABA workspace.
     pub(crate) y_aba: Vec<Matrix6<f64>>,
     pub(crate) p_aba: Vec<Force>,
@@ -98,7 +100,8 @@ impl Data {
             jacobian_com: Matrix3xX::zeros(nv),
             kinetic_energy: 0.0,
             potential_energy: 0.0,
-            f_crb: Matrix6xX::zeros(nv),
+            ycrb: vec![OriginInertia::zero(); n],
+            f_crb: vec![Force::zero(); nv],
             y_aba: vec![Matrix6::zeros(); n],
             p_aba: vec![Force::zero(); n],
             c_aba: vec![Motion::zero(); n],

@@ -3,7 +3,7 @@
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 use crate::data::{Data, check_len};
-use crate::model::{JointKind, Model, axis_rotation};
+use crate::model::{JointKind, Model, rotate_about_axis};
 use crate::spatial::{Motion, Se3, exp6, log6};
 
 /// In which frame a Jacobian, velocity or acceleration is expressed.
@@ -23,7 +23,7 @@ pub enum ReferenceFrame {
 pub(crate) fn joint_placement(placement: &Se3, kind: &JointKind, q: &[f64]) -> Se3 {
     match kind {
         JointKind::Revolute { axis } => Se3 {
-            rotation: placement.rotation * axis_rotation(axis, q[0]),
+            rotation: rotate_about_axis(&placement.rotation, axis, q[0]),
             translation: placement.translation,
         },
         JointKind::Prismatic { axis } => Se3 {

@@ -2,7 +2,7 @@
 
 use nalgebra::{DVector, Matrix3, UnitQuaternion, Vector3};
 
-use crate::spatial::{Inertia, Motion, Se3};
+use crate::spatial::{Force, Inertia, Motion, Se3};
 
 /// The kind of a joint, with its motion subspace `S` in the joint (child) frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -82,6 +82,18 @@ impl JointKind {
         }
     }
 
+    /// `S_kᵀ f`: the generalized force of dof `k` under the spatial force `f` (child frame).
+    #[inline]
+    pub fn subspace_dot(&self, k: usize, f: &Force) -> f64 {
+        match self {
+            JointKind::Universe => 0.0,
+            JointKind::FreeFlyer if k < 3 => f.linear[k],
+            JointKind::FreeFlyer => f.angular[k - 3],
+            JointKind::Revolute { axis } => axis.dot(&f.angular),
+            JointKind::Prismatic { axis } => axis.dot(&f.linear),
+        }
+    }
+
     /// The joint velocity `v_J = S q̇` in the child frame.
     #[inline]
     pub fn motion(&self, qd: &[f64]) -> Motion {
@@ -114,6 +126,37 @@ pub(crate) fn axis_rotation(axis: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
         t * y * z + s * x,
         t * z * z + c,
     )
+}
+
+/// `r · Rot(axis, angle)`. For the coordinate axes (and their opposites) only two columns
+/// of `r` mix, 12 products instead of a full 3 × 3 matrix product; other axes use
+/// [`axis_rotation`].
+#[inline]
+pub(crate) fn rotate_about_axis(r: &Matrix3<f64>, axis: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
+    let (s, c) = angle.sin_cos();
+    // Columns (a, b) of `r` rotated in their plane: (c a + s b, c b − s a).
+    let mix = |a: usize, b: usize, s: f64| {
+        let (ca, cb) = (r.column(a), r.column(b));
+        (ca * c + cb * s, cb * c - ca * s)
+    };
+    let unit = |v: f64, o1: f64, o2: f64| (v == 1.0 || v == -1.0) && o1 == 0.0 && o2 == 0.0;
+    let mut out = *r;
+    if unit(axis.x, axis.y, axis.z) {
+        let (a, b) = mix(1, 2, s * axis.x);
+        out.set_column(1, &a);
+        out.set_column(2, &b);
+    } else if unit(axis.y, axis.z, axis.x) {
+        let (a, b) = mix(2, 0, s * axis.y);
+        out.set_column(2, &a);
+        out.set_column(0, &b);
+    } else if unit(axis.z, axis.x, axis.y) {
+        let (a, b) = mix(0, 1, s * axis.z);
+        out.set_column(0, &a);
+        out.set_column(1, &b);
+    } else {
+        out = r * axis_rotation(axis, angle);
+    }
+    out
 }
 
 /// One joint of the tree and the body it moves.
@@ -531,6 +574,32 @@ impl Model {
                 r = self.parent_v[row];
             }
             self.dof_support_starts.push(self.dof_supports.len());
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rotate_about_axis_matches_the_full_product() {
+        let r = axis_rotation(&Vector3::new(0.3, -0.5, 0.8).normalize(), 0.9);
+        let axes = [
+            Vector3::x(),
+            -Vector3::x(),
+            Vector3::y(),
+            -Vector3::y(),
+            Vector3::z(),
+            -Vector3::z(),
+            Vector3::new(1.0, 2.0, -2.0) / 3.0,
+        ];
+        for axis in axes {
+            for angle in [-2.5, -0.3, 0.0, 0.7, 3.0] {
+                let fast = rotate_about_axis(&r, &axis, angle);
+                let full = r * axis_rotation(&axis, angle);
+                assert!((fast - full).abs().max() < 1e-15, "axis {axis:?}, angle {angle}");
+            }
         }
     }
 }

@@ -520,6 +520,32 @@ impl OriginInertia {
         Inertia::new(self.mass, c, self.rotational - shift)
     }
 
+    /// The same inertia expressed in frame *a*, for `m = aMb` (this one given in *b*):
+    /// with `h' = R h` and `p` the translation,
+    /// `I_O' = R I_O Rᵀ + m(|p|² 𝟙 − p pᵀ) + 2(h'·p) 𝟙 − h' pᵀ − p h'ᵀ`, `h'' = h' + m p`.
+    #[inline]
+    pub fn transformed(&self, m: &Se3) -> Self {
+        let p = &m.translation;
+        let h = m.rotation * self.first_moment;
+        let mut rot = rotate_symmetric(&m.rotation, &self.rotational);
+        let mp = p * self.mass;
+        // With g = m p + h', the correction is symmetric: g_r p_c + p_r h'_c.
+        let g = mp + h;
+        let diag = mp.dot(p) + 2.0 * h.dot(p);
+        let off = |r: usize, c: usize| g[r] * p[c] + p[r] * h[c];
+        let (xy, xz, yz) = (off(0, 1), off(0, 2), off(1, 2));
+        rot[(0, 0)] += diag - off(0, 0);
+        rot[(1, 1)] += diag - off(1, 1);
+        rot[(2, 2)] += diag - off(2, 2);
+        rot[(0, 1)] -= xy;
+        rot[(1, 0)] -= xy;
+        rot[(0, 2)] -= xz;
+        rot[(2, 0)] -= xz;
+        rot[(1, 2)] -= yz;
+        rot[(2, 1)] -= yz;
+        Self { mass: self.mass, first_moment: g, rotational: rot }
+    }
+
     /// Adds another body's inertia (same frame).
     #[inline]
     pub fn add_assign(&mut self, o: &OriginInertia) {
