@@ -10,7 +10,8 @@
 //! ```
 //! Options: `--steps N` (per agent), `--seed S`, `--out DIR`, `--env minitaur|minitaur-fast`,
 //! `--envs N` (parallel environments per agent), `--threads T`, `--eval-episodes K`,
-//! `--residual-scale X`, `--speed V` (the controller's commanded speed), `--no-record`.
+//! `--residual-scale X`, `--speed V` (the controller's commanded speed), `--config FILE`
+//! (TOML hyperparameters for both agents instead of the tuned Minitaur set), `--no-record`.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -36,13 +37,23 @@ fn main() {
     if let Some(v) = arg::<f64>(&args, "--speed") {
         residual.command = Command::forward(v, Gait::Trot);
     }
+    let algo_config = match arg::<PathBuf>(&args, "--config") {
+        Some(path) => match std::fs::read_to_string(&path) {
+            Ok(text) => Some(text),
+            Err(e) => {
+                eprintln!("residual_ppo_minitaur: cannot read --config {}: {e}", path.display());
+                std::process::exit(2);
+            }
+        },
+        None => tuned_config(&env, AlgoKind::Ppo).map(str::to_string),
+    };
     let opts = ExperimentOptions {
         env: env.clone(),
         algo: AlgoKind::Ppo,
         steps: arg(&args, "--steps").unwrap_or(300_000),
         seed: arg(&args, "--seed").unwrap_or(0),
         out: arg::<PathBuf>(&args, "--out").unwrap_or_else(|| PathBuf::from("runs/residual_ppo_minitaur")),
-        algo_config: tuned_config(&env, AlgoKind::Ppo).map(str::to_string),
+        algo_config,
         n_envs: arg(&args, "--envs").unwrap_or(4),
         threads,
         eval_episodes: arg(&args, "--eval-episodes").unwrap_or(10),

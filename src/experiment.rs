@@ -362,15 +362,18 @@ impl ExperimentSummary {
 }
 
 /// PPO for the Minitaur: RL Zoo's `MinitaurBulletEnv-v0` settings (normalised observations
-/// and rewards, n_steps 2048 per env, 10 epochs, learning rate 2.5e-4, clip 0.2, λ 0.95,
-/// γ 0.99), with minibatches of 512.
+/// and rewards, n_steps 2048 per env, 10 epochs, learning rate 2.5e-4, clip 0.2, λ 0.95),
+/// with minibatches of 512 and γ 0.995 instead of 0.99. The Minitaur's reward has no
+/// survival bonus, so at γ 0.99 (a horizon of about 1 s) a fall costs little and residual
+/// PPO learned a 1.24 m/s gait that fell in 9 of 10 evaluation episodes (return 6.6); at
+/// γ 0.995 it keeps the speed and falls once (return 11.6, seed 0, 300k steps).
 pub const MINITAUR_PPO_CONFIG: &str = "n_steps = 2048
 batch_size = 512
 n_epochs = 10
 learning_rate = 2.5e-4
 clip_coef = 0.2
 gae_lambda = 0.95
-gamma = 0.99
+gamma = 0.995
 ent_coef = 0.0
 ";
 

@@ -114,10 +114,18 @@ pub fn crba<'a>(model: &Model, data: &'a mut Data, q: &[f64]) -> &'a DMatrix<f64
                 *f = x.act_force(f);
             }
         }
-        let moved = ycrb[i].transformed(x);
-        ycrb[j.parent].add_assign(&moved);
+        if j.parent > 0 {
+            let moved = ycrb[i].transformed(x);
+            ycrb[j.parent].add_assign(&moved);
+        } else {
+            // Only the robot's mass and centre of mass are wanted at the root: move the
+            // first moment, not the rotational inertia.
+            let y = ycrb[i];
+            ycrb[0].mass += y.mass;
+            ycrb[0].first_moment += x.rotation * y.first_moment + x.translation * y.mass;
+        }
     }
-    // The universe's composite is the whole robot in world axes.
+    // The universe's mass and first moment are the whole robot's, in world axes.
     data.mass[0] = ycrb[0].mass;
     data.com[0] = if ycrb[0].mass > 0.0 { ycrb[0].first_moment / ycrb[0].mass } else { Vector3::zeros() };
     data.chol_ready = false;
