@@ -1,10 +1,12 @@
-//! Composite-rigid-body algorithm (Featherstone §6.2) in the world frame, and the
-//! quantities that share its composite inertias: centre of mass, its Jacobian and the
-//! centroidal momentum matrix (Orin, Goswami & Lee 2013).
+//! Composite-rigid-body algorithm (Featherstone §6.2), and the quantities that use
+//! composite inertias: centre of mass, its Jacobian and the centroidal momentum matrix
+//! (Orin, Goswami & Lee 2013).
 //!
-//! In the world frame every joint subspace `⁰Sⱼ` is a column of `data.jacobians`, and the
-//! composite inertias `⁰Y_c,i = Σ_{k ∈ subtree(i)} ⁰Y_k` add without transforms, so
-//! `M[r, c] = ⁰S_rᵀ (⁰Y_c,i ⁰S_c)` for every dof `r` on the support of dof `c` (of joint `i`).
+//! [`crba`] accumulates the composites in joint frames (see its docs). The centre-of-mass
+//! and centroidal functions use world-frame composites instead: there every joint subspace
+//! `⁰Sⱼ` is a column of `data.jacobians` and the composite inertias
+//! `⁰Y_c,i = Σ_{k ∈ subtree(i)} ⁰Y_k` add without transforms, so each column of their
+//! result is `⁰Y_c,i ⁰S_c`.
 
 use nalgebra::{DMatrix, Matrix3xX, Matrix6xX, Vector3};
 

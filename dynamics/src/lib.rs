@@ -16,7 +16,8 @@
 //! | [`kinetic_energy`], [`potential_energy`] | `½ q̇ᵀ M q̇`, `−Σ mᵢ gᵀ cᵢ` |
 //!
 //! The algorithms follow Featherstone's *Rigid Body Dynamics Algorithms* (2008): RNEA §5.3,
-//! CRBA §6.2 (here in world coordinates), ABA §7.3, the sparse `U D Uᵀ` factorisation of
+//! CRBA §6.2 (in joint frames; the centre-of-mass and centroidal functions use world-frame
+//! composites), ABA §7.3, the sparse `U D Uᵀ` factorisation of
 //! Featherstone (2005), and the centroidal momentum matrix of Orin, Goswami & Lee (2013).
 //!
 //! ## Conventions (written once here, used by every Centaur crate)
