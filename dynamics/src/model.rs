@@ -2,7 +2,7 @@
 
 use nalgebra::{DVector, Matrix3, UnitQuaternion, Vector3};
 
-use crate::spatial::{Force, Inertia, Motion, Se3};
+use crate::spatial::{Inertia, Motion, Se3};
 
 /// The kind of a joint, with its motion subspace `S` in the joint (child) frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,18 +79,6 @@ impl JointKind {
             }
             JointKind::Revolute { axis } => Motion::new(Vector3::zeros(), *axis),
             JointKind::Prismatic { axis } => Motion::new(*axis, Vector3::zeros()),
-        }
-    }
-
-    /// `S_kᵀ f`: the generalized force of dof `k` under the spatial force `f` (child frame).
-    #[inline]
-    pub fn subspace_dot(&self, k: usize, f: &Force) -> f64 {
-        match self {
-            JointKind::Universe => 0.0,
-            JointKind::FreeFlyer if k < 3 => f.linear[k],
-            JointKind::FreeFlyer => f.angular[k - 3],
-            JointKind::Revolute { axis } => axis.dot(&f.angular),
-            JointKind::Prismatic { axis } => axis.dot(&f.linear),
         }
     }
 

@@ -28,6 +28,19 @@ pub fn rotate_symmetric(r: &Matrix3<f64>, s: &Matrix3<f64>) -> Matrix3<f64> {
     Matrix3::new(a, b, c, b, d, f, c, f, g)
 }
 
+/// Adds to the symmetric `s` the symmetric matrix with diagonal `diag` and off-diagonal
+/// entries `−off` = `−(xy, xz, yz)`: the shape of every parallel-axis correction.
+#[inline]
+fn add_symmetric(s: &mut Matrix3<f64>, diag: [f64; 3], off: [f64; 3]) {
+    for (k, d) in diag.into_iter().enumerate() {
+        s[(k, k)] += d;
+    }
+    for ((r, c), o) in [(0, 1), (0, 2), (1, 2)].into_iter().zip(off) {
+        s[(r, c)] -= o;
+        s[(c, r)] -= o;
+    }
+}
+
 /// A rigid transform `aMb = (R, p)`: `x_a = R x_b + p`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Se3 {
@@ -485,16 +498,7 @@ impl OriginInertia {
         let mut rot = rotate_symmetric(&m.rotation, &y.rotational);
         let (mx, my, mz) = (y.mass * c.x, y.mass * c.y, y.mass * c.z);
         let (xx, yy, zz) = (mx * c.x, my * c.y, mz * c.z);
-        rot[(0, 0)] += yy + zz;
-        rot[(1, 1)] += xx + zz;
-        rot[(2, 2)] += xx + yy;
-        let (xy, xz, yz) = (mx * c.y, mx * c.z, my * c.z);
-        rot[(0, 1)] -= xy;
-        rot[(1, 0)] -= xy;
-        rot[(0, 2)] -= xz;
-        rot[(2, 0)] -= xz;
-        rot[(1, 2)] -= yz;
-        rot[(2, 1)] -= yz;
+        add_symmetric(&mut rot, [yy + zz, xx + zz, xx + yy], [mx * c.y, mx * c.z, my * c.z]);
         Self { mass: y.mass, first_moment: Vector3::new(mx, my, mz), rotational: rot }
     }
 
@@ -533,16 +537,11 @@ impl OriginInertia {
         let g = mp + h;
         let diag = mp.dot(p) + 2.0 * h.dot(p);
         let off = |r: usize, c: usize| g[r] * p[c] + p[r] * h[c];
-        let (xy, xz, yz) = (off(0, 1), off(0, 2), off(1, 2));
-        rot[(0, 0)] += diag - off(0, 0);
-        rot[(1, 1)] += diag - off(1, 1);
-        rot[(2, 2)] += diag - off(2, 2);
-        rot[(0, 1)] -= xy;
-        rot[(1, 0)] -= xy;
-        rot[(0, 2)] -= xz;
-        rot[(2, 0)] -= xz;
-        rot[(1, 2)] -= yz;
-        rot[(2, 1)] -= yz;
+        add_symmetric(
+            &mut rot,
+            [diag - off(0, 0), diag - off(1, 1), diag - off(2, 2)],
+            [off(0, 1), off(0, 2), off(1, 2)],
+        );
         Self { mass: self.mass, first_moment: g, rotational: rot }
     }
 
