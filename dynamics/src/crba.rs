@@ -115,8 +115,6 @@ pub fn crba<'a>(model: &Model, data: &'a mut Data, q: &[f64]) -> &'a DMatrix<f64
             for f in &mut fcrb[start..end] {
                 *f = x.act_force(f);
             }
-        }
-        if j.parent > 0 {
             let moved = ycrb[i].transformed(x);
             ycrb[j.parent].add_assign(&moved);
         } else {
