@@ -3,7 +3,9 @@
 //! Reinforcement learning for continuous control: the [`Env`] / [`VecEnv`] API shared by
 //! every Centaur environment, small neural networks with analytic gradients, and six
 //! learners — [`Ppo`], [`A2c`], [`Sac`] (v2), [`SacV1`], [`Td3`], [`Ddpg`] — one file per
-//! algorithm, each readable top to bottom like CleanRL.
+//! algorithm, each readable top to bottom like CleanRL. The four replay-buffer learners
+//! share one collection loop (warm-up, replay, logging; `off_policy.rs`) and differ in
+//! their exploration and gradient step.
 //!
 //! ## The problem
 //!
@@ -86,6 +88,7 @@ pub mod error;
 pub mod metrics;
 pub mod nn;
 pub mod normalizer;
+mod off_policy;
 pub mod optim;
 pub mod pendulum;
 pub mod policy;

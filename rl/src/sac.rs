@@ -17,22 +17,25 @@
 //!
 //! with α taken before its own update in the same step (as SB3), and the actor loss
 //! evaluated with the just-updated critics. `log σ` is clamped to `[−20, 2]`.
+//!
+//! The collection loop around the gradient step (warm-up, replay buffer, logging) is the one
+//! all replay-buffer learners share, in `off_policy.rs`.
 
 use std::ops::ControlFlow;
-use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
 use crate::algorithm::Algorithm;
-use crate::buffer::{ReplayBatch, ReplayBuffer, concat_obs_act};
+use crate::buffer::{ReplayBatch, concat_obs_act};
 use crate::checkpoint::Checkpoint;
 use crate::distributions::{squashed_gaussian_backward, squashed_gaussian_sample};
-use crate::env::{BoxSpace, VecEnv, VecStep};
+use crate::env::{BoxSpace, VecEnv};
 use crate::error::{RlError, check};
-use crate::metrics::{EpisodeWindow, UpdateMetrics};
+use crate::metrics::UpdateMetrics;
 use crate::nn::{Activation, Init, Mlp, MlpBuffers, polyak};
+use crate::off_policy::{self, Collector, LoopSettings, OffPolicyLearner};
 use crate::optim::Adam;
-use crate::policy::{Policy, PolicyHead, rescale_action};
+use crate::policy::{Policy, PolicyHead};
 use crate::rng::Rng;
 
 /// Bounds of the policy's `log σ` (SB3's `LOG_STD_MIN`, `LOG_STD_MAX`).
@@ -169,10 +172,6 @@ impl SacConfig {
 
 /// Preallocated buffers.
 struct Work {
-    obs: Vec<f32>,
-    actions: Vec<f32>,
-    env_actions: Vec<f32>,
-    step: VecStep,
     batch: ReplayBatch,
     eps: Vec<f32>,
     next_eps: Vec<f32>,
@@ -198,7 +197,7 @@ struct Work {
 
 /// Running sums of the losses between metrics records.
 #[derive(Clone, Copy, Default)]
-struct LossSums {
+pub(crate) struct LossSums {
     n: u64,
     q_loss: f64,
     policy_loss: f64,
@@ -209,8 +208,7 @@ struct LossSums {
 /// A SAC (v2) learner; see the module documentation.
 pub struct Sac {
     config: SacConfig,
-    obs_space: BoxSpace,
-    act_space: BoxSpace,
+    collector: Collector,
     actor: Mlp,
     q: [Mlp; 2],
     q_target: [Mlp; 2],
@@ -219,12 +217,8 @@ pub struct Sac {
     log_alpha: Vec<f32>,
     opt_alpha: Adam,
     target_entropy: f32,
-    replay: ReplayBuffer,
     rng: Rng,
-    steps_done: u64,
     gradient_steps_done: u64,
-    records: u64,
-    wall_time: f64,
     work: Work,
 }
 
@@ -254,18 +248,6 @@ impl Sac {
         let eps = config.adam_eps as f32;
         let cap = b.max(n);
         let work = Work {
-            obs: vec![0.0; n * od],
-            actions: vec![0.0; n * ad],
-            env_actions: vec![0.0; n * ad],
-            step: VecStep {
-                obs: vec![0.0; n * od],
-                rewards: vec![0.0; n],
-                terminated: vec![false; n],
-                truncated: vec![false; n],
-                final_obs: vec![0.0; n * od],
-                infos: vec![Default::default(); n],
-                episodes: Vec::with_capacity(n),
-            },
             batch: ReplayBatch::new(b, od, ad),
             eps: vec![0.0; cap * ad],
             next_eps: vec![0.0; b * ad],
@@ -294,18 +276,13 @@ impl Sac {
             log_alpha: vec![config.alpha_init.ln() as f32],
             opt_alpha: Adam::new(1, eps),
             target_entropy: config.target_entropy.unwrap_or(-(ad as f64)) as f32,
-            replay: ReplayBuffer::new(config.buffer_size, od, ad),
+            collector: Collector::new(obs_space, act_space, n, config.buffer_size),
             actor,
             q,
             q_target,
             rng,
-            steps_done: 0,
             gradient_steps_done: 0,
-            records: 0,
-            wall_time: 0.0,
             work,
-            obs_space: obs_space.clone(),
-            act_space: act_space.clone(),
             config,
         })
     }
@@ -328,7 +305,7 @@ impl Sac {
     /// Samples `ã ~ π(·|s)` for a batch: writes actions and log-probabilities; the actor's
     /// activations stay in `buf` and the noise in `eps` for the backward pass.
     /// `log_std` is scratch of length |A|.
-    fn sample_actions(
+    pub(crate) fn sample_actions(
         actor: &Mlp,
         buf: &mut MlpBuffers,
         obs: &[f32],
@@ -352,12 +329,120 @@ impl Sac {
         }
     }
 
+    /// Reads a learner saved by [`Algorithm::save`].
+    pub fn load(path: &std::path::Path) -> Result<Sac, RlError> {
+        Sac::from_checkpoint(&Checkpoint::read(path)?)
+    }
+
+    /// A learner from an in-memory checkpoint.
+    pub fn from_checkpoint(c: &Checkpoint) -> Result<Sac, RlError> {
+        c.expect_algo("sac")?;
+        let config: SacConfig = c.get_meta("config")?;
+        let (obs_space, act_space, max_envs) = Collector::read_shape(c)?;
+        let mut s = Sac::new(config, &obs_space, &act_space, max_envs)?;
+        c.read_mlp("actor", &mut s.actor)?;
+        for i in 0..2 {
+            c.read_mlp(&format!("q{i}"), &mut s.q[i])?;
+            c.read_mlp(&format!("q{i}_target"), &mut s.q_target[i])?;
+            c.read_adam(&format!("adam/q{i}"), &mut s.opt_q[i])?;
+        }
+        c.read_adam("adam/actor", &mut s.opt_actor)?;
+        c.read_f32_into("log_alpha", &mut s.log_alpha)?;
+        c.read_adam("adam/alpha", &mut s.opt_alpha)?;
+        s.collector.read_from(c)?;
+        s.rng = c.read_rng("rng")?;
+        s.gradient_steps_done = c.get_meta("gradient_steps_done")?;
+        Ok(s)
+    }
+
+    /// Like [`Algorithm::to_checkpoint`], optionally without the replay buffer (smaller
+    /// files; resuming then refills it from scratch).
+    pub fn to_checkpoint_with(&self, save_replay: bool) -> Checkpoint {
+        let mut c = Checkpoint::new("sac");
+        c.set_meta("config", &self.config);
+        self.collector.write_to(&mut c, save_replay);
+        c.set_meta("gradient_steps_done", self.gradient_steps_done);
+        c.put_f32("actor", &self.actor.params);
+        for i in 0..2 {
+            c.put_f32(&format!("q{i}"), &self.q[i].params);
+            c.put_f32(&format!("q{i}_target"), &self.q_target[i].params);
+            c.put_adam(&format!("adam/q{i}"), &self.opt_q[i]);
+        }
+        c.put_adam("adam/actor", &self.opt_actor);
+        c.put_f32("log_alpha", &self.log_alpha);
+        c.put_adam("adam/alpha", &self.opt_alpha);
+        c.put_rng("rng", &self.rng);
+        self.policy().write_to(&mut c);
+        c
+    }
+}
+
+impl Algorithm for Sac {
+    fn name(&self) -> &'static str {
+        "sac"
+    }
+
+    fn learn(
+        &mut self,
+        env: &mut VecEnv,
+        total_steps: u64,
+        callback: &mut dyn FnMut(&UpdateMetrics) -> ControlFlow<()>,
+    ) -> Result<(), RlError> {
+        off_policy::learn(self, "sac", env, total_steps, callback)
+    }
+
+    fn to_checkpoint(&self) -> Checkpoint {
+        self.to_checkpoint_with(true)
+    }
+
+    fn policy(&self) -> Policy {
+        Policy::new(PolicyHead::TanhRescaled, self.actor.clone(), None, &self.collector.act_space)
+    }
+
+    fn zero_policy_output(&mut self) {
+        self.actor.zero_output_rows(0..self.collector.act_space.dim());
+    }
+
+    fn steps_done(&self) -> u64 {
+        self.collector.steps_done
+    }
+}
+
+impl OffPolicyLearner for Sac {
+    type Sums = LossSums;
+
+    fn settings(&self) -> LoopSettings {
+        off_policy::loop_settings!(self.config)
+    }
+
+    fn parts(&mut self) -> (&mut Collector, &mut Rng) {
+        (&mut self.collector, &mut self.rng)
+    }
+
+    /// `ã ~ π(·|s)`.
+    fn explore(&mut self, n: usize) {
+        let (c, w) = (&mut self.collector, &mut self.work);
+        let od = c.obs_space.dim();
+        Sac::sample_actions(
+            &self.actor,
+            &mut w.actor_buf,
+            &c.obs[..n * od],
+            n,
+            &mut self.rng,
+            &mut w.eps,
+            &mut w.log_std,
+            &mut c.actions,
+            &mut w.pi_log_probs,
+        );
+    }
+
     /// One gradient step on a replay batch.
     fn train_step(&mut self, sums: &mut LossSums) -> Result<(), RlError> {
-        let (od, ad, b) = (self.obs_space.dim(), self.act_space.dim(), self.config.batch_size);
+        let (od, ad, b) =
+            (self.collector.obs_space.dim(), self.collector.act_space.dim(), self.config.batch_size);
         let gamma = self.config.gamma as f32;
         let w = &mut self.work;
-        self.replay.sample(&mut self.rng, &mut w.batch);
+        self.collector.replay.sample(&mut self.rng, &mut w.batch);
 
         // ã ~ π(·|s) (kept for the actor loss).
         Sac::sample_actions(
@@ -484,211 +569,14 @@ impl Sac {
         Ok(())
     }
 
-    fn check_env(&self, env: &VecEnv) -> Result<(), RlError> {
-        if env.observation_space() != &self.obs_space || env.action_space() != &self.act_space {
-            return Err(RlError::Incompatible {
-                algo: "sac",
-                reason: "observation or action space differs".into(),
-            });
+    fn report(&self, sums: &LossSums, m: &mut UpdateMetrics) {
+        m.alpha = self.alpha();
+        if sums.n > 0 {
+            let k = sums.n as f64;
+            m.q_loss = sums.q_loss / k;
+            m.policy_loss = sums.policy_loss / k;
+            m.entropy = sums.entropy / k;
+            m.mean_q = sums.mean_q / k;
         }
-        if env.len() * self.obs_space.dim() > self.work.obs.len() {
-            return Err(RlError::Incompatible {
-                algo: "sac",
-                reason: format!(
-                    "learner sized for {} environments, VecEnv has {}",
-                    self.work.step.rewards.len(),
-                    env.len()
-                ),
-            });
-        }
-        Ok(())
-    }
-
-    /// Reads a learner saved by [`Algorithm::save`].
-    pub fn load(path: &std::path::Path) -> Result<Sac, RlError> {
-        Sac::from_checkpoint(&Checkpoint::read(path)?)
-    }
-
-    /// A learner from an in-memory checkpoint.
-    pub fn from_checkpoint(c: &Checkpoint) -> Result<Sac, RlError> {
-        c.expect_algo("sac")?;
-        let config: SacConfig = c.get_meta("config")?;
-        let max_envs: usize = c.get_meta("max_envs")?;
-        let obs_space = c.read_space("obs_space")?;
-        let act_space = c.read_space("act_space")?;
-        let mut s = Sac::new(config, &obs_space, &act_space, max_envs)?;
-        c.read_mlp("actor", &mut s.actor)?;
-        for i in 0..2 {
-            c.read_mlp(&format!("q{i}"), &mut s.q[i])?;
-            c.read_mlp(&format!("q{i}_target"), &mut s.q_target[i])?;
-            c.read_adam(&format!("adam/q{i}"), &mut s.opt_q[i])?;
-        }
-        c.read_adam("adam/actor", &mut s.opt_actor)?;
-        c.read_f32_into("log_alpha", &mut s.log_alpha)?;
-        c.read_adam("adam/alpha", &mut s.opt_alpha)?;
-        if c.get_meta::<bool>("replay_saved")? {
-            c.read_replay("replay", &mut s.replay)?;
-        }
-        s.rng = c.read_rng("rng")?;
-        s.steps_done = c.get_meta("steps_done")?;
-        s.gradient_steps_done = c.get_meta("gradient_steps_done")?;
-        s.records = c.get_meta("records")?;
-        s.wall_time = c.get_meta("wall_time")?;
-        Ok(s)
-    }
-
-    /// Like [`Algorithm::to_checkpoint`], optionally without the replay buffer (smaller
-    /// files; resuming then refills it from scratch).
-    pub fn to_checkpoint_with(&self, save_replay: bool) -> Checkpoint {
-        let mut c = Checkpoint::new("sac");
-        c.set_meta("config", &self.config);
-        c.set_meta("max_envs", self.work.step.rewards.len());
-        c.set_meta("steps_done", self.steps_done);
-        c.set_meta("gradient_steps_done", self.gradient_steps_done);
-        c.set_meta("records", self.records);
-        c.set_meta("wall_time", self.wall_time);
-        c.put_space("obs_space", &self.obs_space);
-        c.put_space("act_space", &self.act_space);
-        c.put_f32("actor", &self.actor.params);
-        for i in 0..2 {
-            c.put_f32(&format!("q{i}"), &self.q[i].params);
-            c.put_f32(&format!("q{i}_target"), &self.q_target[i].params);
-            c.put_adam(&format!("adam/q{i}"), &self.opt_q[i]);
-        }
-        c.put_adam("adam/actor", &self.opt_actor);
-        c.put_f32("log_alpha", &self.log_alpha);
-        c.put_adam("adam/alpha", &self.opt_alpha);
-        c.set_meta("replay_saved", save_replay);
-        if save_replay {
-            c.put_replay("replay", &self.replay);
-        }
-        c.put_rng("rng", &self.rng);
-        self.policy().write_to(&mut c);
-        c
-    }
-}
-
-impl Algorithm for Sac {
-    fn name(&self) -> &'static str {
-        "sac"
-    }
-
-    fn learn(
-        &mut self,
-        env: &mut VecEnv,
-        total_steps: u64,
-        callback: &mut dyn FnMut(&UpdateMetrics) -> ControlFlow<()>,
-    ) -> Result<(), RlError> {
-        self.check_env(env)?;
-        let (n, od, ad) = (env.len(), self.obs_space.dim(), self.act_space.dim());
-        match env.observations() {
-            Some(obs) => self.work.obs[..n * od].copy_from_slice(obs),
-            None => {
-                env.reset(self.config.seed.wrapping_add(self.steps_done), &mut self.work.obs[..n * od])?
-            }
-        }
-        if self.work.step.rewards.len() != n {
-            self.work.step = env.make_step_buffers();
-        }
-        let mut episodes = EpisodeWindow::default();
-        let mut sums = LossSums::default();
-        let (mut t0, mut steps_at_t0) = (Instant::now(), self.steps_done);
-        let mut next_record = (self.steps_done / self.config.log_interval + 1) * self.config.log_interval;
-        while self.steps_done < total_steps {
-            // Act: uniform random actions during warm-up, then ã ~ π(·|s).
-            if self.steps_done < self.config.learning_starts {
-                self.work.actions[..n * ad].iter_mut().for_each(|a| *a = self.rng.range(-1.0, 1.0) as f32);
-            } else {
-                let w = &mut self.work;
-                Sac::sample_actions(
-                    &self.actor,
-                    &mut w.actor_buf,
-                    &w.obs[..n * od],
-                    n,
-                    &mut self.rng,
-                    &mut w.eps,
-                    &mut w.log_std,
-                    &mut w.actions,
-                    &mut w.pi_log_probs,
-                );
-            }
-            for i in 0..n * ad {
-                let k = i % ad;
-                self.work.env_actions[i] =
-                    rescale_action(self.work.actions[i], self.act_space.low[k], self.act_space.high[k]);
-            }
-            let w = &mut self.work;
-            env.step(&w.env_actions[..n * ad], &mut w.step)?;
-            for e in &w.step.episodes {
-                episodes.push(e.ret, e.length);
-            }
-            // Store (s, a, r, s', terminated, truncated) with s' the final observation at an
-            // episode end.
-            for i in 0..n {
-                let s = &w.step;
-                let next = if s.terminated[i] || s.truncated[i] { &s.final_obs } else { &s.obs };
-                self.replay.push(
-                    &w.obs[i * od..(i + 1) * od],
-                    &w.actions[i * ad..(i + 1) * ad],
-                    s.rewards[i] as f32,
-                    &next[i * od..(i + 1) * od],
-                    s.terminated[i],
-                    s.truncated[i],
-                );
-            }
-            w.obs[..n * od].copy_from_slice(&w.step.obs);
-            self.steps_done += n as u64;
-
-            if self.steps_done > self.config.learning_starts {
-                for _ in 0..self.config.gradient_steps {
-                    self.train_step(&mut sums)?;
-                }
-            }
-
-            if self.steps_done >= next_record || self.steps_done >= total_steps {
-                next_record = (self.steps_done / self.config.log_interval + 1) * self.config.log_interval;
-                self.records += 1;
-                let dt = t0.elapsed().as_secs_f64();
-                self.wall_time += dt;
-                let mut m = UpdateMetrics::empty();
-                m.update = self.records;
-                m.env_steps = self.steps_done;
-                m.wall_time = self.wall_time;
-                m.steps_per_second = (self.steps_done - steps_at_t0) as f64 / dt.max(1e-9);
-                m.learning_rate = self.config.learning_rate;
-                m.alpha = self.alpha();
-                if sums.n > 0 {
-                    let k = sums.n as f64;
-                    m.q_loss = sums.q_loss / k;
-                    m.policy_loss = sums.policy_loss / k;
-                    m.entropy = sums.entropy / k;
-                    m.mean_q = sums.mean_q / k;
-                }
-                episodes.drain_into(&mut m);
-                sums = LossSums::default();
-                t0 = Instant::now();
-                steps_at_t0 = self.steps_done;
-                if callback(&m).is_break() {
-                    break;
-                }
-            }
-        }
-        Ok(())
-    }
-
-    fn to_checkpoint(&self) -> Checkpoint {
-        self.to_checkpoint_with(true)
-    }
-
-    fn policy(&self) -> Policy {
-        Policy::new(PolicyHead::TanhRescaled, self.actor.clone(), None, &self.act_space)
-    }
-
-    fn zero_policy_output(&mut self) {
-        self.actor.zero_output_rows(0..self.act_space.dim());
-    }
-
-    fn steps_done(&self) -> u64 {
-        self.steps_done
     }
 }

@@ -15,21 +15,24 @@
 //!
 //! Exploration: `a = clip(μ(s) + N(0, σ²), −1, 1)` after `learning_starts` uniformly random
 //! steps.
+//!
+//! The collection loop around the gradient step (warm-up, replay buffer, logging) is the one
+//! all replay-buffer learners share, in `off_policy.rs`.
 
 use std::ops::ControlFlow;
-use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
 use crate::algorithm::Algorithm;
-use crate::buffer::{ReplayBatch, ReplayBuffer, concat_obs_act};
+use crate::buffer::{ReplayBatch, concat_obs_act};
 use crate::checkpoint::Checkpoint;
-use crate::env::{BoxSpace, VecEnv, VecStep};
+use crate::env::{BoxSpace, VecEnv};
 use crate::error::{RlError, check};
-use crate::metrics::{EpisodeWindow, UpdateMetrics};
+use crate::metrics::UpdateMetrics;
 use crate::nn::{Activation, Init, Mlp, MlpBuffers, polyak, tanh_fast};
+use crate::off_policy::{self, Collector, LoopSettings, OffPolicyLearner};
 use crate::optim::Adam;
-use crate::policy::{Policy, PolicyHead, rescale_action};
+use crate::policy::{Policy, PolicyHead};
 use crate::rng::Rng;
 
 /// TD3 hyperparameters (defaults: Stable-Baselines3 2.x `TD3`, exploration noise from the
@@ -163,10 +166,6 @@ impl Td3Config {
 
 /// Preallocated buffers.
 struct Work {
-    obs: Vec<f32>,
-    actions: Vec<f32>,
-    env_actions: Vec<f32>,
-    step: VecStep,
     batch: ReplayBatch,
     next_actions: Vec<f32>,
     pi_actions: Vec<f32>,
@@ -182,7 +181,7 @@ struct Work {
 }
 
 #[derive(Clone, Copy, Default)]
-struct LossSums {
+pub(crate) struct LossSums {
     n_q: u64,
     n_pi: u64,
     q_loss: f64,
@@ -193,20 +192,15 @@ struct LossSums {
 /// A TD3 learner; see the module documentation.
 pub struct Td3 {
     config: Td3Config,
-    obs_space: BoxSpace,
-    act_space: BoxSpace,
+    collector: Collector,
     actor: Mlp,
     actor_target: Mlp,
     q: [Mlp; 2],
     q_target: [Mlp; 2],
     opt_actor: Adam,
     opt_q: [Adam; 2],
-    replay: ReplayBuffer,
     rng: Rng,
-    steps_done: u64,
     gradient_steps_done: u64,
-    records: u64,
-    wall_time: f64,
     work: Work,
 }
 
@@ -233,18 +227,6 @@ impl Td3 {
         ];
         let eps = config.adam_eps as f32;
         let work = Work {
-            obs: vec![0.0; n * od],
-            actions: vec![0.0; n * ad],
-            env_actions: vec![0.0; n * ad],
-            step: VecStep {
-                obs: vec![0.0; n * od],
-                rewards: vec![0.0; n],
-                terminated: vec![false; n],
-                truncated: vec![false; n],
-                final_obs: vec![0.0; n * od],
-                infos: vec![Default::default(); n],
-                episodes: Vec::with_capacity(n),
-            },
             batch: ReplayBatch::new(b, od, ad),
             next_actions: vec![0.0; b * ad],
             pi_actions: vec![0.0; b * ad],
@@ -261,19 +243,14 @@ impl Td3 {
         Ok(Td3 {
             opt_actor: Adam::new(actor.n_params(), eps),
             opt_q: [Adam::new(q[0].n_params(), eps), Adam::new(q[1].n_params(), eps)],
-            replay: ReplayBuffer::new(config.buffer_size, od, ad),
+            collector: Collector::new(obs_space, act_space, n, config.buffer_size),
             actor_target: actor.clone(),
             actor,
             q_target: q.clone(),
             q,
             rng,
-            steps_done: 0,
             gradient_steps_done: 0,
-            records: 0,
-            wall_time: 0.0,
             work,
-            obs_space: obs_space.clone(),
-            act_space: act_space.clone(),
             config,
         })
     }
@@ -288,14 +265,114 @@ impl Td3 {
         &self.config
     }
 
+    /// Reads a learner saved by [`Algorithm::save`].
+    pub fn load(path: &std::path::Path) -> Result<Td3, RlError> {
+        Td3::from_checkpoint(&Checkpoint::read(path)?)
+    }
+
+    /// A learner from an in-memory checkpoint.
+    pub fn from_checkpoint(c: &Checkpoint) -> Result<Td3, RlError> {
+        c.expect_algo("td3")?;
+        let config: Td3Config = c.get_meta("config")?;
+        let (obs_space, act_space, max_envs) = Collector::read_shape(c)?;
+        let mut s = Td3::new(config, &obs_space, &act_space, max_envs)?;
+        c.read_mlp("actor", &mut s.actor)?;
+        c.read_mlp("actor_target", &mut s.actor_target)?;
+        c.read_adam("adam/actor", &mut s.opt_actor)?;
+        for i in 0..2 {
+            c.read_mlp(&format!("q{i}"), &mut s.q[i])?;
+            c.read_mlp(&format!("q{i}_target"), &mut s.q_target[i])?;
+            c.read_adam(&format!("adam/q{i}"), &mut s.opt_q[i])?;
+        }
+        s.collector.read_from(c)?;
+        s.rng = c.read_rng("rng")?;
+        s.gradient_steps_done = c.get_meta("gradient_steps_done")?;
+        Ok(s)
+    }
+
+    /// Like [`Algorithm::to_checkpoint`], optionally without the replay buffer.
+    pub fn to_checkpoint_with(&self, save_replay: bool) -> Checkpoint {
+        let mut c = Checkpoint::new("td3");
+        c.set_meta("config", &self.config);
+        self.collector.write_to(&mut c, save_replay);
+        c.set_meta("gradient_steps_done", self.gradient_steps_done);
+        c.put_f32("actor", &self.actor.params);
+        c.put_f32("actor_target", &self.actor_target.params);
+        c.put_adam("adam/actor", &self.opt_actor);
+        for i in 0..2 {
+            c.put_f32(&format!("q{i}"), &self.q[i].params);
+            c.put_f32(&format!("q{i}_target"), &self.q_target[i].params);
+            c.put_adam(&format!("adam/q{i}"), &self.opt_q[i]);
+        }
+        c.put_rng("rng", &self.rng);
+        self.policy().write_to(&mut c);
+        c
+    }
+}
+
+impl Algorithm for Td3 {
+    fn name(&self) -> &'static str {
+        "td3"
+    }
+
+    fn learn(
+        &mut self,
+        env: &mut VecEnv,
+        total_steps: u64,
+        callback: &mut dyn FnMut(&UpdateMetrics) -> ControlFlow<()>,
+    ) -> Result<(), RlError> {
+        off_policy::learn(self, "td3", env, total_steps, callback)
+    }
+
+    fn to_checkpoint(&self) -> Checkpoint {
+        self.to_checkpoint_with(true)
+    }
+
+    fn policy(&self) -> Policy {
+        Policy::new(PolicyHead::TanhRescaled, self.actor.clone(), None, &self.collector.act_space)
+    }
+
+    fn zero_policy_output(&mut self) {
+        self.actor.zero_output_rows(0..self.collector.act_space.dim());
+        self.actor_target = self.actor.clone();
+    }
+
+    fn steps_done(&self) -> u64 {
+        self.collector.steps_done
+    }
+}
+
+impl OffPolicyLearner for Td3 {
+    type Sums = LossSums;
+
+    fn settings(&self) -> LoopSettings {
+        off_policy::loop_settings!(self.config)
+    }
+
+    fn parts(&mut self) -> (&mut Collector, &mut Rng) {
+        (&mut self.collector, &mut self.rng)
+    }
+
+    /// `a = clip(μ(s) + N(0, σ²), −1, 1)`.
+    fn explore(&mut self, n: usize) {
+        let (c, w) = (&mut self.collector, &mut self.work);
+        let (od, ad) = (c.obs_space.dim(), c.act_space.dim());
+        let y = self.actor.forward(&mut w.actor_buf, &c.obs[..n * od], n);
+        for k in 0..n * ad {
+            let noise = (self.rng.normal() * self.config.exploration_noise) as f32;
+            c.actions[k] = (tanh_fast(y[k]) + noise).clamp(-1.0, 1.0);
+        }
+    }
+
     /// One gradient step on a replay batch (critics always, actor and targets every
     /// `policy_delay` steps).
     fn train_step(&mut self, sums: &mut LossSums) -> Result<(), RlError> {
-        let (od, ad, b) = (self.obs_space.dim(), self.act_space.dim(), self.config.batch_size);
+        let (od, ad, b) =
+            (self.collector.obs_space.dim(), self.collector.act_space.dim(), self.config.batch_size);
         let (gamma, lr) = (self.config.gamma as f32, self.config.learning_rate as f32);
         let (sigma, c) = (self.config.target_policy_noise, self.config.target_noise_clip);
         let w = &mut self.work;
-        self.replay.sample(&mut self.rng, &mut w.batch);
+        self.collector.replay.sample(&mut self.rng, &mut w.batch);
 
         // Target policy smoothing: ã' = clip(μ̄(s') + clip(ε, −c, c), −1, 1).
         let y = self.actor_target.forward(&mut w.actor_target_buf, &w.batch.next_obs, b);
@@ -369,200 +446,13 @@ impl Td3 {
         Ok(())
     }
 
-    fn check_env(&self, env: &VecEnv) -> Result<(), RlError> {
-        if env.observation_space() != &self.obs_space || env.action_space() != &self.act_space {
-            return Err(RlError::Incompatible {
-                algo: "td3",
-                reason: "observation or action space differs".into(),
-            });
+    fn report(&self, sums: &LossSums, m: &mut UpdateMetrics) {
+        if sums.n_q > 0 {
+            m.q_loss = sums.q_loss / sums.n_q as f64;
+            m.mean_q = sums.mean_q / sums.n_q as f64;
         }
-        if env.len() * self.obs_space.dim() > self.work.obs.len() {
-            return Err(RlError::Incompatible {
-                algo: "td3",
-                reason: format!(
-                    "learner sized for {} environments, VecEnv has {}",
-                    self.work.obs.len() / self.obs_space.dim(),
-                    env.len()
-                ),
-            });
+        if sums.n_pi > 0 {
+            m.policy_loss = sums.policy_loss / sums.n_pi as f64;
         }
-        Ok(())
-    }
-
-    /// Reads a learner saved by [`Algorithm::save`].
-    pub fn load(path: &std::path::Path) -> Result<Td3, RlError> {
-        Td3::from_checkpoint(&Checkpoint::read(path)?)
-    }
-
-    /// A learner from an in-memory checkpoint.
-    pub fn from_checkpoint(c: &Checkpoint) -> Result<Td3, RlError> {
-        c.expect_algo("td3")?;
-        let config: Td3Config = c.get_meta("config")?;
-        let max_envs: usize = c.get_meta("max_envs")?;
-        let obs_space = c.read_space("obs_space")?;
-        let act_space = c.read_space("act_space")?;
-        let mut s = Td3::new(config, &obs_space, &act_space, max_envs)?;
-        c.read_mlp("actor", &mut s.actor)?;
-        c.read_mlp("actor_target", &mut s.actor_target)?;
-        c.read_adam("adam/actor", &mut s.opt_actor)?;
-        for i in 0..2 {
-            c.read_mlp(&format!("q{i}"), &mut s.q[i])?;
-            c.read_mlp(&format!("q{i}_target"), &mut s.q_target[i])?;
-            c.read_adam(&format!("adam/q{i}"), &mut s.opt_q[i])?;
-        }
-        if c.get_meta::<bool>("replay_saved")? {
-            c.read_replay("replay", &mut s.replay)?;
-        }
-        s.rng = c.read_rng("rng")?;
-        s.steps_done = c.get_meta("steps_done")?;
-        s.gradient_steps_done = c.get_meta("gradient_steps_done")?;
-        s.records = c.get_meta("records")?;
-        s.wall_time = c.get_meta("wall_time")?;
-        Ok(s)
-    }
-
-    /// Like [`Algorithm::to_checkpoint`], optionally without the replay buffer.
-    pub fn to_checkpoint_with(&self, save_replay: bool) -> Checkpoint {
-        let mut c = Checkpoint::new("td3");
-        c.set_meta("config", &self.config);
-        c.set_meta("max_envs", self.work.obs.len() / self.obs_space.dim().max(1));
-        c.set_meta("steps_done", self.steps_done);
-        c.set_meta("gradient_steps_done", self.gradient_steps_done);
-        c.set_meta("records", self.records);
-        c.set_meta("wall_time", self.wall_time);
-        c.put_space("obs_space", &self.obs_space);
-        c.put_space("act_space", &self.act_space);
-        c.put_f32("actor", &self.actor.params);
-        c.put_f32("actor_target", &self.actor_target.params);
-        c.put_adam("adam/actor", &self.opt_actor);
-        for i in 0..2 {
-            c.put_f32(&format!("q{i}"), &self.q[i].params);
-            c.put_f32(&format!("q{i}_target"), &self.q_target[i].params);
-            c.put_adam(&format!("adam/q{i}"), &self.opt_q[i]);
-        }
-        c.set_meta("replay_saved", save_replay);
-        if save_replay {
-            c.put_replay("replay", &self.replay);
-        }
-        c.put_rng("rng", &self.rng);
-        self.policy().write_to(&mut c);
-        c
-    }
-}
-
-impl Algorithm for Td3 {
-    fn name(&self) -> &'static str {
-        "td3"
-    }
-
-    fn learn(
-        &mut self,
-        env: &mut VecEnv,
-        total_steps: u64,
-        callback: &mut dyn FnMut(&UpdateMetrics) -> ControlFlow<()>,
-    ) -> Result<(), RlError> {
-        self.check_env(env)?;
-        let (n, od, ad) = (env.len(), self.obs_space.dim(), self.act_space.dim());
-        match env.observations() {
-            Some(obs) => self.work.obs[..n * od].copy_from_slice(obs),
-            None => {
-                env.reset(self.config.seed.wrapping_add(self.steps_done), &mut self.work.obs[..n * od])?
-            }
-        }
-        if self.work.step.rewards.len() != n {
-            self.work.step = env.make_step_buffers();
-        }
-        let mut episodes = EpisodeWindow::default();
-        let mut sums = LossSums::default();
-        let (mut t0, mut steps_at_t0) = (Instant::now(), self.steps_done);
-        let mut next_record = (self.steps_done / self.config.log_interval + 1) * self.config.log_interval;
-        while self.steps_done < total_steps {
-            // Act: uniform random during warm-up, then clip(μ(s) + N(0, σ²), −1, 1).
-            if self.steps_done < self.config.learning_starts {
-                self.work.actions[..n * ad].iter_mut().for_each(|a| *a = self.rng.range(-1.0, 1.0) as f32);
-            } else {
-                let w = &mut self.work;
-                let y = self.actor.forward(&mut w.actor_buf, &w.obs[..n * od], n);
-                for k in 0..n * ad {
-                    let noise = (self.rng.normal() * self.config.exploration_noise) as f32;
-                    w.actions[k] = (tanh_fast(y[k]) + noise).clamp(-1.0, 1.0);
-                }
-            }
-            for i in 0..n * ad {
-                let k = i % ad;
-                self.work.env_actions[i] =
-                    rescale_action(self.work.actions[i], self.act_space.low[k], self.act_space.high[k]);
-            }
-            let w = &mut self.work;
-            env.step(&w.env_actions[..n * ad], &mut w.step)?;
-            for e in &w.step.episodes {
-                episodes.push(e.ret, e.length);
-            }
-            for i in 0..n {
-                let s = &w.step;
-                let next = if s.terminated[i] || s.truncated[i] { &s.final_obs } else { &s.obs };
-                self.replay.push(
-                    &w.obs[i * od..(i + 1) * od],
-                    &w.actions[i * ad..(i + 1) * ad],
-                    s.rewards[i] as f32,
-                    &next[i * od..(i + 1) * od],
-                    s.terminated[i],
-                    s.truncated[i],
-                );
-            }
-            w.obs[..n * od].copy_from_slice(&w.step.obs);
-            self.steps_done += n as u64;
-
-            if self.steps_done > self.config.learning_starts {
-                for _ in 0..self.config.gradient_steps {
-                    self.train_step(&mut sums)?;
-                }
-            }
-
-            if self.steps_done >= next_record || self.steps_done >= total_steps {
-                next_record = (self.steps_done / self.config.log_interval + 1) * self.config.log_interval;
-                self.records += 1;
-                let dt = t0.elapsed().as_secs_f64();
-                self.wall_time += dt;
-                let mut m = UpdateMetrics::empty();
-                m.update = self.records;
-                m.env_steps = self.steps_done;
-                m.wall_time = self.wall_time;
-                m.steps_per_second = (self.steps_done - steps_at_t0) as f64 / dt.max(1e-9);
-                m.learning_rate = self.config.learning_rate;
-                if sums.n_q > 0 {
-                    m.q_loss = sums.q_loss / sums.n_q as f64;
-                    m.mean_q = sums.mean_q / sums.n_q as f64;
-                }
-                if sums.n_pi > 0 {
-                    m.policy_loss = sums.policy_loss / sums.n_pi as f64;
-                }
-                episodes.drain_into(&mut m);
-                sums = LossSums::default();
-                t0 = Instant::now();
-                steps_at_t0 = self.steps_done;
-                if callback(&m).is_break() {
-                    break;
-                }
-            }
-        }
-        Ok(())
-    }
-
-    fn to_checkpoint(&self) -> Checkpoint {
-        self.to_checkpoint_with(true)
-    }
-
-    fn policy(&self) -> Policy {
-        Policy::new(PolicyHead::TanhRescaled, self.actor.clone(), None, &self.act_space)
-    }
-
-    fn zero_policy_output(&mut self) {
-        self.actor.zero_output_rows(0..self.act_space.dim());
-        self.actor_target = self.actor.clone();
-    }
-
-    fn steps_done(&self) -> u64 {
-        self.steps_done
     }
 }
