@@ -19,7 +19,7 @@ pub enum ReferenceFrame {
 }
 
 /// `ⁱ⁻¹Mᵢ(q) = placement · M_J(q)`, specialised per joint kind.
-#[inline]
+#[inline(always)]
 pub(crate) fn joint_placement(placement: &Se3, kind: &JointKind, q: &[f64]) -> Se3 {
     match kind {
         JointKind::Revolute { axis } => Se3 {

@@ -456,9 +456,17 @@ impl Inertia {
     }
 
     /// Rotational inertia about the frame origin, `I_c + m ([c]ₓ)ᵀ [c]ₓ`.
+    #[inline]
     pub fn rotational_about_origin(&self) -> Matrix3<f64> {
-        let c = &self.lever;
-        self.rotational + (Matrix3::identity() * c.norm_squared() - c * c.transpose()) * self.mass
+        let (c, m) = (&self.lever, self.mass);
+        let (xx, yy, zz) = (c.x * c.x, c.y * c.y, c.z * c.z);
+        let mut r = self.rotational;
+        add_symmetric(
+            &mut r,
+            [m * (yy + zz), m * (xx + zz), m * (xx + yy)],
+            [m * c.x * c.y, m * c.x * c.z, m * c.y * c.z],
+        );
+        r
     }
 
     /// Kinetic energy `½ mᵀ I m` of the body moving with `m`.
