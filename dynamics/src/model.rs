@@ -119,7 +119,7 @@ pub(crate) fn axis_rotation(axis: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
 /// `r · Rot(axis, angle)`. For the coordinate axes (and their opposites) only two columns
 /// of `r` mix, 12 products instead of a full 3 × 3 matrix product; other axes use
 /// [`axis_rotation`].
-#[inline]
+#[inline(always)]
 pub(crate) fn rotate_about_axis(r: &Matrix3<f64>, axis: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
     let (s, c) = angle.sin_cos();
     // Columns (a, b) of `r` rotated in their plane: (c a + s b, c b − s a).
