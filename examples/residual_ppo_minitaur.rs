@@ -8,91 +8,60 @@
 //! cargo run --release --example residual_ppo_minitaur
 //! cargo run --release --example residual_ppo_minitaur -- --steps 2000000 --seed 3 --out runs/long
 //! ```
-//! Options: `--steps N` (per agent), `--seed S`, `--out DIR`, `--env minitaur|minitaur-fast`,
-//! `--envs N` (parallel environments per agent), `--threads T`, `--eval-episodes K`,
-//! `--residual-scale X`, `--speed V` (the controller's commanded speed), `--config FILE`
-//! (TOML hyperparameters for both agents instead of the tuned Minitaur set), `--no-record`.
+//! Options (`--help` lists them): `--steps N` (per agent), `--seed S`, `--out DIR`,
+//! `--env minitaur|minitaur-fast`, `--envs N` (parallel environments per agent),
+//! `--threads T`, `--eval-episodes K`, `--residual-scale X`, `--speed V` (the controller's
+//! commanded speed), `--config FILE` (TOML hyperparameters for both agents instead of the
+//! tuned Minitaur set), `--no-record`.
 
-use std::path::PathBuf;
-use std::time::Instant;
+use std::process::ExitCode;
 
-use centaur::experiment::{ExperimentOptions, run_experiment_with_progress, tuned_config};
-use centaur::residual::ResidualConfig;
+use centaur::experiment::{ExampleArgs, ExampleDefaults, run_example};
 use centaur_mpc::{Command, Gait};
 use centaur_rl::AlgoKind;
+use clap::Parser;
 
-fn arg<T: std::str::FromStr>(args: &[String], name: &str) -> Option<T> {
-    args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|s| s.parse().ok())
+/// Residual PPO against pure PPO and the controller alone on the Minitaur.
+#[derive(Parser)]
+#[command(
+    name = "residual_ppo_minitaur",
+    after_help = "Defaults: 300,000 steps per agent, 4 environments, run directory runs/residual_ppo_minitaur."
+)]
+struct Cli {
+    #[command(flatten)]
+    run: ExampleArgs,
+    /// Environment: minitaur (MinitaurBulletEnv-v0 with its randomisation) or minitaur-fast
+    #[arg(long, default_value = "minitaur", value_parser = ["minitaur", "minitaur-fast"])]
+    env: String,
+    /// Residual scale, one value for every action dimension [default: the env's]
+    #[arg(long)]
+    residual_scale: Option<f64>,
+    /// Forward speed the controller is commanded, m/s [default: 0.3]
+    #[arg(long, allow_negative_numbers = true)]
+    speed: Option<f64>,
 }
 
-fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let threads = arg(&args, "--threads")
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let env: String = arg(&args, "--env").unwrap_or_else(|| "minitaur".to_string());
-    let mut residual = ResidualConfig::for_env(&env);
-    if let Some(s) = arg::<f64>(&args, "--residual-scale") {
-        residual.scale = vec![s];
-    }
-    if let Some(v) = arg::<f64>(&args, "--speed") {
-        residual.command = Command::forward(v, Gait::Trot);
-    }
-    let algo_config = match arg::<PathBuf>(&args, "--config") {
-        Some(path) => match std::fs::read_to_string(&path) {
-            Ok(text) => Some(text),
-            Err(e) => {
-                eprintln!("residual_ppo_minitaur: cannot read --config {}: {e}", path.display());
-                std::process::exit(2);
-            }
-        },
-        None => tuned_config(&env, AlgoKind::Ppo).map(str::to_string),
-    };
-    let opts = ExperimentOptions {
-        env: env.clone(),
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let defaults = ExampleDefaults {
+        name: "residual_ppo_minitaur",
+        env: &cli.env,
         algo: AlgoKind::Ppo,
-        steps: arg(&args, "--steps").unwrap_or(300_000),
-        seed: arg(&args, "--seed").unwrap_or(0),
-        out: arg::<PathBuf>(&args, "--out").unwrap_or_else(|| PathBuf::from("runs/residual_ppo_minitaur")),
-        algo_config,
-        n_envs: arg(&args, "--envs").unwrap_or(4),
-        threads,
-        eval_episodes: arg(&args, "--eval-episodes").unwrap_or(10),
-        residual,
-        record: !args.iter().any(|a| a == "--no-record"),
+        steps: 300_000,
+        envs: 4,
     };
-    println!(
-        "Residual PPO vs pure PPO on {} — {} steps each, seed {}, {} envs on {} threads → {}",
-        opts.env,
-        opts.steps,
-        opts.seed,
-        opts.n_envs,
-        opts.threads,
-        opts.out.display()
-    );
-    let t0 = Instant::now();
-    let result = run_experiment_with_progress(&opts, "PPO");
-    let summary = match result {
-        Ok(r) => r.summary,
+    let mut opts = match cli.run.options(&defaults) {
+        Ok(opts) => opts,
         Err(e) => {
-            eprintln!("residual_ppo_minitaur: {e}");
-            std::process::exit(1);
+            eprintln!("{}: {e}", defaults.name);
+            return ExitCode::from(2);
         }
     };
-    println!(
-        "\nEvaluation over {} episodes (deterministic actions, same seeds for every agent):\n",
-        opts.eval_episodes
-    );
-    print!("{}", summary.markdown_table());
-    println!(
-        "\nTraining: hybrid {} steps in {:.0} s, pure {} steps in {:.0} s; total wall time {:.0} s.",
-        summary.hybrid.env_steps,
-        summary.hybrid.wall_seconds,
-        summary.pure_rl.env_steps,
-        summary.pure_rl.wall_seconds,
-        t0.elapsed().as_secs_f64()
-    );
-    println!(
-        "Run directory: {} (summary.json, learning_curves.png, */metrics.csv, */checkpoint, *.mcap)",
-        opts.out.display()
-    );
+    if let Some(s) = cli.residual_scale {
+        opts.residual.scale = vec![s];
+    }
+    if let Some(v) = cli.speed {
+        opts.residual.command = Command::forward(v, Gait::Trot);
+    }
+    run_example(defaults.name, &opts)
 }

@@ -6,51 +6,38 @@
 //! cargo run --release --example residual_sac_walker2d -- [--steps N] [--seed S] [--out DIR] [--no-record]
 //! ```
 //! SAC's update dominates the cost (one gradient step per environment step), so the default
-//! budget is short; pass `--steps` for longer runs.
+//! budget is short; pass `--steps` for longer runs, `--help` for every option.
 
-use std::path::PathBuf;
+use std::process::ExitCode;
 
-use centaur::experiment::{ExperimentOptions, OFF_POLICY_LOCOMOTION_CONFIG, run_experiment_with_progress};
-use centaur::residual::ResidualConfig;
+use centaur::experiment::{ExampleArgs, ExampleDefaults, run_example};
 use centaur_rl::AlgoKind;
+use clap::Parser;
 
-fn arg<T: std::str::FromStr>(args: &[String], name: &str) -> Option<T> {
-    args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|s| s.parse().ok())
+/// Residual SAC against pure SAC and the controller alone on the Walker2d.
+#[derive(Parser)]
+#[command(
+    name = "residual_sac_walker2d",
+    after_help = "Defaults: 50,000 steps per agent, 1 environment, run directory runs/residual_sac_walker2d."
+)]
+struct Cli {
+    #[command(flatten)]
+    run: ExampleArgs,
 }
 
-fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let steps: u64 = arg(&args, "--steps").unwrap_or(50_000);
-    let opts = ExperimentOptions {
-        env: "walker2d".to_string(),
+fn main() -> ExitCode {
+    let defaults = ExampleDefaults {
+        name: "residual_sac_walker2d",
+        env: "walker2d",
         algo: AlgoKind::Sac,
-        steps,
-        seed: arg(&args, "--seed").unwrap_or(0),
-        out: arg::<PathBuf>(&args, "--out").unwrap_or_else(|| PathBuf::from("runs/residual_sac_walker2d")),
-        // Stable-Baselines3's defaults, with a 5000-step random warm-up.
-        algo_config: Some(OFF_POLICY_LOCOMOTION_CONFIG.to_string()),
-        n_envs: 1,
-        threads: 1,
-        eval_episodes: arg(&args, "--eval-episodes").unwrap_or(10),
-        residual: ResidualConfig::for_env("walker2d"),
-        record: !args.iter().any(|a| a == "--no-record"),
+        steps: 50_000,
+        envs: 1,
     };
-    println!(
-        "Residual SAC vs pure SAC on {}, {} steps each, seed {} → {}",
-        opts.env,
-        steps,
-        opts.seed,
-        opts.out.display()
-    );
-    let result = run_experiment_with_progress(&opts, "SAC");
-    match result {
-        Ok(r) => {
-            println!("\nEvaluation over {} episodes:\n\n{}", opts.eval_episodes, r.summary.markdown_table());
-            println!("Run directory: {}", opts.out.display());
-        }
+    match Cli::parse().run.options(&defaults) {
+        Ok(opts) => run_example(defaults.name, &opts),
         Err(e) => {
-            eprintln!("residual_sac_walker2d: {e}");
-            std::process::exit(1);
+            eprintln!("{}: {e}", defaults.name);
+            ExitCode::from(2)
         }
     }
 }

@@ -499,6 +499,124 @@ pub fn run_experiment_with_progress(
     result
 }
 
+/// The command line shared by the experiment examples (`residual_ppo_minitaur`,
+/// `residual_sac_walker2d`, `residual_td3_ant`); flatten it into an example's own parser.
+#[derive(Clone, Debug, Default, clap::Args)]
+pub struct ExampleArgs {
+    /// Environment steps per agent [default: the example's budget]
+    #[arg(long)]
+    pub steps: Option<u64>,
+    /// Seed of both agents' training (the evaluation seeds follow from it)
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Run directory [default: runs/<example name>]
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Parallel environments per agent [default: the example's]
+    #[arg(long)]
+    pub envs: Option<usize>,
+    /// Threads stepping them [default: the available cores, at most one per environment]
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Deterministic evaluation episodes per agent
+    #[arg(long, default_value_t = 10)]
+    pub eval_episodes: usize,
+    /// TOML file of hyperparameters for both agents [default: the tuned set for the robot and
+    /// algorithm, see `tuned_config`]
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Do not write the MCAP recordings
+    #[arg(long)]
+    pub no_record: bool,
+}
+
+/// What an example runs when its command line does not say otherwise.
+#[derive(Clone, Copy, Debug)]
+pub struct ExampleDefaults<'a> {
+    /// The example's name: error prefix and default run directory `runs/<name>`.
+    pub name: &'a str,
+    /// Robot environment.
+    pub env: &'a str,
+    /// Algorithm of both agents.
+    pub algo: AlgoKind,
+    /// Training steps per agent.
+    pub steps: u64,
+    /// Parallel environments per agent.
+    pub envs: usize,
+}
+
+impl ExampleArgs {
+    /// The experiment these arguments describe, with `defaults` filling in what they leave
+    /// out. Fails (with a message) only when the `--config` file cannot be read.
+    pub fn options(&self, defaults: &ExampleDefaults<'_>) -> Result<ExperimentOptions, String> {
+        let algo_config = match &self.config {
+            Some(path) => Some(
+                std::fs::read_to_string(path)
+                    .map_err(|e| format!("cannot read --config {}: {e}", path.display()))?,
+            ),
+            None => tuned_config(defaults.env, defaults.algo).map(str::to_string),
+        };
+        let n_envs = self.envs.unwrap_or(defaults.envs).max(1);
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        Ok(ExperimentOptions {
+            env: defaults.env.to_string(),
+            algo: defaults.algo,
+            steps: self.steps.unwrap_or(defaults.steps),
+            seed: self.seed,
+            out: self.out.clone().unwrap_or_else(|| Path::new("runs").join(defaults.name)),
+            algo_config,
+            n_envs,
+            threads: self.threads.unwrap_or(cores.min(n_envs)).max(1),
+            eval_episodes: self.eval_episodes,
+            residual: ResidualConfig::for_env(defaults.env),
+            record: !self.no_record,
+        })
+    }
+}
+
+/// The body of an experiment example: prints what runs, trains and evaluates with a
+/// progress bar ([`run_experiment_with_progress`]), prints the table, the training times and
+/// the run directory. Errors go to stderr prefixed with `name`; the exit code says whether
+/// it worked.
+pub fn run_example(name: &str, opts: &ExperimentOptions) -> std::process::ExitCode {
+    let label = opts.algo.name().to_uppercase();
+    println!(
+        "Residual {label} vs pure {label} on {} — {} steps each, seed {}, {} envs on {} threads → {}",
+        opts.env,
+        opts.steps,
+        opts.seed,
+        opts.n_envs,
+        opts.threads,
+        opts.out.display()
+    );
+    let t0 = Instant::now();
+    let summary = match run_experiment_with_progress(opts, &label) {
+        Ok(r) => r.summary,
+        Err(e) => {
+            eprintln!("{name}: {e}");
+            return std::process::ExitCode::FAILURE;
+        }
+    };
+    println!(
+        "\nEvaluation over {} episodes (deterministic actions, same seeds for every agent):\n",
+        opts.eval_episodes
+    );
+    print!("{}", summary.markdown_table());
+    println!(
+        "\nTraining: hybrid {} steps in {:.0} s, pure {} steps in {:.0} s; total wall time {:.0} s.",
+        summary.hybrid.env_steps,
+        summary.hybrid.wall_seconds,
+        summary.pure_rl.env_steps,
+        summary.pure_rl.wall_seconds,
+        t0.elapsed().as_secs_f64()
+    );
+    println!(
+        "Run directory: {} (summary.json, learning_curves.png, */metrics.csv, */checkpoint, *.mcap)",
+        opts.out.display()
+    );
+    std::process::ExitCode::SUCCESS
+}
+
 /// Runs the experiment (see the module docs) and writes the output directory.
 pub fn run_experiment(
     opts: &ExperimentOptions,
