@@ -289,13 +289,9 @@ impl Mlp {
             );
             let b = &self.params[layer.b..layer.b + layer.n_out];
             let hidden = l + 1 < n_layers || self.output_activation;
-            let act = self.activation;
             // Elementwise loops compiled for AVX2/FMA when the CPU has them (runtime
             // dispatch); the arithmetic is the same on every path.
-            pulp::Arch::new().dispatch(
-                #[inline(always)]
-                || bias_activation(out, b, hidden.then_some(act)),
-            );
+            pulp::Arch::new().dispatch(BiasActivation { out, b, act: hidden.then_some(self.activation) });
         }
         &buf.h[n_layers - 1][..self.n_out() * batch]
     }
@@ -382,7 +378,8 @@ impl Mlp {
             // δ_L = dy ⊙ σ'(z_L), staged in d1 (the loop then writes δ_{L-1} to d0).
             let n = self.n_out() * batch;
             d1[..n].copy_from_slice(dy);
-            activation_backward(&mut d1[..n], &h[self.layers.len() - 1][..n], self.activation);
+            let (d, h) = (&mut d1[..n], &h[self.layers.len() - 1][..n]);
+            pulp::Arch::new().dispatch(ActivationBackward { d, h, act: self.activation });
             src = Src::D1;
         }
         for l in (0..self.layers.len()).rev() {
@@ -441,11 +438,7 @@ impl Mlp {
                 Par::Seq,
             );
             let h_prev = &h[l - 1][..layer.n_in * batch];
-            let act = self.activation;
-            pulp::Arch::new().dispatch(
-                #[inline(always)]
-                || activation_backward(d_prev, h_prev, act),
-            );
+            pulp::Arch::new().dispatch(ActivationBackward { d: d_prev, h: h_prev, act: self.activation });
             src = match src {
                 Src::Dy | Src::D1 => Src::D0,
                 Src::D0 => Src::D1,
@@ -462,24 +455,54 @@ impl Mlp {
 }
 
 /// `z ← σ(z + b)` column by column (`σ` = identity for the output layer).
-#[inline(always)]
-fn bias_activation(out: &mut [f32], b: &[f32], act: Option<Activation>) {
-    for col in out.chunks_exact_mut(b.len()) {
-        match act {
-            None => col.iter_mut().zip(b).for_each(|(z, b)| *z += b),
-            Some(Activation::Tanh) => col.iter_mut().zip(b).for_each(|(z, b)| *z = tanh_fast(*z + b)),
-            Some(Activation::Relu) => col.iter_mut().zip(b).for_each(|(z, b)| *z = (*z + b).max(0.0)),
+///
+/// A [`pulp::WithSimd`] operation rather than a closure: pulp inlines `with_simd` into its
+/// AVX2/FMA-enabled function, whereas a closure is reached through a `FnOnce::call_once`
+/// shim that stays compiled for baseline SSE. That mattered twice over: the loop ran 4 wide
+/// instead of 8, and legacy SSE code right after faer's AVX-512 kernels (which leave the
+/// upper register halves dirty) pays a false dependency on every instruction — measured
+/// 5.3 ns per `tanh_fast` value in PPO's update against 1.2 ns in isolation.
+struct BiasActivation<'a> {
+    out: &'a mut [f32],
+    b: &'a [f32],
+    act: Option<Activation>,
+}
+
+impl pulp::WithSimd for BiasActivation<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        let b = self.b;
+        for col in self.out.chunks_exact_mut(b.len()) {
+            match self.act {
+                None => col.iter_mut().zip(b).for_each(|(z, b)| *z += b),
+                Some(Activation::Tanh) => col.iter_mut().zip(b).for_each(|(z, b)| *z = tanh_fast(*z + b)),
+                Some(Activation::Relu) => col.iter_mut().zip(b).for_each(|(z, b)| *z = (*z + b).max(0.0)),
+            }
         }
     }
 }
 
-/// `δ ← δ ⊙ σ'(z)` from the stored activations `h`.
-#[inline(always)]
-fn activation_backward(d: &mut [f32], h: &[f32], act: Activation) {
-    match act {
-        Activation::Tanh => d.iter_mut().zip(h).for_each(|(d, h)| *d *= 1.0 - h * h),
-        // A select, not a branch: ReLU signs are random, branches mispredict.
-        Activation::Relu => d.iter_mut().zip(h).for_each(|(d, h)| *d = if *h > 0.0 { *d } else { 0.0 }),
+/// `δ ← δ ⊙ σ'(z)` from the stored activations `h` (a [`pulp::WithSimd`] operation for the
+/// reason given at [`BiasActivation`]).
+struct ActivationBackward<'a> {
+    d: &'a mut [f32],
+    h: &'a [f32],
+    act: Activation,
+}
+
+impl pulp::WithSimd for ActivationBackward<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        let (d, h) = (self.d, self.h);
+        match self.act {
+            Activation::Tanh => d.iter_mut().zip(h).for_each(|(d, h)| *d *= 1.0 - h * h),
+            // A select, not a branch: ReLU signs are random, branches mispredict.
+            Activation::Relu => d.iter_mut().zip(h).for_each(|(d, h)| *d = if *h > 0.0 { *d } else { 0.0 }),
+        }
     }
 }
 
