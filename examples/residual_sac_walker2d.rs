@@ -5,7 +5,7 @@
 //! ```text
 //! cargo run --release --example residual_sac_walker2d -- [--steps N] [--seed S] [--out DIR] [--no-record]
 //! ```
-//! SAC's update dominates the cost (one gradient step per environment step), so the default
+//! SAC's update dominates the cost (one gradient step per vectorised environment step), so the default
 //! budget is short; pass `--steps` for longer runs, `--help` for every option.
 
 use std::process::ExitCode;

@@ -5,7 +5,7 @@
 //! ```text
 //! cargo run --release --example residual_td3_ant -- [--steps N] [--seed S] [--out DIR] [--no-record]
 //! ```
-//! TD3's update dominates the cost (one gradient step per environment step), so the default
+//! TD3's update dominates the cost (one gradient step per vectorised environment step), so the default
 //! budget is short; pass `--steps` for longer runs, `--help` for every option.
 
 use std::process::ExitCode;

@@ -513,10 +513,10 @@ pub struct ExampleArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Parallel environments per agent [default: the example's]
-    #[arg(long)]
+    #[arg(long, value_parser = positive_count)]
     pub envs: Option<usize>,
-    /// Threads stepping them [default: the available cores, at most one per environment]
-    #[arg(long)]
+    /// Threads stepping them, at most one per environment [default: the available cores]
+    #[arg(long, value_parser = positive_count)]
     pub threads: Option<usize>,
     /// Deterministic evaluation episodes per agent
     #[arg(long, default_value_t = 10)]
@@ -528,6 +528,14 @@ pub struct ExampleArgs {
     /// Do not write the MCAP recordings
     #[arg(long)]
     pub no_record: bool,
+}
+
+/// A count of at least 1 (`--envs`, `--threads`).
+fn positive_count(text: &str) -> Result<usize, String> {
+    match text.parse::<usize>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(format!("expected a whole number of at least 1, got {text:?}")),
+    }
 }
 
 /// What an example runs when its command line does not say otherwise.
@@ -566,7 +574,7 @@ impl ExampleArgs {
             out: self.out.clone().unwrap_or_else(|| Path::new("runs").join(defaults.name)),
             algo_config,
             n_envs,
-            threads: self.threads.unwrap_or(cores.min(n_envs)).max(1),
+            threads: self.threads.unwrap_or(cores).clamp(1, n_envs),
             eval_episodes: self.eval_episodes,
             residual: ResidualConfig::for_env(defaults.env),
             record: !self.no_record,

@@ -33,7 +33,7 @@ pub(crate) struct LoopSettings {
     pub seed: u64,
     /// Uniformly random steps before the first gradient step.
     pub learning_starts: u64,
-    /// Gradient steps per environment step (of all environments together).
+    /// Gradient steps per vectorised step (one step of every environment).
     pub gradient_steps: usize,
     /// Environment steps between metric records.
     pub log_interval: u64,
@@ -52,6 +52,8 @@ pub(crate) struct Collector {
     /// `actions` rescaled to the env's bounds.
     env_actions: Vec<f32>,
     step: VecStep,
+    /// The number of environments the buffers hold.
+    max_envs: usize,
     pub replay: ReplayBuffer,
     pub steps_done: u64,
     records: u64,
@@ -78,6 +80,7 @@ impl Collector {
                 infos: vec![StepInfo::default(); n],
                 episodes: Vec::with_capacity(n),
             },
+            max_envs: n,
             replay: ReplayBuffer::new(buffer_size, od, ad),
             steps_done: 0,
             records: 0,
@@ -87,7 +90,7 @@ impl Collector {
 
     /// The number of environments the buffers were sized for.
     pub fn max_envs(&self) -> usize {
-        self.obs.len() / self.obs_space.dim().max(1)
+        self.max_envs
     }
 
     /// `env` has this learner's spaces and no more environments than it was sized for.

@@ -171,8 +171,12 @@ def robot_urdf(name: str, build_dir: Path) -> tuple[str, bool]:
     for k, part in enumerate(joints):
         if part.startswith("<joint") and 'type="continuous"' in part:
             part = part.replace('type="continuous"', 'type="revolute"')
-            joints[k] = part.replace("<limit ", '<limit lower="-3.141592653589793" '
-                                     'upper="3.141592653589793" ', 1)
+            limits = 'lower="-3.141592653589793" upper="3.141592653589793"'
+            if "<limit" not in part:
+                part = part.replace("</joint>", f'<limit {limits} effort="0" velocity="0"/></joint>')
+            elif "lower=" not in part and "upper=" not in part:
+                part = part.replace("<limit ", f"<limit {limits} ", 1)
+            joints[k] = part
     out = build_dir / f"{name}.urdf"
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text("".join(joints))
