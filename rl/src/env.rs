@@ -235,6 +235,21 @@ pub struct VecStep {
     pub episodes: Vec<EpisodeRecord>,
 }
 
+impl VecStep {
+    /// Zeroed buffers for `n` environments with `obs_dim`-dimensional observations.
+    pub fn new(n: usize, obs_dim: usize) -> VecStep {
+        VecStep {
+            obs: vec![0.0; n * obs_dim],
+            rewards: vec![0.0; n],
+            terminated: vec![false; n],
+            truncated: vec![false; n],
+            final_obs: vec![0.0; n * obs_dim],
+            infos: vec![StepInfo::default(); n],
+            episodes: Vec::with_capacity(n),
+        }
+    }
+}
+
 struct Slot {
     env: Box<dyn Env>,
     ret: f64,
@@ -372,16 +387,7 @@ impl VecEnv {
 
     /// Buffers sized for this VecEnv.
     pub fn make_step_buffers(&self) -> VecStep {
-        let n = self.len();
-        VecStep {
-            obs: vec![0.0; n * self.obs_dim],
-            rewards: vec![0.0; n],
-            terminated: vec![false; n],
-            truncated: vec![false; n],
-            final_obs: vec![0.0; n * self.obs_dim],
-            infos: vec![StepInfo::default(); n],
-            episodes: Vec::with_capacity(n),
-        }
+        VecStep::new(self.len(), self.obs_dim)
     }
 
     /// Resets every environment (`env i` with seed `seed + i`); writes `n × obs_dim`

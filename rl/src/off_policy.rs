@@ -20,7 +20,7 @@ use std::time::Instant;
 
 use crate::buffer::ReplayBuffer;
 use crate::checkpoint::Checkpoint;
-use crate::env::{BoxSpace, StepInfo, VecEnv, VecStep};
+use crate::env::{BoxSpace, VecEnv, VecStep};
 use crate::error::RlError;
 use crate::metrics::{EpisodeWindow, UpdateMetrics};
 use crate::policy::rescale_action;
@@ -71,15 +71,7 @@ impl Collector {
             obs: vec![0.0; n * od],
             actions: vec![0.0; n * ad],
             env_actions: vec![0.0; n * ad],
-            step: VecStep {
-                obs: vec![0.0; n * od],
-                rewards: vec![0.0; n],
-                terminated: vec![false; n],
-                truncated: vec![false; n],
-                final_obs: vec![0.0; n * od],
-                infos: vec![StepInfo::default(); n],
-                episodes: Vec::with_capacity(n),
-            },
+            step: VecStep::new(n, od),
             max_envs: n,
             replay: ReplayBuffer::new(buffer_size, od, ad),
             steps_done: 0,
