@@ -3,8 +3,9 @@
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 use crate::data::{Data, check_len};
-use crate::model::{JointKind, Model, rotate_about_axis};
+use crate::model::{Joint, JointKind, Model, rotate_about_axis};
 use crate::spatial::{Motion, Se3, exp6, log6};
+use crate::trig::sin_cos_many;
 
 /// In which frame a Jacobian, velocity or acceleration is expressed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -18,12 +19,26 @@ pub enum ReferenceFrame {
     Local,
 }
 
-/// `ⁱ⁻¹Mᵢ(q) = placement · M_J(q)`, specialised per joint kind.
+/// Sine and cosine of every revolute joint's angle into `data.joint_sin`/`joint_cos`
+/// (one vectorised pass, see [`crate::trig`]); the algorithms call it first and then place
+/// each joint with [`joint_placement`].
+#[inline]
+pub(crate) fn joint_trig(model: &Model, data: &mut Data, q: &[f64]) {
+    for (angle, j) in data.joint_angle.iter_mut().zip(&model.joints) {
+        *angle = if let JointKind::Revolute { .. } = j.kind { q[j.idx_q] } else { 0.0 };
+    }
+    sin_cos_many(&data.joint_angle, &mut data.joint_sin, &mut data.joint_cos);
+}
+
+/// `ⁱ⁻¹Mᵢ(q) = placement · M_J(q)` for joint `i`, specialised per joint kind; a revolute
+/// joint's sine and cosine come from [`joint_trig`].
 #[inline(always)]
-pub(crate) fn joint_placement(placement: &Se3, kind: &JointKind, q: &[f64]) -> Se3 {
-    match kind {
+pub(crate) fn joint_placement(data: &Data, i: usize, joint: &Joint, q: &[f64]) -> Se3 {
+    let placement = &joint.placement;
+    let q = &q[joint.idx_q..joint.idx_q + joint.nq()];
+    match &joint.kind {
         JointKind::Revolute { axis } => Se3 {
-            rotation: rotate_about_axis(&placement.rotation, axis, q[0]),
+            rotation: rotate_about_axis(&placement.rotation, axis, data.joint_sin[i], data.joint_cos[i]),
             translation: placement.translation,
         },
         JointKind::Prismatic { axis } => Se3 {
@@ -31,7 +46,7 @@ pub(crate) fn joint_placement(placement: &Se3, kind: &JointKind, q: &[f64]) -> S
             translation: placement.rotation * (axis * q[0]) + placement.translation,
         },
         JointKind::Universe => *placement,
-        JointKind::FreeFlyer => placement.mul(&kind.transform(q)),
+        kind @ JointKind::FreeFlyer => placement.mul(&kind.transform(q)),
     }
 }
 
@@ -39,9 +54,10 @@ pub(crate) fn joint_placement(placement: &Se3, kind: &JointKind, q: &[f64]) -> S
 #[track_caller]
 pub fn forward_kinematics(model: &Model, data: &mut Data, q: &[f64]) {
     check_len("q", q.len(), model.nq);
+    joint_trig(model, data, q);
     for i in 1..model.njoints() {
         let j = &model.joints[i];
-        let li = joint_placement(&j.placement, &j.kind, &q[j.idx_q..j.idx_q + j.nq()]);
+        let li = joint_placement(data, i, j, q);
         data.li_m_i[i] = li;
         data.o_m_i[i] = if j.parent == 0 { li } else { data.o_m_i[j.parent].mul(&li) };
     }
@@ -53,9 +69,10 @@ pub fn forward_kinematics_velocity(model: &Model, data: &mut Data, q: &[f64], v:
     check_len("q", q.len(), model.nq);
     check_len("v", v.len(), model.nv);
     data.v[0] = Motion::zero();
+    joint_trig(model, data, q);
     for i in 1..model.njoints() {
         let j = &model.joints[i];
-        let li = joint_placement(&j.placement, &j.kind, &q[j.idx_q..j.idx_q + j.nq()]);
+        let li = joint_placement(data, i, j, q);
         data.li_m_i[i] = li;
         data.o_m_i[i] = if j.parent == 0 { li } else { data.o_m_i[j.parent].mul(&li) };
         let vj = j.kind.motion(&v[j.idx_v..j.idx_v + j.nv()]);
@@ -72,9 +89,10 @@ pub fn forward_kinematics_acceleration(model: &Model, data: &mut Data, q: &[f64]
     check_len("a", a.len(), model.nv);
     data.v[0] = Motion::zero();
     data.a[0] = Motion::zero();
+    joint_trig(model, data, q);
     for i in 1..model.njoints() {
         let j = &model.joints[i];
-        let li = joint_placement(&j.placement, &j.kind, &q[j.idx_q..j.idx_q + j.nq()]);
+        let li = joint_placement(data, i, j, q);
         data.li_m_i[i] = li;
         data.o_m_i[i] = if j.parent == 0 { li } else { data.o_m_i[j.parent].mul(&li) };
         let vj = j.kind.motion(&v[j.idx_v..j.idx_v + j.nv()]);
