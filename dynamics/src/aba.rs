@@ -11,7 +11,7 @@
 use nalgebra::{DVector, Matrix6, Vector3, Vector6};
 
 use crate::data::{Data, check_len};
-use crate::kinematics::{joint_placement, joint_trig};
+use crate::kinematics::joint_placement;
 use crate::model::{JointKind, Model};
 use crate::spatial::{Force, Motion};
 
@@ -27,10 +27,9 @@ pub fn aba<'a>(model: &Model, data: &'a mut Data, q: &[f64], v: &[f64], tau: &[f
     check_len("tau", tau.len(), model.nv);
     let n = model.njoints();
     data.v[0] = Motion::zero();
-    joint_trig(model, data, q);
     for i in 1..n {
         let j = &model.joints[i];
-        let li = joint_placement(data, i, j, q);
+        let li = joint_placement(&j.placement, &j.kind, &q[j.idx_q..j.idx_q + j.nq()]);
         data.li_m_i[i] = li;
         let vj = j.kind.motion(&v[j.idx_v..j.idx_v + j.nv()]);
         let vi = li.act_inv_motion(&data.v[j.parent]) + vj;

@@ -11,7 +11,7 @@
 use nalgebra::{DMatrix, Matrix3xX, Matrix6xX, Vector3};
 
 use crate::data::{Data, check_len};
-use crate::kinematics::{joint_placement, joint_trig};
+use crate::kinematics::joint_placement;
 use crate::model::{JointKind, Model};
 use crate::spatial::{Force, Motion, OriginInertia};
 
@@ -60,14 +60,13 @@ fn column(jac: &Matrix6xX<f64>, k: usize) -> Motion {
 pub fn crba<'a>(model: &Model, data: &'a mut Data, q: &[f64]) -> &'a DMatrix<f64> {
     check_len("q", q.len(), model.nq);
     let nv = model.nv;
-    joint_trig(model, data, q);
-    data.ycrb[0] = OriginInertia::zero();
+    let ycrb = &mut data.ycrb;
+    ycrb[0] = OriginInertia::zero();
     for i in 1..model.njoints() {
         let j = &model.joints[i];
-        data.li_m_i[i] = joint_placement(data, i, j, q);
-        data.ycrb[i] = OriginInertia::from_inertia(&model.inertias[i]);
+        data.li_m_i[i] = joint_placement(&j.placement, &j.kind, &q[j.idx_q..j.idx_q + j.nq()]);
+        ycrb[i] = OriginInertia::from_inertia(&model.inertias[i]);
     }
-    let ycrb = &mut data.ycrb;
     let fcrb = &mut data.f_crb;
     let mm = data.mass_matrix.as_mut_slice();
     for i in (1..model.njoints()).rev() {

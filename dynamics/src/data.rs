@@ -54,10 +54,6 @@ pub struct Data {
     pub kinetic_energy: f64,
     /// Potential energy from [`crate::potential_energy`].
     pub potential_energy: f64,
-    // Each joint's angle (revolute joints; 0 for the others) and its sine and cosine.
-    pub(crate) joint_angle: Vec<f64>,
-    pub(crate) joint_sin: Vec<f64>,
-    pub(crate) joint_cos: Vec<f64>,
     // CRBA workspace: composite inertia of each subtree in its joint frame, and composite
     // inertia times each subspace column (moved up the tree as the pass goes).
     pub(crate) ycrb: Vec<OriginInertia>,
@@ -104,9 +100,6 @@ impl Data {
             jacobian_com: Matrix3xX::zeros(nv),
             kinetic_energy: 0.0,
             potential_energy: 0.0,
-            joint_angle: vec![0.0; n],
-            joint_sin: vec![0.0; n],
-            joint_cos: vec![1.0; n],
             ycrb: vec![OriginInertia::zero(); n],
             f_crb: vec![Force::zero(); nv],
             y_aba: vec![Matrix6::zeros(); n],

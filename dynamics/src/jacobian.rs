@@ -3,7 +3,7 @@
 use nalgebra::Matrix6xX;
 
 use crate::data::{Data, check_len};
-use crate::kinematics::{ReferenceFrame, joint_placement, joint_trig};
+use crate::kinematics::{ReferenceFrame, joint_placement};
 use crate::model::Model;
 use crate::spatial::{Motion, Se3};
 
@@ -13,10 +13,9 @@ use crate::spatial::{Motion, Se3};
 #[track_caller]
 pub fn compute_joint_jacobians(model: &Model, data: &mut Data, q: &[f64]) {
     check_len("q", q.len(), model.nq);
-    joint_trig(model, data, q);
     for i in 1..model.njoints() {
         let j = &model.joints[i];
-        let li = joint_placement(data, i, j, q);
+        let li = joint_placement(&j.placement, &j.kind, &q[j.idx_q..j.idx_q + j.nq()]);
         data.li_m_i[i] = li;
         let o = if j.parent == 0 { li } else { data.o_m_i[j.parent].mul(&li) };
         data.o_m_i[i] = o;

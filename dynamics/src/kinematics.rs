@@ -3,9 +3,8 @@
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 use crate::data::{Data, check_len};
-use crate::model::{Joint, JointKind, Model, rotate_about_axis};
+use crate::model::{JointKind, Model, rotate_about_axis};
 use crate::spatial::{Motion, Se3, exp6, log6};
-use crate::trig::sin_cos_many;
 
 /// In which frame a Jacobian, velocity or acceleration is expressed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -19,26 +18,12 @@ pub enum ReferenceFrame {
     Local,
 }
 
-/// Sine and cosine of every revolute joint's angle into `data.joint_sin`/`joint_cos`
-/// (one vectorised pass, see [`crate::trig`]); the algorithms call it first and then place
-/// each joint with [`joint_placement`].
-#[inline]
-pub(crate) fn joint_trig(model: &Model, data: &mut Data, q: &[f64]) {
-    for (angle, j) in data.joint_angle.iter_mut().zip(&model.joints) {
-        *angle = if let JointKind::Revolute { .. } = j.kind { q[j.idx_q] } else { 0.0 };
-    }
-    sin_cos_many(&data.joint_angle, &mut data.joint_sin, &mut data.joint_cos);
-}
-
-/// `ⁱ⁻¹Mᵢ(q) = placement · M_J(q)` for joint `i`, specialised per joint kind; a revolute
-/// joint's sine and cosine come from [`joint_trig`].
+/// `ⁱ⁻¹Mᵢ(q) = placement · M_J(q)`, specialised per joint kind.
 #[inline(always)]
-pub(crate) fn joint_placement(data: &Data, i: usize, joint: &Joint, q: &[f64]) -> Se3 {
-    let placement = &joint.placement;
-    let q = &q[joint.idx_q..joint.idx_q + joint.nq()];
-    match &joint.kind {
+pub(crate) fn joint_placement(placement: &Se3, kind: &JointKind, q: &[f64]) -> Se3 {
+    match kind {
         JointKind::Revolute { axis } => Se3 {
-            rotation: rotate_about_axis(&placement.rotation, axis, data.joint_sin[i], data.joint_cos[i]),
+            rotation: rotate_about_axis(&placement.rotation, axis, q[0]),
             translation: placement.translation,
         },
         JointKind::Prismatic { axis } => Se3 {
@@ -46,7 +31,7 @@ pub(crate) fn joint_placement(data: &Data, i: usize, joint: &Joint, q: &[f64]) -
             translation: placement.rotation * (axis * q[0]) + placement.translation,
         },
         JointKind::Universe => *placement,
-        kind @ JointKind::FreeFlyer => placement.mul(&kind.transform(q)),
+        JointKind::FreeFlyer => placement.mul(&kind.transform(q)),
     }
 }
 
@@ -54,10 +39,9 @@ pub(crate) fn joint_placement(data: &Data, i: usize, joint: &Joint, q: &[f64]) -
 #[track_caller]
 pub fn forward_kinematics(model: &Model, data: &mut Data, q: &[f64]) {
     check_len("q", q.len(), model.nq);
-    joint_trig(model, data, q);
     for i in 1..model.njoints() {
         let j = &model.joints[i];
-        let li = joint_placement(data, i, j, q);
+        let li = joint_placement(&j.placement, &j.kind, &q[j.idx_q..j.idx_q + j.nq()]);
         data.li_m_i[i] = li;
         data.o_m_i[i] = if j.parent == 0 { li } else { data.o_m_i[j.parent].mul(&li) };
     }
@@ -69,10 +53,9 @@ pub fn forward_kinematics_velocity(model: &Model, data: &mut Data, q: &[f64], v:
     check_len("q", q.len(), model.nq);
     check_len("v", v.len(), model.nv);
     data.v[0] = Motion::zero();
-    joint_trig(model, data, q);
     for i in 1..model.njoints() {
         let j = &model.joints[i];
-        let li = joint_placement(data, i, j, q);
+        let li = joint_placement(&j.placement, &j.kind, &q[j.idx_q..j.idx_q + j.nq()]);
         data.li_m_i[i] = li;
         data.o_m_i[i] = if j.parent == 0 { li } else { data.o_m_i[j.parent].mul(&li) };
         let vj = j.kind.motion(&v[j.idx_v..j.idx_v + j.nv()]);
@@ -89,10 +72,9 @@ pub fn forward_kinematics_acceleration(model: &Model, data: &mut Data, q: &[f64]
     check_len("a", a.len(), model.nv);
     data.v[0] = Motion::zero();
     data.a[0] = Motion::zero();
-    joint_trig(model, data, q);
     for i in 1..model.njoints() {
         let j = &model.joints[i];
-        let li = joint_placement(data, i, j, q);
+        let li = joint_placement(&j.placement, &j.kind, &q[j.idx_q..j.idx_q + j.nq()]);
         data.li_m_i[i] = li;
         data.o_m_i[i] = if j.parent == 0 { li } else { data.o_m_i[j.parent].mul(&li) };
         let vj = j.kind.motion(&v[j.idx_v..j.idx_v + j.nv()]);

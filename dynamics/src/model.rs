@@ -57,8 +57,7 @@ impl JointKind {
                 Se3::from_quaternion(&unit, Vector3::new(q[0], q[1], q[2]))
             }
             JointKind::Revolute { axis } => {
-                let (sin, cos) = q[0].sin_cos();
-                Se3 { rotation: axis_rotation(axis, sin, cos), translation: Vector3::zeros() }
+                Se3 { rotation: axis_rotation(axis, q[0]), translation: Vector3::zeros() }
             }
             JointKind::Prismatic { axis } => Se3::from_translation(axis * q[0]),
         }
@@ -97,10 +96,11 @@ impl JointKind {
     }
 }
 
-/// Rotation by the angle with sine `s` and cosine `c` about the unit `axis` (Rodrigues),
-/// with exact matrices for the coordinate axes.
+/// Rotation by `angle` about the unit `axis` (Rodrigues), with exact matrices for the
+/// coordinate axes.
 #[inline]
-pub(crate) fn axis_rotation(axis: &Vector3<f64>, s: f64, c: f64) -> Matrix3<f64> {
+pub(crate) fn axis_rotation(axis: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
+    let (s, c) = angle.sin_cos();
     let (x, y, z) = (axis.x, axis.y, axis.z);
     let t = 1.0 - c;
     Matrix3::new(
@@ -116,11 +116,12 @@ pub(crate) fn axis_rotation(axis: &Vector3<f64>, s: f64, c: f64) -> Matrix3<f64>
     )
 }
 
-/// `r · Rot(axis, θ)` with `s = sin θ`, `c = cos θ`. For the coordinate axes (and their
-/// opposites) only two columns of `r` mix, 12 products instead of a full 3 × 3 matrix
-/// product; other axes use [`axis_rotation`].
+/// `r · Rot(axis, angle)`. For the coordinate axes (and their opposites) only two columns
+/// of `r` mix, 12 products instead of a full 3 × 3 matrix product; other axes use
+/// [`axis_rotation`].
 #[inline(always)]
-pub(crate) fn rotate_about_axis(r: &Matrix3<f64>, axis: &Vector3<f64>, s: f64, c: f64) -> Matrix3<f64> {
+pub(crate) fn rotate_about_axis(r: &Matrix3<f64>, axis: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
+    let (s, c) = angle.sin_cos();
     // Columns (a, b) of `r` rotated in their plane: (c a + s b, c b − s a).
     let mix = |a: usize, b: usize, s: f64| {
         let (ca, cb) = (r.column(a), r.column(b));
@@ -141,7 +142,7 @@ pub(crate) fn rotate_about_axis(r: &Matrix3<f64>, axis: &Vector3<f64>, s: f64, c
         out.set_column(0, &a);
         out.set_column(1, &b);
     } else {
-        out = r * axis_rotation(axis, s, c);
+        out = r * axis_rotation(axis, angle);
     }
     out
 }
@@ -571,8 +572,7 @@ mod tests {
 
     #[test]
     fn rotate_about_axis_matches_the_full_product() {
-        let (s, c) = 0.9f64.sin_cos();
-        let r = axis_rotation(&Vector3::new(0.3, -0.5, 0.8).normalize(), s, c);
+        let r = axis_rotation(&Vector3::new(0.3, -0.5, 0.8).normalize(), 0.9);
         let axes = [
             Vector3::x(),
             -Vector3::x(),
@@ -584,9 +584,8 @@ mod tests {
         ];
         for axis in axes {
             for angle in [-2.5, -0.3, 0.0, 0.7, 3.0] {
-                let (s, c) = f64::sin_cos(angle);
-                let fast = rotate_about_axis(&r, &axis, s, c);
-                let full = r * axis_rotation(&axis, s, c);
+                let fast = rotate_about_axis(&r, &axis, angle);
+                let full = r * axis_rotation(&axis, angle);
                 assert!((fast - full).abs().max() < 1e-15, "axis {axis:?}, angle {angle}");
             }
         }

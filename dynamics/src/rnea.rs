@@ -4,7 +4,7 @@
 use nalgebra::DVector;
 
 use crate::data::{Data, check_len};
-use crate::kinematics::{joint_placement, joint_trig};
+use crate::kinematics::joint_placement;
 use crate::model::{JointKind, Model};
 use crate::spatial::{Force, Motion};
 
@@ -35,11 +35,10 @@ fn rnea_into(
     data.v[0] = Motion::zero();
     // Gravity enters as an upward acceleration of the world (the "fictitious" base acceleration).
     data.a_gf[0] = Motion::new(-model.gravity, nalgebra::Vector3::zeros());
-    joint_trig(model, data, q);
     for i in 1..model.njoints() {
         let j = &model.joints[i];
         let nv = j.nv();
-        let li = joint_placement(data, i, j, q);
+        let li = joint_placement(&j.placement, &j.kind, &q[j.idx_q..j.idx_q + j.nq()]);
         data.li_m_i[i] = li;
         let vj = j.kind.motion(&v[j.idx_v..j.idx_v + nv]);
         let vi = li.act_inv_motion(&data.v[j.parent]) + vj;
@@ -92,10 +91,9 @@ pub fn nonlinear_effects<'a>(model: &Model, data: &'a mut Data, q: &[f64], v: &[
 pub fn gravity_torques<'a>(model: &Model, data: &'a mut Data, q: &[f64]) -> &'a DVector<f64> {
     check_len("q", q.len(), model.nq);
     data.a_gf[0] = Motion::new(-model.gravity, nalgebra::Vector3::zeros());
-    joint_trig(model, data, q);
     for i in 1..model.njoints() {
         let j = &model.joints[i];
-        let li = joint_placement(data, i, j, q);
+        let li = joint_placement(&j.placement, &j.kind, &q[j.idx_q..j.idx_q + j.nq()]);
         data.li_m_i[i] = li;
         let ai = li.act_inv_motion(&data.a_gf[j.parent]);
         data.a_gf[i] = ai;
