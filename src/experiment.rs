@@ -416,7 +416,7 @@ pub enum Phase {
     TrainPure,
     /// Training the hybrid agent.
     TrainHybrid,
-    /// Evaluating.
+    /// Evaluating all three agents: reported once, with default metrics, as it starts.
     Evaluate,
 }
 
@@ -490,7 +490,11 @@ pub fn run_experiment_with_progress(
         let (offset, label) = match phase {
             Phase::TrainPure => (0, pure.as_str()),
             Phase::TrainHybrid => (steps, hybrid.as_str()),
-            Phase::Evaluate => (2 * steps, "evaluating"),
+            Phase::Evaluate => {
+                bar.set_message("evaluating");
+                bar.set_position(2 * steps);
+                return;
+            }
         };
         bar.set_message(format!("{label} {:.2}", m.episode_return_mean));
         bar.set_position(offset + m.env_steps.min(steps));
@@ -646,6 +650,7 @@ pub fn run_experiment(
     let (hybrid_ckpt, hybrid_rows, hybrid_wall, hybrid_steps) =
         train_one(opts, &opts.out.join("hybrid"), &mut hybrid_env, Phase::TrainHybrid, progress)?;
     drop(hybrid_env);
+    progress(Phase::Evaluate, &UpdateMetrics::default());
 
     // Evaluation: the policies as deployed (loaded back from their checkpoints). The three
     // agents are evaluated on their own envs and seeds, so running them side by side on

@@ -1,5 +1,6 @@
 //! `centaur train` end to end on the Pendulum: every artefact written, the summary
-//! consistent with the checkpoint, bad config keys named; `centaur compare` over two seeds.
+//! consistent with the checkpoint, bad config keys named; `centaur compare` over two seeds,
+//! and the same figures on one thread and on two.
 
 use std::path::PathBuf;
 
@@ -94,19 +95,29 @@ fn unknown_config_keys_and_bad_values_are_named() {
     assert!(matches!(train(&bad_env, &mut |_| {}), Err(TrainError::Registry(_))));
 }
 
+/// `centaur compare --env minitaur --algo ppo ARGS --config CONFIG --out OUT`.
+fn compare_minitaur_ppo(
+    args: &[&str],
+    config: &std::path::Path,
+    out: &std::path::Path,
+) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["compare", "--env", "minitaur", "--algo", "ppo"])
+        .args(args)
+        .arg("--config")
+        .arg(config)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
 #[test]
 fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     let out = out_dir("compare");
     let config = out_dir("compare.toml");
     std::fs::write(&config, "n_steps = 64\nbatch_size = 64\nn_epochs = 2\n").unwrap();
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
-        .args(["compare", "--env", "minitaur", "--algo", "ppo", "--seeds", "2", "--steps", "512"])
-        .args(["--eval-episodes", "1", "--config"])
-        .arg(&config)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = compare_minitaur_ppo(&["--seeds", "2", "--steps", "512", "--eval-episodes", "1"], &config, &out);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("| hybrid (residual RL on the controller) |"), "{stdout}");
@@ -137,4 +148,41 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
         .unwrap();
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("pendulum"));
+}
+
+/// Drops every wall-clock field, recursively.
+fn without_wall_times(v: &mut serde_json::Value) {
+    match v {
+        serde_json::Value::Object(map) => {
+            map.retain(|k, _| !k.contains("wall") && !k.contains("per_second"));
+            map.values_mut().for_each(without_wall_times);
+        }
+        serde_json::Value::Array(items) => items.iter_mut().for_each(without_wall_times),
+        _ => {}
+    }
+}
+
+#[test]
+fn compare_gives_the_same_figures_on_one_thread_and_on_two() {
+    // Training steps the environments on the worker threads and the three agents are
+    // evaluated side by side when there are two: neither may change a figure.
+    let config = out_dir("threads.toml");
+    std::fs::write(&config, "n_steps = 64\nbatch_size = 64\nn_epochs = 2\n").unwrap();
+    let run = |threads: &str| {
+        let out = out_dir(&format!("threads-{threads}"));
+        let args = ["--seeds", "1", "--steps", "256", "--eval-episodes", "2", "--threads", threads];
+        let o = compare_minitaur_ppo(&args, &config, &out);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let mut json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("compare.json")).unwrap()).unwrap();
+        let mcap = std::fs::read(out.join("seed_0").join("hybrid.mcap")).unwrap();
+        std::fs::remove_dir_all(&out).unwrap();
+        without_wall_times(&mut json);
+        (json, mcap)
+    };
+    let (one, one_mcap) = run("1");
+    let (two, two_mcap) = run("2");
+    assert_eq!(one, two);
+    assert!(one_mcap == two_mcap, "the hybrid's MCAP recording differs between 1 and 2 threads");
+    std::fs::remove_file(&config).unwrap();
 }

@@ -177,7 +177,11 @@ fn compare(args: CompareArgs) -> ExitCode {
         let (offset, label) = match phase {
             Phase::TrainPure => (0, "pure"),
             Phase::TrainHybrid => (steps, "hybrid"),
-            Phase::Evaluate => (2 * steps, "evaluating"),
+            Phase::Evaluate => {
+                bar.set_message(format!("seed {seed} evaluating"));
+                bar.set_position((seed + 1) * 2 * steps);
+                return;
+            }
         };
         bar.set_message(format!("seed {seed} {label} {:.2}", m.episode_return_mean));
         bar.set_position(seed * 2 * steps + offset + m.env_steps.min(steps));
