@@ -656,54 +656,50 @@ pub fn run_experiment(
     // agents are evaluated on their own envs and seeds, so running them side by side on
     // the worker threads gives the same figures as one after the other.
     let seed = 1_000_000 + opts.seed;
-    let rec = |name: &str| opts.record.then(|| opts.out.join(format!("{name}.mcap")));
-    let eval_pure = || -> Result<AgentStats, ExperimentError> {
-        let mut pure = Driver::Pure {
+    let eval = |name: &str, driver: Result<Driver, ExperimentError>| {
+        let record = opts.record.then(|| opts.out.join(format!("{name}.mcap")));
+        evaluate(&mut driver?, opts.eval_episodes, seed, record.as_deref())
+    };
+    let pure = || -> Result<Driver, ExperimentError> {
+        Ok(Driver::Pure {
             env: make_robot_env(&opts.env, None)?,
             policy: Policy::load(&pure_ckpt).map_err(RlError::from)?,
-        };
-        let mut stats = evaluate(&mut pure, opts.eval_episodes, seed, rec("pure_rl").as_deref())?;
-        stats.env_steps = pure_steps;
-        stats.wall_seconds = pure_wall;
-        Ok(stats)
+        })
     };
-    let eval_hybrid = || -> Result<AgentStats, ExperimentError> {
-        let mut hybrid = Driver::Hybrid {
+    let hybrid = || -> Result<Driver, ExperimentError> {
+        Ok(Driver::Hybrid {
             env: Box::new(ResidualEnv::for_env(&opts.env, opts.residual.clone())?),
             policy: Policy::load(&hybrid_ckpt).map_err(RlError::from)?,
-        };
-        let mut stats = evaluate(&mut hybrid, opts.eval_episodes, seed, rec("hybrid").as_deref())?;
-        stats.env_steps = hybrid_steps;
-        stats.wall_seconds = hybrid_wall;
-        Ok(stats)
+        })
     };
-    let eval_controller = || -> Result<AgentStats, ExperimentError> {
+    let controller = || -> Result<Driver, ExperimentError> {
         let env = make_robot_env(&opts.env, None)?;
         let controller = LocomotionController::new(env.model(), controller_config(&opts.env)?)
             .map_err(ControlError::from)?;
         let mapping = ActionMapping::new(env.as_ref(), &controller)?;
-        let mut ctrl = Driver::Controller {
+        Ok(Driver::Controller {
             env,
             controller: Box::new(controller),
             mapping,
             command: opts.residual.command,
-        };
-        evaluate(&mut ctrl, opts.eval_episodes, seed, rec("controller").as_deref())
+        })
     };
     let (pure_stats, hybrid_stats, ctrl_stats) = if opts.threads > 1 {
         std::thread::scope(|s| {
-            let pure = s.spawn(eval_pure);
-            let hybrid = s.spawn(eval_hybrid);
-            let ctrl = eval_controller();
+            let p = s.spawn(|| eval("pure_rl", pure()));
+            let h = s.spawn(|| eval("hybrid", hybrid()));
+            let c = eval("controller", controller());
             let join = |h: std::thread::ScopedJoinHandle<'_, _>| {
                 h.join().unwrap_or_else(|e| std::panic::resume_unwind(e))
             };
-            (join(pure), join(hybrid), ctrl)
+            (join(p), join(h), c)
         })
     } else {
-        (eval_pure(), eval_hybrid(), eval_controller())
+        (eval("pure_rl", pure()), eval("hybrid", hybrid()), eval("controller", controller()))
     };
-    let (pure_stats, hybrid_stats, ctrl_stats) = (pure_stats?, hybrid_stats?, ctrl_stats?);
+    let (mut pure_stats, mut hybrid_stats, ctrl_stats) = (pure_stats?, hybrid_stats?, ctrl_stats?);
+    (pure_stats.env_steps, pure_stats.wall_seconds) = (pure_steps, pure_wall);
+    (hybrid_stats.env_steps, hybrid_stats.wall_seconds) = (hybrid_steps, hybrid_wall);
 
     let summary = ExperimentSummary { hybrid: hybrid_stats, pure_rl: pure_stats, controller: ctrl_stats };
     let path = opts.out.join("summary.json");
