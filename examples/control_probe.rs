@@ -50,6 +50,9 @@ fn main() {
             let x: f64 = v.parse().unwrap_or(0.0);
             match k {
                 "cheap" => cfg.mode = centaur::mpc::ControlMode::Cheap,
+                "clarabel" => cfg.wbc.backend = centaur::mpc::QpBackend::Clarabel,
+                "limit_h" => cfg.wbc.joint_limit_horizon = x,
+                "limit_acc" => cfg.wbc.joint_limit_max_deceleration = x,
                 "cheap_kp" => cfg.cheap_swing_gains.0 = x,
                 "cheap_kd" => cfg.cheap_swing_gains.1 = x,
                 "td" => cfg.touchdown_detection = x != 0.0,

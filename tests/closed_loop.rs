@@ -1,7 +1,7 @@
 //! The model-based controller alone, in closed loop with the simulator: what `centaur control`
-//! promises for the quadrupeds (trot at a commanded speed, stand still, survive a lateral push).
-//! The bipeds do not yet stand under the controller; the README says so and nothing here
-//! pretends otherwise.
+//! promises for the quadrupeds (trot at a commanded speed, stand still, survive a lateral push)
+//! and that Walker2d stands. Walker2d does not yet walk forward and the Humanoid does not yet
+//! stand; the README says so and nothing here pretends otherwise.
 
 use std::process::Command as Process;
 
@@ -102,6 +102,13 @@ fn the_ant_survives_lateral_pushes() {
         let s = run("ant", Gait::Stand, 0.0, 1.0, lateral(f, 0.1));
         assert!(!s.fell, "standing, pushed with {f} N for 0.1 s: fell at {:.2} s", s.seconds);
     }
+}
+
+#[test]
+fn walker2d_stands_still() {
+    // Its hips and knees rest on their joint limits; it fell within 1.5 s before the
+    // whole-body QP knew the limits.
+    assert_stands(&run("walker2d", Gait::Stand, 0.0, 0.0, None), 0.05);
 }
 
 #[test]

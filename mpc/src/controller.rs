@@ -126,6 +126,9 @@ pub struct ControllerStatus {
     pub mpc_failures: u64,
     /// Whole-body QPs that failed since construction.
     pub wbc_failures: u64,
+    /// Whole-body QPs that were infeasible with their joint-limit bounds and were solved
+    /// again without them, since construction.
+    pub wbc_limit_relaxations: u64,
     /// Ticks with a non-finite state since construction.
     pub invalid_states: u64,
     /// Planned CoM positions over the horizon (world).
@@ -256,6 +259,7 @@ impl LocomotionController {
             fallback: Fallback::None,
             mpc_failures: 0,
             wbc_failures: 0,
+            wbc_limit_relaxations: 0,
             invalid_states: 0,
             planned_com: vec![[0.0; 3]; h],
             mpc_forces: vec![[0.0; 3]; nc],
@@ -958,11 +962,15 @@ impl LocomotionController {
             inp.qdd_posture[k] = kp * (self.robot.q_nominal[iq] - self.q[iq]) - kd * self.v[iv];
         }
         inp.weight = m * gvec.z.abs();
+        self.wbc.set_joint_limit_bounds(self.q.as_slice(), self.v.as_slice());
         let t0 = Instant::now();
         let st = self.wbc.solve();
         self.status.wbc_solve_us = t0.elapsed().as_secs_f64() * 1e6;
         self.status.wbc_status = st;
         self.status.wbc_iterations = self.wbc.iterations();
+        if self.wbc.limits_relaxed() {
+            self.status.wbc_limit_relaxations += 1;
+        }
         if !st.is_ok() {
             self.status.wbc_failures += 1;
             return false;
@@ -1082,7 +1090,12 @@ impl LocomotionController {
                 let a = self.robot.joint_v.iter().position(|&x| x == iv).unwrap_or(0);
                 let iq = self.robot.actuated_q[i];
                 if pass == 0 {
-                    self.command.q_des[i] = self.q[iq] + self.ik_b[a];
+                    // A target beyond a position limit only presses the joint into it.
+                    let (lo, hi) = (
+                        self.robot.model.lower_position_limit[iq],
+                        self.robot.model.upper_position_limit[iq],
+                    );
+                    self.command.q_des[i] = (self.q[iq] + self.ik_b[a]).clamp(lo, hi);
                 } else {
                     self.command.qd_des[i] = self.ik_b[a];
                 }
@@ -1200,4 +1213,36 @@ pub fn wrap_pi(a: f64) -> f64 {
 /// The base orientation of a yaw angle (helper for tests and tools).
 pub fn yaw_quaternion(yaw: f64) -> UnitQuaternion<f64> {
     UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw)
+}
+
+#[cfg(test)]
+mod tests {
+    use centaur_dynamics::{BaseKind, Model};
+
+    use super::*;
+
+    #[test]
+    fn infeasible_joint_limit_bounds_are_dropped_not_failed() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/mujoco/walker2d.urdf");
+        let model = Model::from_urdf_file(path, BaseKind::Fixed).unwrap();
+        let mut c = LocomotionController::new(&model, ControllerConfig::walker2d()).unwrap();
+        let s = c.nominal_state();
+        c.tick(&s, &Command::stand(), 0.0);
+        assert!(c.status().wbc_status.is_ok());
+        assert_eq!(c.status().wbc_limit_relaxations, 0);
+        // With the input of that tick, demand 10⁶ rad/s² of the first limited joint: no
+        // 100 N·m motor gives that, so the QP is infeasible with the bound and solved without.
+        let first = c.wbc.limited_joints()[0];
+        c.wbc.input.qdd_lower[0] = 1e6;
+        assert_eq!(c.wbc.solve(), QpStatus::Solved);
+        assert!(c.wbc.limits_relaxed());
+        assert!(c.wbc.output.qdd[first.v] < 1e3);
+        // A reachable bound holds as a constraint: bend the joint away from its upper limit.
+        let (q, v) = (c.q.clone(), c.v.clone());
+        c.wbc.set_joint_limit_bounds(q.as_slice(), v.as_slice());
+        c.wbc.input.qdd_upper[0] = -5.0;
+        assert_eq!(c.wbc.solve(), QpStatus::Solved);
+        assert!(!c.wbc.limits_relaxed());
+        assert!(c.wbc.output.qdd[first.v] <= -5.0 + 1e-6, "{}", c.wbc.output.qdd[first.v]);
+    }
 }

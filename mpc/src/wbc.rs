@@ -17,7 +17,21 @@
 //!   loop closures:  J_l q̈ = −J̇_l q̇ − k_p e − k_d ė
 //!   torque limits:  |(M q̈ + h − J_cᵀ f − J_lᵀ λ)_a| ≤ τ_max
 //!   friction:       pyramid rows (or SOC with the Clarabel backend), f_z ≤ f_max
+//!   joint limits:   q̈_lo ≤ q̈_j ≤ q̈_hi                       (joints with position limits)
 //! ```
+//!
+//! The joint-limit bounds stop a joint at its position limit within the horizon `h`
+//! ([`WbcConfig::joint_limit_horizon`]): `q̈_hi = 2 (q_max − q − q̇ h) / h²` and likewise
+//! `q̈_lo` from `q_min`. The deceleration they may demand is capped at
+//! [`WbcConfig::joint_limit_max_deceleration`] and, for an actuated joint, at half its
+//! effort limit over its diagonal inertia `M_jj` (armature included), so that a joint that
+//! starts outside its range (the Ant's ankles start at 0, outside [30°, 70°]) or moves fast
+//! towards a limit does not ask for more than its motor gives. Should the problem still be
+//! infeasible, it is solved again without the joint-limit bounds
+//! ([`WholeBodyQp::limits_relaxed`]). Without them a robot that stands on a limit
+//! (Walker2d's straight knees and hips rest on their upper limits of 0) gets a plan that
+//! drives the joint through the limit; the simulator's limit stops it, and the body
+//! accelerates otherwise than planned.
 //!
 //! Stance contacts are a weighted task rather than an equality: with `f = 0, τ = 0`,
 //! `q̈ = M⁻¹(J_lᵀλ − h)` satisfies every constraint (free fall), so the QP is feasible for
@@ -88,6 +102,12 @@ pub struct WbcConfig {
     pub closure_kd: f64,
     /// Clarabel tolerance (default: 1e-8).
     pub tolerance: f64,
+    /// Time (s) within which a joint moving towards a position limit must be able to stop
+    /// there; 0 leaves joint limits out of the QP (default: 0.1).
+    pub joint_limit_horizon: f64,
+    /// Largest deceleration (rad/s² or m/s²) a joint-limit bound may demand (default: 200;
+    /// an actuated joint is also capped by its effort, see the module docs).
+    pub joint_limit_max_deceleration: f64,
 }
 
 impl Default for WbcConfig {
@@ -109,6 +129,8 @@ impl Default for WbcConfig {
             closure_kp: 400.0,
             closure_kd: 40.0,
             tolerance: 1e-8,
+            joint_limit_horizon: 0.1,
+            joint_limit_max_deceleration: 200.0,
         }
     }
 }
@@ -138,6 +160,12 @@ impl WbcConfig {
             ("wbc.closure_kp", self.closure_kp, self.closure_kp >= 0.0),
             ("wbc.closure_kd", self.closure_kd, self.closure_kd >= 0.0),
             ("wbc.tolerance", self.tolerance, self.tolerance > 0.0),
+            ("wbc.joint_limit_horizon", self.joint_limit_horizon, self.joint_limit_horizon >= 0.0),
+            (
+                "wbc.joint_limit_max_deceleration",
+                self.joint_limit_max_deceleration,
+                self.joint_limit_max_deceleration > 0.0,
+            ),
         ];
         for (field, value, ok) in checks {
             if !(ok && value.is_finite()) {
@@ -188,6 +216,27 @@ pub struct WbcInput {
     pub qdd_posture: Vec<f64>,
     /// Weight `m g` (for the normal-force limit).
     pub weight: f64,
+    /// Lower bound on the acceleration of each joint with position limits (order of
+    /// [`WholeBodyQp::limited_joints`]); set by [`WholeBodyQp::set_joint_limit_bounds`].
+    pub qdd_lower: Vec<f64>,
+    /// Upper bound, same order.
+    pub qdd_upper: Vec<f64>,
+}
+
+/// A joint with finite position limits: its `v` and `q` indices, the limits and its effort
+/// limit (infinite for a passive joint).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LimitedJoint {
+    /// Index in `v`.
+    pub v: usize,
+    /// Index in `q`.
+    pub q: usize,
+    /// Lower position limit.
+    pub lower: f64,
+    /// Upper position limit.
+    pub upper: f64,
+    /// Effort limit of its motor (infinite when passive).
+    pub effort: f64,
 }
 
 /// Solution of the whole-body QP.
@@ -215,6 +264,10 @@ struct ClarabelWbc {
     n_soc: usize,
 }
 
+/// The joint-limit bound that stands for "none" when a problem is solved again without
+/// them: far beyond any acceleration the torque limits allow.
+const RELAXED_BOUND: f64 = 1e6;
+
 /// The whole-body controller QP with its buffers.
 pub struct WholeBodyQp {
     cfg: WbcConfig,
@@ -226,6 +279,8 @@ pub struct WholeBodyQp {
     joint_v: Vec<usize>,
     effort: Vec<f64>,
     contact_leg: Vec<usize>,
+    limited: Vec<LimitedJoint>,
+    limits_relaxed: bool,
     /// Inputs of the next solve.
     pub input: WbcInput,
     /// Result of the last successful solve.
@@ -269,7 +324,29 @@ impl WholeBodyQp {
         let na = robot.n_actuated();
         let n_max = nv + 3 * nc + nl;
         let p_max = robot.unactuated_v.len() + nl;
-        let m_max = 2 * na + 6 * nc;
+        let limited: Vec<LimitedJoint> = if cfg.joint_limit_horizon > 0.0 {
+            robot
+                .joint_v
+                .iter()
+                .zip(&robot.joint_q)
+                .map(|(&v, &q)| LimitedJoint {
+                    v,
+                    q,
+                    lower: model.lower_position_limit[q],
+                    upper: model.upper_position_limit[q],
+                    effort: robot
+                        .actuated_v
+                        .iter()
+                        .position(|&a| a == v)
+                        .map_or(f64::INFINITY, |a| robot.effort[a]),
+                })
+                .filter(|l| l.lower.is_finite() && l.upper.is_finite())
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let nlim = limited.len();
+        let m_max = 2 * na + 6 * nc + 2 * nlim;
         let input = WbcInput {
             mass_matrix: DMatrix::zeros(nv, nv),
             nle: DVector::zeros(nv),
@@ -286,6 +363,8 @@ impl WholeBodyQp {
             swing_free_direction: vec![Vector3::zeros(); nc],
             qdd_posture: vec![0.0; robot.joint_v.len()],
             weight: robot.mass * 9.81,
+            qdd_lower: vec![-cfg.joint_limit_max_deceleration; nlim],
+            qdd_upper: vec![cfg.joint_limit_max_deceleration; nlim],
         };
         let output =
             WbcOutput { qdd: DVector::zeros(nv), forces: vec![Vector3::zeros(); nc], tau: vec![0.0; na] };
@@ -299,6 +378,8 @@ impl WholeBodyQp {
             joint_v: robot.joint_v.clone(),
             effort: robot.effort.clone(),
             contact_leg: robot.contact_leg.clone(),
+            limited,
+            limits_relaxed: false,
             input,
             output,
             qp: DenseQpData::new(n_max, p_max, m_max),
@@ -334,6 +415,40 @@ impl WholeBodyQp {
         &self.cfg
     }
 
+    /// The joints whose accelerations the QP bounds to respect position limits (empty when
+    /// [`WbcConfig::joint_limit_horizon`] is 0).
+    pub fn limited_joints(&self) -> &[LimitedJoint] {
+        &self.limited
+    }
+
+    /// Whether the last solve dropped the joint-limit bounds because the problem with them
+    /// was infeasible.
+    pub fn limits_relaxed(&self) -> bool {
+        self.limits_relaxed
+    }
+
+    /// Sets [`WbcInput::qdd_lower`] and [`WbcInput::qdd_upper`] from the state (call it
+    /// after filling [`WbcInput::mass_matrix`]): with the horizon `h`,
+    /// `q̈_hi = 2 (q_max − q − q̇ h) / h²`, no lower than `−a_max`, and
+    /// `q̈_lo = 2 (q_min − q − q̇ h) / h²`, no higher than `a_max`, where `a_max` is the
+    /// smaller of [`WbcConfig::joint_limit_max_deceleration`] and `τ_max / (2 M_jj)`.
+    pub fn set_joint_limit_bounds(&mut self, q: &[f64], v: &[f64]) {
+        let h = self.cfg.joint_limit_horizon;
+        for (k, l) in self.limited.iter().enumerate() {
+            let m_jj = self.input.mass_matrix[(l.v, l.v)];
+            let a_max = if m_jj > 0.0 {
+                self.cfg.joint_limit_max_deceleration.min(0.5 * l.effort / m_jj)
+            } else {
+                self.cfg.joint_limit_max_deceleration
+            };
+            let drift = q[l.q] + v[l.v] * h;
+            let hi = 2.0 * (l.upper - drift) / (h * h);
+            let lo = 2.0 * (l.lower - drift) / (h * h);
+            self.input.qdd_upper[k] = hi.max(-a_max);
+            self.input.qdd_lower[k] = lo.min(a_max);
+        }
+    }
+
     /// Column of the force of stance contact `c` (after `assemble`).
     fn fcol(&self, c: usize) -> usize {
         self.nv + 3 * self.stance_index[c]
@@ -355,7 +470,7 @@ impl WholeBodyQp {
         let lcol = nv + 3 * ns;
         let p = self.unactuated_v.len() + nl;
         let pyr = self.cfg.friction.is_pyramid();
-        let m = 2 * self.actuated_v.len() + ns * if pyr { 5 } else { 1 };
+        let m = 2 * self.actuated_v.len() + ns * if pyr { 5 } else { 1 } + 2 * self.limited.len();
         self.qp.reset(n, p, m);
         let inp = &self.input;
         let cfg = &self.cfg;
@@ -483,12 +598,32 @@ impl WholeBodyQp {
                 }
             }
         }
+        for (k, l) in self.limited.iter().enumerate() {
+            qp.c_row(ir)[l.v] = 1.0;
+            qp.d[ir] = inp.qdd_upper[k];
+            qp.c_row(ir + 1)[l.v] = -1.0;
+            qp.d[ir + 1] = -inp.qdd_lower[k];
+            ir += 2;
+        }
         debug_assert_eq!(ir, m);
         (n, ns)
     }
 
-    /// Assembles and solves; on success fills [`WholeBodyQp::output`].
+    /// Assembles and solves; on success fills [`WholeBodyQp::output`]. An infeasible problem
+    /// with joint-limit bounds is solved again without them ([`WholeBodyQp::limits_relaxed`]).
     pub fn solve(&mut self) -> QpStatus {
+        self.limits_relaxed = false;
+        let status = self.solve_once();
+        if status == QpStatus::PrimalInfeasible && !self.limited.is_empty() {
+            self.limits_relaxed = true;
+            self.input.qdd_lower.fill(-RELAXED_BOUND);
+            self.input.qdd_upper.fill(RELAXED_BOUND);
+            return self.solve_once();
+        }
+        status
+    }
+
+    fn solve_once(&mut self) -> QpStatus {
         let (n, _ns) = self.assemble();
         let status = match self.cfg.backend {
             QpBackend::Dense => {
