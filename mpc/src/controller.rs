@@ -1090,12 +1090,13 @@ impl LocomotionController {
                 let a = self.robot.joint_v.iter().position(|&x| x == iv).unwrap_or(0);
                 let iq = self.robot.actuated_q[i];
                 if pass == 0 {
-                    // A target beyond a position limit only presses the joint into it.
+                    // A target beyond a position limit only presses the joint into it
+                    // (max/min rather than clamp: no panic on a model built with NaN limits).
                     let (lo, hi) = (
                         self.robot.model.lower_position_limit[iq],
                         self.robot.model.upper_position_limit[iq],
                     );
-                    self.command.q_des[i] = (self.q[iq] + self.ik_b[a]).clamp(lo, hi);
+                    self.command.q_des[i] = (self.q[iq] + self.ik_b[a]).max(lo).min(hi);
                 } else {
                     self.command.qd_des[i] = self.ik_b[a];
                 }

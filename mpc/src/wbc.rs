@@ -34,9 +34,10 @@
 //! accelerates otherwise than planned.
 //!
 //! Stance contacts are a weighted task rather than an equality: with `f = 0, τ = 0`,
-//! `q̈ = M⁻¹(J_lᵀλ − h)` satisfies every constraint (free fall), so the QP is feasible for
-//! every state by construction; a robot whose feet must slip shows up as a residual, not as
-//! an infeasible problem. Torques follow as `τ = (M q̈ + h − J_cᵀ f − J_lᵀ λ)_a`.
+//! `q̈ = M⁻¹(J_lᵀλ − h)` satisfies every constraint but the joint-limit bounds (free fall),
+//! so the QP without them is feasible for every state by construction — which is why an
+//! infeasible problem is retried without the bounds; a robot whose feet must slip shows up
+//! as a residual, not as an infeasible problem. Torques follow as `τ = (M q̈ + h − J_cᵀ f − J_lᵀ λ)_a`.
 //!
 //! Two backends solve the same problem: [`QpBackend::Dense`] (Goldfarb–Idnani on dense
 //! Cholesky, [`crate::qp::DenseQp`]) and [`QpBackend::Clarabel`] (one interior-point solver
@@ -610,7 +611,8 @@ impl WholeBodyQp {
     }
 
     /// Assembles and solves; on success fills [`WholeBodyQp::output`]. An infeasible problem
-    /// with joint-limit bounds is solved again without them ([`WholeBodyQp::limits_relaxed`]).
+    /// with joint-limit bounds is solved again without them ([`WholeBodyQp::limits_relaxed`]);
+    /// the bounds then stay open until the next [`WholeBodyQp::set_joint_limit_bounds`].
     pub fn solve(&mut self) -> QpStatus {
         self.limits_relaxed = false;
         let status = self.solve_once();
