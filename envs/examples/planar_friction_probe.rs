@@ -3,9 +3,11 @@
 //!
 //! A 10 kg box rests on the ground (μ = 1) at the end of `rootx` (prismatic x) → `rootz`
 //! (prismatic z) → `rooty`; after 1 s a 30 N horizontal force pushes it for 2 s. Friction can
-//! give up to 98 N, so the box should not move. With `rooty` fixed it does not; with `rooty`
-//! a revolute joint (as in the MuJoCo models) it slides as if friction were about a third of
-//! the push. Run: `cargo run --release -p centaur-envs --example planar_friction_probe`.
+//! give up to 98 N, so the box should not move, with `rooty` fixed or a revolute joint.
+//! Before `Sim` built the frames of coordinate-axis joints exactly (see `joint_axis_frame` in
+//! `sim.rs`), the revolute case slid 4.4 m, as if friction were 8 N: the hinge's rounded
+//! frames left the blocked y tangent an effective mass of ~3e-15, which Rapier inverted.
+//! Run: `cargo run --release -p centaur-envs --example planar_friction_probe`.
 
 use centaur_dynamics::nalgebra::Vector3;
 use centaur_dynamics::{BaseKind, Model, RobotState};

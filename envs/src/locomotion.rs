@@ -27,11 +27,11 @@
 //! (140 instead of 348 entries). Inertias, masses, geometry, joint axes, ranges, gears,
 //! armature, damping and springs are MuJoCo's compiled values (verified to 1e-14).
 //!
-//! **Known defect** of Walker2d, Hopper and HalfCheetah: on their planar root chain
-//! (`rootx`, `rootz` prismatic, `rooty` revolute multibody joints on a fixed base) Rapier
-//! 0.36.1 applies next to no ground friction, so their feet slide where MuJoCo's hold
-//! (`examples/planar_friction_probe.rs` measures it; the README has the figures). Ant and
-//! Humanoid, with a floating root, are not affected.
+//! Walker2d, Hopper and HalfCheetah move in the x–z plane through a fixed base and the
+//! `rootx`, `rootz` (prismatic) and `rooty` (revolute) multibody joints, as in MuJoCo. Their
+//! joint frames are built exactly for coordinate axes, without which Rapier 0.36.1 gave
+//! their feet next to no ground friction (`Sim`'s `joint_axis_frame`;
+//! `examples/planar_friction_probe.rs` and the planar slope test check it).
 
 use centaur_dynamics::nalgebra::Vector3;
 use centaur_dynamics::{BaseKind, Data, Model, RobotState};

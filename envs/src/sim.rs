@@ -163,6 +163,34 @@ fn x_to(a: &Vector3<f64>) -> Rotation {
     Rotation::from_rotation_arc(Vector::X, v3(a).normalize())
 }
 
+/// The joint-frame axis a 1-dof joint moves along (0: x, 1: y, 2: z) and the rotation of the
+/// joint frame that takes that axis to the unit vector `a`. When `exact` and `a` is ±x, ±y or
+/// ±z, the axis is `a`'s own and the rotation is the identity or a half turn, both exact in
+/// `f32`; otherwise the axis is x and the rotation [`x_to`].
+///
+/// Why exactness matters: on a fixed-base robot (the planar Walker2d, Hopper, HalfCheetah)
+/// no joint moves the feet along y, so the contact's y tangent has zero effective mass.
+/// Rapier inverts that effective mass unless it is below 1e-20; built with [`x_to`], the
+/// frames of y-axis hinges leave a rounding residue of ~3e-15, whose inverse is a huge
+/// impulse along y that fills the friction disc and scales the real x friction down to a few
+/// percent (measured by the `planar_friction_probe` example). Exact frames keep that
+/// effective mass exactly zero, which Rapier skips.
+fn joint_axis_frame(a: &Vector3<f64>, exact: bool) -> (usize, Rotation) {
+    if exact {
+        for k in 0..3 {
+            if a[k] == 1.0 && a[(k + 1) % 3] == 0.0 && a[(k + 2) % 3] == 0.0 {
+                return (k, Rotation::IDENTITY);
+            }
+            if a[k] == -1.0 && a[(k + 1) % 3] == 0.0 && a[(k + 2) % 3] == 0.0 {
+                // Half a turn about the next axis: its quaternion has one unit component.
+                let about = [Vector::X, Vector::Y, Vector::Z][(k + 1) % 3];
+                return (k, Rotation::from_xyzw(about.x, about.y, about.z, 0.0));
+            }
+        }
+    }
+    (0, x_to(a))
+}
+
 /// How one model joint appears in the multibody.
 #[derive(Clone, Copy, Debug)]
 struct JointMap {
@@ -174,7 +202,8 @@ struct JointMap {
     link: usize,
     /// Index of the joint's first dof in Rapier's generalized vectors.
     dof: usize,
-    /// Index into `MultibodyJoint::coords()` of the joint coordinate (3: AngX, 0: LinX).
+    /// Index into `MultibodyJoint::coords()` of the joint coordinate (0–2: LinX–LinZ, 3–5:
+    /// AngX–AngZ).
     coord: usize,
     /// Joint axis in the child frame (model convention).
     axis: Vector3<f64>,
@@ -241,6 +270,11 @@ impl Sim {
         params.max_ccd_substeps = 0;
         params.normalized_allowed_linear_error = config.allowed_penetration as f32;
         params.normalized_prediction_distance = config.prediction_distance as f32;
+        // Per-point Coulomb friction for the bodies outside a multibody (a robot of one
+        // link): Rapier's default friction model stores one friction impulse per manifold,
+        // which `contact_force` cannot read back. Multibody links always get per-point Coulomb
+        // friction.
+        params.friction_model = rapier3d::prelude::FrictionModel::Coulomb;
         let mut bodies = RigidBodySet::new();
         let mut collider_set = ColliderSet::new();
         let mut multibody_joints = MultibodyJointSet::new();
@@ -298,18 +332,23 @@ impl Sim {
             let parent = joint.parent;
             let parent_body =
                 bodies_of_joint[parent].ok_or_else(|| SimError::Unsupported(joint.name.clone()))?;
-            let (mask, axis, revolute, coord) = match joint.kind {
-                JointKind::Revolute { axis } => (JointAxesMask::LOCKED_REVOLUTE_AXES, axis, true, 3),
-                JointKind::Prismatic { axis } => (JointAxesMask::LOCKED_PRISMATIC_AXES, axis, false, 0),
+            let (axis, revolute) = match joint.kind {
+                JointKind::Revolute { axis } => (axis, true),
+                JointKind::Prismatic { axis } => (axis, false),
                 JointKind::FreeFlyer | JointKind::Universe => {
                     return Err(SimError::Unsupported(joint.name.clone()));
                 }
             };
+            // Exact frames only on fixed-base robots, where they matter (see
+            // `joint_axis_frame`); floating-base robots keep the frames their measured
+            // results were obtained with.
+            let (k, r) = joint_axis_frame(&axis, !floating);
+            let coord = if revolute { 3 + k } else { k };
+            let mask = JointAxesMask::LOCKED_FIXED_AXES - JointAxesMask::from_bits_truncate(1 << coord);
             let h = bodies.insert(
                 RigidBodyBuilder::dynamic().can_sleep(false).additional_mass_properties(mass_props(j)),
             );
             bodies_of_joint[j] = Some(h);
-            let r = x_to(&axis);
             // Joint frame in the parent's Rapier frame, and in the child's (the child frame is
             // the joint frame: URDF convention).
             let in_parent = shift(parent).inverse().mul(&joint.placement);
@@ -320,11 +359,15 @@ impl Sim {
             // Position limits become Rapier joint limits (solved as constraints).
             let (lo, hi) = (model.lower_position_limit[joint.idx_q], model.upper_position_limit[joint.idx_q]);
             if lo.is_finite() && hi.is_finite() {
-                let axis = if revolute {
-                    rapier3d::prelude::JointAxis::AngX
-                } else {
-                    rapier3d::prelude::JointAxis::LinX
-                };
+                use rapier3d::prelude::JointAxis;
+                let axis = [
+                    JointAxis::LinX,
+                    JointAxis::LinY,
+                    JointAxis::LinZ,
+                    JointAxis::AngX,
+                    JointAxis::AngY,
+                    JointAxis::AngZ,
+                ][coord];
                 builder = builder.limits(axis, [lo as f32, hi as f32]);
             }
             let g = builder.build();
@@ -838,7 +881,7 @@ impl Sim {
             for m in pair.solver_manifolds() {
                 let n = m.data.normal;
                 let d1 = -n;
-                let (t1, t2) = orthonormal_basis(d1);
+                let (t1, t2) = friction_basis(d1);
                 for sc in &m.data.solver_contacts {
                     let Some(p) = m.points.get(sc.contact_indices()[0] as usize) else { continue };
                     let on_1 =
@@ -886,14 +929,14 @@ impl Sim {
     }
 }
 
-/// Pixar's branchless orthonormal basis (Duff et al. 2017), the one Rapier's contact solver
-/// uses for friction directions, so that tangent impulses map back to world vectors.
-fn orthonormal_basis(n: Vector) -> (Vector, Vector) {
-    let sign = 1.0f32.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    (
-        Vector::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        Vector::new(b, sign + n.y * n.y * a, -n.y),
-    )
+/// The friction directions of Rapier 0.36's contact constraints for a contact whose force on
+/// body 1 points along `d1`: `t1` is the second vector of Pixar's branchless orthonormal
+/// basis (Duff et al. 2017; Rapier's `orthonormal_vector`), `t2 = d1 × t1`. Tangent impulses
+/// are stored in that basis (`generic_contact_constraint.rs`, `compute_tangent_contact_directions`).
+fn friction_basis(d1: Vector) -> (Vector, Vector) {
+    let sign = 1.0f32.copysign(d1.z);
+    let a = -1.0 / (sign + d1.z);
+    let b = d1.x * d1.y * a;
+    let t1 = Vector::new(b, sign + d1.y * d1.y * a, -d1.y);
+    (t1, d1.cross(t1))
 }

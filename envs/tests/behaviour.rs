@@ -25,9 +25,10 @@ fn random_stats(env: &mut dyn Env, episodes: u64) -> (f64, f64) {
     let mut obs = vec![0.0f32; env.observation_space().dim()];
     let mut act = vec![0.0f32; env.action_space().dim()];
     let mut rng = Rng::seed_from_u64(3);
-    let (mut ret, mut len) = (0.0, 0.0);
+    let (mut returns, mut len) = (Vec::new(), 0.0);
     for ep in 0..episodes {
         env.reset(Some(ep), &mut obs).unwrap();
+        let mut ret = 0.0;
         loop {
             env.action_space().sample(&mut rng, &mut act);
             let s = env.step(&act, &mut obs).unwrap();
@@ -38,8 +39,14 @@ fn random_stats(env: &mut dyn Env, episodes: u64) -> (f64, f64) {
                 break;
             }
         }
+        returns.push(ret);
     }
-    (ret / episodes as f64, len / episodes as f64)
+    let n = episodes as f64;
+    let mean = returns.iter().sum::<f64>() / n;
+    let std = (returns.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / n).sqrt();
+    // The README's table (`cargo test --release -p centaur-envs --test behaviour -- --nocapture`).
+    println!("{}: return {mean:.2} ± {std:.2}, length {:.0}", env.name(), len / n);
+    (mean, len / n)
 }
 
 #[test]

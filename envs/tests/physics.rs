@@ -127,12 +127,32 @@ fn minitaur_under_pd_stands_30_s_without_creeping_jitter_or_sleeping() {
     assert!(moved > 5e-3, "a 20 N push moved the base by only {moved} m: asleep?");
 }
 
-/// A 10 cm cube on the ground plane, with gravity tilted by θ (an inclined plane).
-fn block_slides(theta: f64, mu: f64) -> f64 {
-    let urdf = r#"<robot name="block"><link name="box">
+const BLOCK_LINK: &str = r#"<link name="box">
         <inertial><mass value="1"/><inertia ixx="0.00167" iyy="0.00167" izz="0.00167" ixy="0" ixz="0" iyz="0"/></inertial>
-        <collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link></robot>"#;
-    let model = Model::from_urdf_str(urdf, "block.urdf", BaseKind::Floating).unwrap();
+        <collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>"#;
+
+/// The free 10 cm cube.
+fn free_block() -> Model {
+    let urdf = format!(r#"<robot name="block">{BLOCK_LINK}</robot>"#);
+    Model::from_urdf_str(&urdf, "block.urdf", BaseKind::Floating).unwrap()
+}
+
+/// The cube on a fixed-base planar chain, the way Walker2d, Hopper and HalfCheetah are built:
+/// `rootx` (slide x) → `rootz` (slide z) → `rooty` (hinge about `pitch_axis`, y or −y).
+fn planar_block(pitch_axis: &str) -> Model {
+    let urdf = format!(
+        r#"<robot name="planar_block"><link name="world"/><link name="x"/><link name="z"/>{BLOCK_LINK}
+        <joint name="rootx" type="prismatic"><parent link="world"/><child link="x"/><axis xyz="1 0 0"/><limit effort="0" velocity="100"/></joint>
+        <joint name="rootz" type="prismatic"><parent link="x"/><child link="z"/><axis xyz="0 0 1"/><limit effort="0" velocity="100"/></joint>
+        <joint name="rooty" type="revolute"><parent link="z"/><child link="box"/><axis xyz="{pitch_axis}"/><limit lower="-3" upper="3" effort="0" velocity="100"/></joint>
+        </robot>"#
+    );
+    Model::from_urdf_str(&urdf, "planar_block.urdf", BaseKind::Fixed).unwrap()
+}
+
+/// How far (m) a block slides in 1 s on the ground plane with gravity tilted by θ (an
+/// inclined plane); `q[x]` and `q[z]` are its x and height coordinates.
+fn block_slides(model: &Model, x: usize, z: usize, theta: f64, mu: f64) -> f64 {
     let g = 9.81;
     let config = SimConfig {
         gravity: [g * theta.sin(), 0.0, -g * theta.cos()],
@@ -140,37 +160,83 @@ fn block_slides(theta: f64, mu: f64) -> f64 {
         ..SimConfig::default()
     };
     let colliders = ColliderSpec { default_friction: mu, ..ColliderSpec::default() };
-    let mut sim = Sim::new(&model, &config, &colliders, &[]).unwrap();
-    let mut s = RobotState::new(&model);
-    s.q[2] = 0.05;
+    let mut sim = Sim::new(model, &config, &colliders, &[]).unwrap();
+    let mut s = RobotState::new(model);
+    s.q[z] = 0.05;
     sim.set_state(&s);
     for _ in 0..50 {
         sim.step(); // settle
     }
     sim.read_state(&mut s);
-    let x0 = s.q[0];
+    let x0 = s.q[x];
     for _ in 0..500 {
         sim.step();
     }
     sim.read_state(&mut s);
-    s.q[0] - x0
+    s.q[x] - x0
+}
+
+/// The ground force `Sim::contact_force` reports on a block resting on a 20° slope (μ = 0.5)
+/// balances its weight: (−m g sin θ, 0, m g cos θ) in the world frame.
+fn check_reported_contact_force(model: &Model, z: usize, what: &str) {
+    let (g, theta) = (9.81, 20f64.to_radians());
+    let config = SimConfig {
+        gravity: [g * theta.sin(), 0.0, -g * theta.cos()],
+        ground_friction: 0.5,
+        ..SimConfig::default()
+    };
+    let colliders = ColliderSpec { default_friction: 0.5, ..ColliderSpec::default() };
+    let mut sim = Sim::new(model, &config, &colliders, &[]).unwrap();
+    let mut s = RobotState::new(model);
+    s.q[z] = 0.05;
+    sim.set_state(&s);
+    for _ in 0..300 {
+        sim.step();
+    }
+    let collider = sim.geometry_collider(0).expect("the block's box is a collider");
+    let (f, _) = sim.contact_force(collider).expect("the block touches the ground");
+    let weight = model.total_mass() * g;
+    let expected = Vector3::new(-weight * theta.sin(), 0.0, weight * theta.cos());
+    assert!(
+        (f - expected).norm() < 0.03 * weight,
+        "{what}: reported ground force {f:?}, expected {expected:?}"
+    );
+}
+
+#[test]
+fn reported_contact_force_balances_the_weight_on_a_slope() {
+    check_reported_contact_force(&free_block(), 2, "free block");
+    check_reported_contact_force(&planar_block("0 1 0"), 1, "planar block");
 }
 
 #[test]
 fn block_on_a_slope_slides_iff_tan_theta_exceeds_mu() {
+    check_slope(&free_block(), 0, 2, "free block");
+}
+
+/// Regression: Rapier gave a block on a planar chain a few percent of its friction (it slid
+/// down a 20° slope at μ = 0.5 like on ice), because the joint frames of the pitch hinge left
+/// the blocked y tangent a ~3e-15 effective mass instead of zero (see `Sim`'s docs).
+#[test]
+fn block_on_a_planar_chain_slides_iff_tan_theta_exceeds_mu() {
+    check_slope(&planar_block("0 1 0"), 0, 1, "planar block, hinge about +y");
+    check_slope(&planar_block("0 -1 0"), 0, 1, "planar block, hinge about −y");
+}
+
+fn check_slope(model: &Model, x: usize, z: usize, what: &str) {
     let mu = 0.5;
     for (theta_deg, slides) in [(20.0f64, false), (25.0, false), (29.0, true), (35.0, true)] {
         let theta = theta_deg.to_radians();
-        let d = block_slides(theta, mu);
+        let d = block_slides(model, x, z, theta, mu);
         // Sliding: ½ g (sinθ − μ cosθ) t² over 1 s (≥ 4 cm at 29°).
         let expected = 0.5 * 9.81 * (theta.sin() - mu * theta.cos()).max(0.0);
         if slides {
             assert!(
                 d > 0.5 * expected && d < 1.5 * expected,
-                "θ = {theta_deg}°: slid {d} m, expected ≈ {expected}"
+                "{what}, θ = {theta_deg}°: slid {d} m, expected ≈ {expected}"
             );
         } else {
-            assert!(d.abs() < 2e-3, "θ = {theta_deg}° (tan θ = {:.3} < μ): slid {d} m", theta.tan());
+            assert!(d.abs() < 2e-3, "{what}, θ = {theta_deg}° (tan θ = {:.3} < μ): slid {d} m", theta.tan());
         }
     }
 }
