@@ -262,6 +262,9 @@ impl ControllerConfig {
         });
         c.mpc = MpcConfig::biped_planar();
         c.swing_height = 0.08;
+        // A stiffer body-velocity task: at the default 20 the walk lags its command by a
+        // third (0.35 m/s for 0.5); at 80 it makes 0.42 (0.45 after the first second).
+        c.body_kd_vel = [80.0; 3];
         c
     }
 
