@@ -270,11 +270,6 @@ impl Sim {
         params.max_ccd_substeps = 0;
         params.normalized_allowed_linear_error = config.allowed_penetration as f32;
         params.normalized_prediction_distance = config.prediction_distance as f32;
-        // Per-point Coulomb friction for the bodies outside a multibody (a robot of one
-        // link): Rapier's default friction model stores one friction impulse per manifold,
-        // which `contact_force` cannot read back. Multibody links always get per-point Coulomb
-        // friction.
-        params.friction_model = rapier3d::prelude::FrictionModel::Coulomb;
         let mut bodies = RigidBodySet::new();
         let mut collider_set = ColliderSet::new();
         let mut multibody_joints = MultibodyJointSet::new();
@@ -872,6 +867,13 @@ impl Sim {
     /// The contact force (N, world frame) the ground exerts on a collider during the last
     /// step, and the point where its normal part acts (the impulse-weighted mean of the
     /// contact points), or `None` without contact.
+    ///
+    /// The tangential (friction) part is read for colliders on multibody links, i.e. every
+    /// link of a robot with joints. A robot of a single link is a plain rigid body, whose
+    /// contacts Rapier solves with one friction impulse per manifold that it does not store
+    /// per point; for it the force has its normal part only. (Rapier's per-point Coulomb
+    /// model would make it readable, but lets a free block slide down a slope with ~10 %
+    /// less friction than μ, measured by the slope test.)
     pub fn contact_force(&self, collider: ColliderHandle) -> Option<(Vector3<f64>, Vector3<f64>)> {
         let mut force = Vector::ZERO;
         let mut point = Vector::ZERO;
