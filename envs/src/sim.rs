@@ -178,10 +178,10 @@ fn x_to(a: &Vector3<f64>) -> Rotation {
 fn joint_axis_frame(a: &Vector3<f64>, exact: bool) -> (usize, Rotation) {
     if exact {
         for k in 0..3 {
-            if a[k] == 1.0 && a[(k + 1) % 3] == 0.0 && a[(k + 2) % 3] == 0.0 {
-                return (k, Rotation::IDENTITY);
-            }
-            if a[k] == -1.0 && a[(k + 1) % 3] == 0.0 && a[(k + 2) % 3] == 0.0 {
+            if a[k].abs() == 1.0 && a[(k + 1) % 3] == 0.0 && a[(k + 2) % 3] == 0.0 {
+                if a[k] > 0.0 {
+                    return (k, Rotation::IDENTITY);
+                }
                 // Half a turn about the next axis: its quaternion has one unit component.
                 let about = [Vector::X, Vector::Y, Vector::Z][(k + 1) % 3];
                 return (k, Rotation::from_xyzw(about.x, about.y, about.z, 0.0));

@@ -150,9 +150,9 @@ fn planar_block(pitch_axis: &str) -> Model {
     Model::from_urdf_str(&urdf, "planar_block.urdf", BaseKind::Fixed).unwrap()
 }
 
-/// How far (m) a block slides in 1 s on the ground plane with gravity tilted by θ (an
-/// inclined plane); `q[x]` and `q[z]` are its x and height coordinates.
-fn block_slides(model: &Model, x: usize, z: usize, theta: f64, mu: f64) -> f64 {
+/// A simulation of `model` resting on the ground plane with gravity tilted by θ (an inclined
+/// plane) and friction μ, started 5 cm up (`q[z]`) and stepped `settle` times.
+fn on_slope(model: &Model, z: usize, theta: f64, mu: f64, settle: usize) -> Sim {
     let g = 9.81;
     let config = SimConfig {
         gravity: [g * theta.sin(), 0.0, -g * theta.cos()],
@@ -164,9 +164,17 @@ fn block_slides(model: &Model, x: usize, z: usize, theta: f64, mu: f64) -> f64 {
     let mut s = RobotState::new(model);
     s.q[z] = 0.05;
     sim.set_state(&s);
-    for _ in 0..50 {
-        sim.step(); // settle
+    for _ in 0..settle {
+        sim.step();
     }
+    sim
+}
+
+/// How far (m) a block slides in 1 s down the slope; `q[x]` and `q[z]` are its x and height
+/// coordinates.
+fn block_slides(model: &Model, x: usize, z: usize, theta: f64, mu: f64) -> f64 {
+    let mut sim = on_slope(model, z, theta, mu, 50);
+    let mut s = RobotState::new(model);
     sim.read_state(&mut s);
     let x0 = s.q[x];
     for _ in 0..500 {
@@ -180,19 +188,7 @@ fn block_slides(model: &Model, x: usize, z: usize, theta: f64, mu: f64) -> f64 {
 /// balances its weight: (−m g sin θ, 0, m g cos θ) in the world frame.
 fn check_reported_contact_force(model: &Model, z: usize, what: &str) {
     let (g, theta) = (9.81, 20f64.to_radians());
-    let config = SimConfig {
-        gravity: [g * theta.sin(), 0.0, -g * theta.cos()],
-        ground_friction: 0.5,
-        ..SimConfig::default()
-    };
-    let colliders = ColliderSpec { default_friction: 0.5, ..ColliderSpec::default() };
-    let mut sim = Sim::new(model, &config, &colliders, &[]).unwrap();
-    let mut s = RobotState::new(model);
-    s.q[z] = 0.05;
-    sim.set_state(&s);
-    for _ in 0..300 {
-        sim.step();
-    }
+    let sim = on_slope(model, z, theta, 0.5, 300);
     let collider = sim.geometry_collider(0).expect("the block's box is a collider");
     let (f, _) = sim.contact_force(collider).expect("the block touches the ground");
     let weight = model.total_mass() * g;
