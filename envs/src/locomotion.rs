@@ -4,7 +4,7 @@
 //! Read from `gymnasium/envs/mujoco/{ant,walker2d,hopper,half_cheetah,humanoid}_v5.py`
 //! (gymnasium 1.4.0). Each preset ([`LocomotionConfig::ant`], …) holds the v5 constructor
 //! defaults; each step applies `τ = gear · clip(action, ctrlrange)` for `frame_skip`
-//! physics steps of MuJoCo's time step, then
+//! physics steps of MuJoCo's time step (HalfCheetah: of 25 ms, see below), then
 //!
 //! | | forward velocity | reward | healthy / termination | observation |
 //! |---|---|---|---|---|
@@ -24,7 +24,8 @@
 //! lets some humanoid limbs collide with each other); joint limits are Rapier's hard limits
 //! rather than MuJoCo's soft ones; `cfrc_ext` is the ground's contact wrench on each body
 //! about the robot's centre of mass; Humanoid drops MuJoCo's `cinert` and `cvel` blocks
-//! (140 instead of 348 entries). Inertias, masses, geometry, joint axes, ranges, gears,
+//! (140 instead of 348 entries); HalfCheetah takes two 25 ms physics steps per control step
+//! instead of five of 10 ms ([`LocomotionConfig::half_cheetah`]). Inertias, masses, geometry, joint axes, ranges, gears,
 //! armature, damping and springs are MuJoCo's compiled values (verified to 1e-14).
 //!
 //! Walker2d, Hopper and HalfCheetah move in the x–z plane through a fixed base and the
@@ -140,12 +141,12 @@ pub struct LocomotionConfig {
     pub reset_noise_scale: f64,
     /// Include the contact forces in the observation (Ant v5: true; v4's 27-d variant: false).
     pub include_cfrc_ext_in_observation: bool,
-    /// Physics steps per env step (Ant 5, Walker2d 4, Hopper 4, HalfCheetah 15 — MuJoCo's 5 at a
-    /// third of the step, see [`LocomotionConfig::half_cheetah`] — Humanoid 5).
+    /// Physics steps per env step (Ant 5, Walker2d 4, Hopper 4, HalfCheetah 2 — MuJoCo's 5 of
+    /// 10 ms as 2 of 25 ms, see [`LocomotionConfig::half_cheetah`] — Humanoid 5).
     pub frame_skip: usize,
     /// Truncation (steps) (default: 1000).
     pub max_episode_steps: usize,
-    /// Physics settings; `dt` defaults to MuJoCo's time step of the model.
+    /// Physics settings; `dt` defaults to MuJoCo's time step of the model (HalfCheetah: 25 ms).
     pub sim: SimConfig,
     /// Observation options (default: none).
     pub obs: ObsOptions,
@@ -220,16 +221,26 @@ impl LocomotionConfig {
         }
     }
 
-    /// HalfCheetah-v5, at MuJoCo's 10 ms physics step (5 per 50 ms control step). Until the
-    /// planar robots' ground friction was fixed it needed 1/300 s steps and 20 Hz contacts:
-    /// at 10 ms random flailing slid it backwards at −0.6 m/s (MuJoCo: −0.08).
+    /// HalfCheetah-v5 with two 25 ms physics steps per 50 ms control step (MuJoCo: five of
+    /// 10 ms). The control step, and so every reward, observation and episode length, is
+    /// MuJoCo's; Rapier's step is larger because its cost per step, not the number of
+    /// contacts, sets this env's speed (38 % of it in Rapier's multibody mass matrix). At
+    /// 25 ms and 4 PGS iterations (Rapier's default count; 8 elsewhere) the env runs about 3×
+    /// faster than at 10 ms and 8; the resting height differs by 1.1 mm and random actions
+    /// return −264 ± 45 over 10 episodes (10 ms: −308 ± 68; MuJoCo's two reference runs
+    /// −234 and −278 ± 62). `sim.dt = 0.01`, `sim.pgs_iterations = 8` with
+    /// `frame_skip = 5` give MuJoCo's step.
+    ///
+    /// Until the planar robots' ground friction was fixed it needed 1/300 s steps: at 10 ms
+    /// random flailing slid it backwards at −0.6 m/s (MuJoCo: −0.08).
     pub fn half_cheetah() -> Self {
         LocomotionConfig {
             ctrl_cost_weight: 0.1,
             healthy_reward: 0.0,
             terminate_when_unhealthy: false,
             reset_noise_scale: 0.1,
-            frame_skip: 5,
+            frame_skip: 2,
+            sim: SimConfig { dt: 0.025, pgs_iterations: 4, ..Self::base(LocomotionRobot::HalfCheetah).sim },
             ..Self::base(LocomotionRobot::HalfCheetah)
         }
     }
