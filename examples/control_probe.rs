@@ -105,6 +105,8 @@ fn main() {
                 "horizon" => cfg.mpc.horizon = x as usize,
                 "force_weight" => cfg.mpc.force_weight = x,
                 "raibert_kv" => cfg.raibert_kv = x,
+                "fh_com" => cfg.foothold_from_com = x != 0.0,
+                "fh_kp" => cfg.foothold_position_gain = x,
                 "recenter" => cfg.recenter_speed = x,
                 "leash" => cfg.position_leash = x,
                 "max_acc" => cfg.max_acceleration = x,

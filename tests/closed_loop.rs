@@ -1,7 +1,7 @@
 //! The model-based controller alone, in closed loop with the simulator: what `centaur control`
 //! promises for the quadrupeds (trot at a commanded speed, stand still, survive a lateral push)
-//! and for Walker2d (stand, walk at 0.5 m/s). The Humanoid does not yet stand; the README
-//! says so and nothing here pretends otherwise.
+//! for Walker2d (stand, walk at 0.5 m/s) and for the Humanoid (balance on point feet by
+//! stepping in place, under pushes).
 
 use std::process::Command as Process;
 
@@ -118,6 +118,31 @@ fn walker2d_walks_at_the_commanded_speed() {
     let s = run("walker2d", Gait::Walk, 0.5, 0.0, None);
     assert!(!s.fell, "walker2d fell after {:.2} s", s.seconds);
     assert!((s.mean_speed - 0.5).abs() < 0.125, "walker2d: mean speed {:.3} m/s for 0.5", s.mean_speed);
+}
+
+#[test]
+fn the_humanoid_balances_by_stepping_in_place() {
+    // Point feet: a stand command steps in place. It fell within 1.5 s when it tried to
+    // stand still on them.
+    let s = run("humanoid", Gait::Stand, 0.0, 0.0, None);
+    assert!(!s.fell, "humanoid fell after {:.2} s", s.seconds);
+    assert!(
+        s.distance.abs() < 0.5 && s.lateral_drift.abs() < 0.3,
+        "humanoid: drifted {:.3} m forward, {:.3} m sideways",
+        s.distance,
+        s.lateral_drift
+    );
+    assert!(s.yaw_drift < 0.2, "humanoid: yaw drift {:.3} rad", s.yaw_drift);
+}
+
+#[test]
+fn the_humanoid_survives_pushes_while_balancing() {
+    // 4 N·s (40 N for 0.1 s) from either side, from behind and from the front.
+    for force in [[0.0, 40.0, 0.0], [0.0, -40.0, 0.0], [40.0, 0.0, 0.0], [-40.0, 0.0, 0.0]] {
+        let push = Some(Push { at: 3.0, force, duration: 0.1 });
+        let s = run("humanoid", Gait::Stand, 0.0, 0.0, push);
+        assert!(!s.fell, "pushed with {force:?} N for 0.1 s: fell at {:.2} s", s.seconds);
+    }
 }
 
 #[test]

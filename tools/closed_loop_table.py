@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Runs `centaur control` on the closed-loop cases of the README and prints the Markdown table.
 
-    cargo build --release --bin centaur && python tools/closed_loop_table.py
+    cargo build --release --bin centaur && python tools/closed_loop_table.py [--only humanoid]
 
 No dependencies beyond the standard library; each case writes /tmp/centaur-closed-loop/<n>/.
 """
@@ -26,18 +26,24 @@ CASES = [
     ("walker2d", "walk", 0.5, 10, None, 0),
     ("walker2d", "stand", 0.0, 10, None, 0),
     ("humanoid", "stand", 0.0, 10, None, 0),
+    ("humanoid", "stand", 0.0, 10, 40, 0),
+    ("humanoid", "stand", 0.0, 10, -40, 0),
+    ("humanoid", "walk", 0.3, 10, None, 0),
 ]
 
 
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--bin", default="target/release/centaur")
+    ap.add_argument("--only", help="run only this robot's rows")
     args = ap.parse_args()
     root = Path("/tmp/centaur-closed-loop")
     print("| robot | gait, command | push | survived | mean speed (m/s) | yaw drift (rad) | "
           "drift (m) | max tilt (rad) | tick mean / p99 (µs) | MPC solve (µs) | WBC solve (µs) |")
     print("|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|")
     for n, (env, gait, speed, seconds, push, measure_from) in enumerate(CASES):
+        if args.only and env != args.only:
+            continue
         out = root / str(n)
         cmd = [args.bin, "control", "--env", env, "--gait", gait, "--speed", str(speed),
                "--seconds", str(seconds), "--measure-from", str(measure_from), "--out", str(out)]

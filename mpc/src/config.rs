@@ -95,6 +95,18 @@ pub struct ControllerConfig {
     /// Extra velocity-feedback gain of the foothold (s) (default: 0; the capture-point term
     /// is always on).
     pub raibert_kv: f64,
+    /// Carry the footholds with the centre of mass instead of the body frame: the hip
+    /// reference is the nominal foot offset from the CoM's horizontal position (default:
+    /// false). For a tall biped whose trunk pitches, the body frame sways far from the CoM
+    /// the capture point is about.
+    pub foothold_from_com: bool,
+    /// Position feedback of the footholds (1/s): they are planned for the velocity
+    /// `v_cmd + k (p_ref − c)`, which steers the CoM `c` back to its reference (default: 0).
+    pub foothold_position_gain: f64,
+    /// Answer a [`Gait::Stand`] command by stepping in place with the walk gait (default:
+    /// false). A biped on point feet cannot stand still: its support is a line, and only
+    /// stepping can move the support under the CoM.
+    pub step_in_place: bool,
     /// Rate limit of the commanded linear speed (m/s²) (default: 1.0).
     pub max_acceleration: f64,
     /// Largest horizontal distance (m) between the position reference (the integral of the
@@ -136,6 +148,9 @@ impl ControllerConfig {
             stance_joint_gains: (0.0, 0.0),
             fallback_joint_gains: (20.0, 0.5),
             raibert_kv: 0.0,
+            foothold_from_com: false,
+            foothold_position_gain: 0.0,
+            step_in_place: false,
             max_acceleration: 1.0,
             position_leash: 0.1,
             recenter_speed: 0.05,
@@ -268,10 +283,15 @@ impl ControllerConfig {
         c
     }
 
-    /// Humanoid (`assets/mujoco/humanoid.urdf`, floating, 17 hinges, no ankles): balance on
-    /// two point feet (the bottoms of the foot spheres, (0, 0, 0.025) in `left_foot` /
-    /// `right_foot`) with the standing MPC and the WBC, which uses the hips and trunk to
-    /// move the CoM (hip strategy) since point feet give no ankle torque.
+    /// Humanoid (`assets/mujoco/humanoid.urdf`, floating, 17 hinges, no ankles) on two point
+    /// feet (the bottoms of the foot spheres, (0, 0, 0.025) in `left_foot` / `right_foot`).
+    /// Point feet support the robot along a line only, so it cannot stand still: a stand
+    /// command steps in place ([`ControllerConfig::step_in_place`]) with the biped walk gait
+    /// at 0.7 of its period (0.56 s), the standing MPC weights and the WBC. The footholds are
+    /// the capture-point variant the issue allows: carried with the CoM rather than the trunk
+    /// (which sways 1.3 m above the feet), with velocity feedback 0.2 s and a weak position
+    /// feedback (0.15/s) that holds the robot near where it started. Commanded speeds ramp
+    /// at 0.3 m/s².
     pub fn humanoid() -> Self {
         let contacts = vec![
             ContactSpec { frame: "left_foot".into(), offset: [0.0, 0.0, 0.1], radius: 0.075, leg: 0 },
@@ -291,6 +311,14 @@ impl ControllerConfig {
         c.mpc.horizon = 16;
         c.mpc.dt = 0.05;
         c.swing_height = 0.08;
+        c.step_in_place = true;
+        c.gait_period_scale = 0.7;
+        c.raibert_kv = 0.2;
+        c.foothold_from_com = true;
+        c.foothold_position_gain = 0.15;
+        c.position_leash = 0.5;
+        // Walking (welcome, not required) starts more reliably from a slower speed ramp.
+        c.max_acceleration = 0.3;
         c
     }
 
@@ -379,6 +407,7 @@ impl ControllerConfig {
             ("fallback_joint_gains.0", self.fallback_joint_gains.0),
             ("fallback_joint_gains.1", self.fallback_joint_gains.1),
             ("raibert_kv", self.raibert_kv),
+            ("foothold_position_gain", self.foothold_position_gain),
             ("max_acceleration", self.max_acceleration),
             ("position_leash", self.position_leash),
             ("recenter_speed", self.recenter_speed),

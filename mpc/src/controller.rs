@@ -491,7 +491,10 @@ impl LocomotionController {
         }
         let command = if airborne { &Command::stand() } else { command };
         // Command shaping: rate-limited speeds, yaw reference integration.
-        let cmd_gait = command.gait;
+        let cmd_gait = match command.gait {
+            Gait::Stand if self.cfg.step_in_place && !airborne => Gait::Walk,
+            g => g,
+        };
         let (c, s) = (self.yaw_ref.cos(), self.yaw_ref.sin());
         let planar = self.cfg.mpc.planar;
         let lat = if planar { 0.0 } else { command.lateral_velocity };
@@ -695,8 +698,17 @@ impl LocomotionController {
         let g = self.robot.model.gravity.z.abs().max(1e-3);
         let yaw = self.rpy.z;
         let (c, s) = (yaw.cos(), yaw.sin());
-        let body = self.data.o_m_f[self.robot.body_frame].translation;
+        let mut body = self.data.o_m_f[self.robot.body_frame].translation;
+        if self.cfg.foothold_from_com {
+            // Where the body frame would be if it stood over the CoM as in the nominal pose.
+            let nc = self.robot.nominal_com_body;
+            body.x = self.com.x - (c * nc.x - s * nc.y);
+            body.y = self.com.y - (s * nc.x + c * nc.y);
+        }
         let v_xy = Vector3::new(self.com_vel.x, self.com_vel.y, 0.0);
+        let kp = self.cfg.foothold_position_gain;
+        let v_foothold = self.v_cmd
+            + Vector3::new(kp * (self.p_ref.x - self.com.x), kp * (self.p_ref.y - self.com.y), 0.0);
         for ci in 0..self.robot.n_contacts() {
             let leg = self.robot.contact_leg[ci];
             let stance = pat.in_stance(phase, leg);
@@ -735,7 +747,7 @@ impl LocomotionController {
             let mut fh = raibert_foothold(
                 &hip,
                 &v_xy,
-                &self.v_cmd,
+                &v_foothold,
                 self.yaw_rate_cmd,
                 pat.stance_duration(leg),
                 height,
