@@ -1258,4 +1258,31 @@ mod tests {
         assert!(!c.wbc.limits_relaxed());
         assert!(c.wbc.output.qdd[first.v] <= -5.0 + 1e-6, "{}", c.wbc.output.qdd[first.v]);
     }
+
+    /// Feet in swing at some tick of `seconds` of stand commands, and the gait run.
+    fn stand_for(config: ControllerConfig, seconds: f64) -> ([bool; 2], Gait) {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/mujoco/humanoid.urdf");
+        let model = Model::from_urdf_file(path, BaseKind::Floating).unwrap();
+        let mut c = LocomotionController::new(&model, config).unwrap();
+        let s = c.nominal_state();
+        let mut swung = [false; 2];
+        for k in 0..(seconds / 0.015) as usize {
+            c.tick(&s, &Command::stand(), k as f64 * 0.015);
+            for (leg, sw) in swung.iter_mut().enumerate() {
+                *sw |= !c.status().contact[leg];
+            }
+        }
+        (swung, c.status().gait)
+    }
+
+    #[test]
+    fn a_humanoid_told_to_stand_steps_in_place_with_both_feet() {
+        let (swung, gait) = stand_for(ControllerConfig::humanoid(), 1.2);
+        assert_eq!(gait, Gait::Walk);
+        assert_eq!(swung, [true, true]);
+        let still = ControllerConfig { step_in_place: false, ..ControllerConfig::humanoid() };
+        let (swung, gait) = stand_for(still, 1.2);
+        assert_eq!(gait, Gait::Stand);
+        assert_eq!(swung, [false, false]);
+    }
 }
