@@ -24,8 +24,8 @@
 //! lets some humanoid limbs collide with each other); joint limits are Rapier's hard limits
 //! rather than MuJoCo's soft ones; `cfrc_ext` is the ground's contact wrench on each body
 //! about the robot's centre of mass; Humanoid drops MuJoCo's `cinert` and `cvel` blocks
-//! (140 instead of 348 entries); HalfCheetah takes two 25 ms physics steps per control step
-//! instead of five of 10 ms ([`LocomotionConfig::half_cheetah`]). Inertias, masses, geometry, joint axes, ranges, gears,
+//! (140 instead of 348 entries); HalfCheetah takes two 25 ms physics steps per control
+//! step instead of five of 10 ms ([`LocomotionConfig::half_cheetah`]). Inertias, masses, geometry, joint axes, ranges, gears,
 //! armature, damping and springs are MuJoCo's compiled values (verified to 1e-14).
 //!
 //! Walker2d, Hopper and HalfCheetah move in the x–z plane through a fixed base and the
@@ -225,8 +225,8 @@ impl LocomotionConfig {
     /// 10 ms). The control step, and so every reward, observation and episode length, is
     /// MuJoCo's; Rapier's step is larger because its cost per step, not the number of
     /// contacts, sets this env's speed (38 % of it in Rapier's multibody mass matrix). At
-    /// 25 ms and 4 PGS iterations (Rapier's default count; 8 elsewhere) the env runs about 3×
-    /// faster than at 10 ms and 8; the resting height differs by 1.1 mm and random actions
+    /// 25 ms and 4 PGS iterations (8 in the other envs) the env runs about 2× faster than at
+    /// 10 ms and 8 (6,229 → 13,027 steps/s in the README's tables); the resting height differs by 1.1 mm and random actions
     /// return −264 ± 45 over 10 episodes (10 ms: −308 ± 68; MuJoCo's two reference runs
     /// −234 and −278 ± 62). `sim.dt = 0.01`, `sim.pgs_iterations = 8` with
     /// `frame_skip = 5` give MuJoCo's step.

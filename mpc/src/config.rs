@@ -100,8 +100,10 @@ pub struct ControllerConfig {
     /// false). For a tall biped whose trunk pitches, the body frame sways far from the CoM
     /// the capture point is about.
     pub foothold_from_com: bool,
-    /// Position feedback of the footholds (1/s): they are planned for the velocity
-    /// `v_cmd + k (p_ref − c)`, which steers the CoM `c` back to its reference (default: 0).
+    /// Position feedback of the footholds (1/s): swing footholds are planned for the velocity
+    /// `v_cmd + k (p_ref − c)` (default: 0). The foothold then moves by
+    /// `k (p_ref − c) (T_stance/2 − raibert_kv − √(h/g))`, which steers the CoM `c` back to
+    /// its reference only while that bracket is negative (Humanoid: 0.17 − 0.2 − 0.29 s).
     pub foothold_position_gain: f64,
     /// Answer a [`Gait::Stand`] command by stepping in place with the walk gait (default:
     /// false). A biped on point feet cannot stand still: its support is a line, and only
@@ -288,10 +290,9 @@ impl ControllerConfig {
     /// Point feet support the robot along a line only, so it cannot stand still: a stand
     /// command steps in place ([`ControllerConfig::step_in_place`]) with the biped walk gait
     /// at 0.7 of its period (0.56 s), the standing MPC weights and the WBC. The footholds are
-    /// the capture-point variant the issue allows: carried with the CoM rather than the trunk
-    /// (which sways 1.3 m above the feet), with velocity feedback 0.2 s and a weak position
-    /// feedback (0.15/s) that holds the robot near where it started. Commanded speeds ramp
-    /// at 0.3 m/s².
+    /// a capture-point variant: carried with the CoM rather than the trunk (which sways 1.3 m
+    /// above the feet), with velocity feedback 0.2 s and a weak position feedback (0.15/s)
+    /// that slows its forward creep to 0.03–0.05 m/s. Commanded speeds ramp at 0.3 m/s².
     pub fn humanoid() -> Self {
         let contacts = vec![
             ContactSpec { frame: "left_foot".into(), offset: [0.0, 0.0, 0.1], radius: 0.075, leg: 0 },

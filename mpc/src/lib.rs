@@ -42,8 +42,8 @@
 //!   joints, biped walk, heel and toe contacts per foot.
 //! * **Humanoid**: balance on two point feet by stepping in place (a stand command walks on
 //!   the spot, [`ControllerConfig::step_in_place`]): point feet support the robot along a
-//!   line only and there are no ankles, so no standing controller can hold it still. The
-//!   3D MPC + WBC with capture-point footholds carried with the CoM
+//!   line only and there are no ankles, so no standing controller can hold it still. It
+//!   uses the 3D MPC + WBC, capture-point footholds carried with the CoM
 //!   ([`ControllerConfig::foothold_from_com`]) and a weak position feedback
 //!   ([`ControllerConfig::foothold_position_gain`]). Walking at 0.3 m/s works for most
 //!   seeds.
