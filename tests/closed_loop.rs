@@ -32,8 +32,9 @@ fn assert_trots(s: &ControlSummary) {
     assert!(s.yaw_drift < 0.3, "{}: yaw drift {:.3} rad", s.env, s.yaw_drift);
 }
 
-/// Stands 10 s: no fall, the body drifts less than `tol` metres in the plane.
-fn assert_stands(s: &ControlSummary, tol: f64) {
+/// Stands 10 s: no fall, the body drifts less than `tol` metres in the plane and turns less
+/// than `max_yaw` radians.
+fn assert_stands(s: &ControlSummary, tol: f64, max_yaw: f64) {
     assert!(!s.fell, "{} fell after {:.2} s", s.env, s.seconds);
     assert!(
         s.distance.abs() < tol && s.lateral_drift.abs() < tol,
@@ -42,7 +43,7 @@ fn assert_stands(s: &ControlSummary, tol: f64) {
         s.distance,
         s.lateral_drift
     );
-    assert!(s.yaw_drift < 0.05, "{}: yaw drift {:.3} rad", s.env, s.yaw_drift);
+    assert!(s.yaw_drift < max_yaw, "{}: yaw drift {:.3} rad", s.env, s.yaw_drift);
 }
 
 #[test]
@@ -63,7 +64,7 @@ fn the_minitaur_trot_holds_over_the_envs_randomisation() {
 
 #[test]
 fn the_minitaur_stands_still() {
-    assert_stands(&run("minitaur", Gait::Stand, 0.0, 0.0, None), 0.02);
+    assert_stands(&run("minitaur", Gait::Stand, 0.0, 0.0, None), 0.02, 0.05);
 }
 
 #[test]
@@ -88,7 +89,7 @@ fn the_ant_trots_at_the_commanded_speed() {
 
 #[test]
 fn the_ant_stands_still() {
-    assert_stands(&run("ant", Gait::Stand, 0.0, 1.0, None), 0.05);
+    assert_stands(&run("ant", Gait::Stand, 0.0, 1.0, None), 0.05, 0.05);
 }
 
 #[test]
@@ -108,7 +109,7 @@ fn the_ant_survives_lateral_pushes() {
 fn walker2d_stands_still() {
     // Its hips and knees rest on their joint limits; it fell within 1.5 s before the
     // whole-body QP knew the limits.
-    assert_stands(&run("walker2d", Gait::Stand, 0.0, 0.0, None), 0.05);
+    assert_stands(&run("walker2d", Gait::Stand, 0.0, 0.0, None), 0.05, 0.05);
 }
 
 #[test]
@@ -125,14 +126,7 @@ fn the_humanoid_balances_by_stepping_in_place() {
     // Point feet: a stand command steps in place. It fell within 1.5 s when it tried to
     // stand still on them.
     let s = run("humanoid", Gait::Stand, 0.0, 0.0, None);
-    assert!(!s.fell, "humanoid fell after {:.2} s", s.seconds);
-    assert!(
-        s.distance.abs() < 0.5 && s.lateral_drift.abs() < 0.3,
-        "humanoid: drifted {:.3} m forward, {:.3} m sideways",
-        s.distance,
-        s.lateral_drift
-    );
-    assert!(s.yaw_drift < 0.2, "humanoid: yaw drift {:.3} rad", s.yaw_drift);
+    assert_stands(&s, 0.5, 0.2);
     // It creeps forward (0.045 m/s measured); without the foothold position feedback it
     // walked off at 0.12 m/s.
     assert!(s.mean_speed.abs() < 0.08, "humanoid: mean speed {:.3} m/s while standing", s.mean_speed);

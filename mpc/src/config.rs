@@ -387,6 +387,15 @@ impl ControllerConfig {
         }
     }
 
+    /// The gait the controller runs for a commanded `gait` once on the ground: the walk
+    /// gait for a stand command with [`ControllerConfig::step_in_place`], else `gait`.
+    pub fn gait_for(&self, gait: Gait) -> Gait {
+        match gait {
+            Gait::Stand if self.step_in_place => Gait::Walk,
+            g => g,
+        }
+    }
+
     /// Checks every number and the sub-configurations.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.mpc.validate()?;

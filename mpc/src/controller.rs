@@ -491,10 +491,7 @@ impl LocomotionController {
         }
         let command = if airborne { &Command::stand() } else { command };
         // Command shaping: rate-limited speeds, yaw reference integration.
-        let cmd_gait = match command.gait {
-            Gait::Stand if self.cfg.step_in_place && !airborne => Gait::Walk,
-            g => g,
-        };
+        let cmd_gait = if airborne { command.gait } else { self.cfg.gait_for(command.gait) };
         let (c, s) = (self.yaw_ref.cos(), self.yaw_ref.sin());
         let planar = self.cfg.mpc.planar;
         let lat = if planar { 0.0 } else { command.lateral_velocity };

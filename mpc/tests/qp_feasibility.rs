@@ -57,8 +57,8 @@ fn check_cycle(name: &str, model: &Model, cfg: &ControllerConfig, gait: Gait, p:
     let mut c = LocomotionController::new(model, cfg.clone()).unwrap();
     let state = perturbed(&c, p);
     let cmd = Command::forward(0.3, gait);
-    // The gait in force: a humanoid told to stand steps in place; periods are scaled.
-    let run = if gait == Gait::Stand && cfg.step_in_place { Gait::Walk } else { gait };
+    // The gait in force (a humanoid told to stand steps in place), its period scaled.
+    let run = cfg.gait_for(gait);
     let period = centaur_mpc::GaitPattern::new(run, c.robot().n_legs).map_or(0.5, |g| g.period)
         * cfg.gait_period_scale;
     let steps = (period / 0.025).ceil() as usize + 1;
