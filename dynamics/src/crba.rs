@@ -59,12 +59,13 @@ fn column(jac: &Matrix6xX<f64>, k: usize) -> Motion {
 #[track_caller]
 pub fn crba<'a>(model: &Model, data: &'a mut Data, q: &[f64]) -> &'a DMatrix<f64> {
     check_len("q", q.len(), model.nq);
+    data.trig.fill(q);
     let nv = model.nv;
     let ycrb = &mut data.ycrb;
     ycrb[0] = OriginInertia::zero();
     for i in 1..model.njoints() {
         let j = &model.joints[i];
-        data.li_m_i[i] = joint_placement(&j.placement, &j.kind, &q[j.idx_q..j.idx_q + j.nq()]);
+        data.li_m_i[i] = joint_placement(j, model.axis_planes[i], q, &data.trig);
         ycrb[i] = OriginInertia::from_inertia(&model.inertias[i]);
     }
     let fcrb = &mut data.f_crb;
@@ -91,17 +92,18 @@ pub fn crba<'a>(model: &Model, data: &'a mut Data, q: &[f64]) -> &'a DMatrix<f64
         };
         match &j.kind {
             JointKind::Revolute { axis } => {
-                for (c, f) in fcrb.iter().enumerate().take(end).skip(start) {
-                    put(mm, start, c, axis.dot(&f.angular));
+                for c in start..end {
+                    put(mm, start, c, axis.dot(&fcrb[c].angular));
                 }
             }
             JointKind::Prismatic { axis } => {
-                for (c, f) in fcrb.iter().enumerate().take(end).skip(start) {
-                    put(mm, start, c, axis.dot(&f.linear));
+                for c in start..end {
+                    put(mm, start, c, axis.dot(&fcrb[c].linear));
                 }
             }
             JointKind::FreeFlyer => {
-                for (c, f) in fcrb.iter().enumerate().take(end).skip(start) {
+                for c in start..end {
+                    let f = &fcrb[c];
                     let parts = [f.linear.x, f.linear.y, f.linear.z, f.angular.x, f.angular.y, f.angular.z];
                     for (k, &m) in parts.iter().enumerate().take(c - start + 1) {
                         put(mm, start + k, c, m);

@@ -13,9 +13,10 @@ use crate::spatial::{Motion, Se3};
 #[track_caller]
 pub fn compute_joint_jacobians(model: &Model, data: &mut Data, q: &[f64]) {
     check_len("q", q.len(), model.nq);
+    data.trig.fill(q);
     for i in 1..model.njoints() {
         let j = &model.joints[i];
-        let li = joint_placement(&j.placement, &j.kind, &q[j.idx_q..j.idx_q + j.nq()]);
+        let li = joint_placement(j, model.axis_planes[i], q, &data.trig);
         data.li_m_i[i] = li;
         let o = if j.parent == 0 { li } else { data.o_m_i[j.parent].mul(&li) };
         data.o_m_i[i] = o;

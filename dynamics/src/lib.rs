@@ -104,6 +104,7 @@ mod model;
 mod rnea;
 mod robot;
 mod state;
+mod trig;
 mod urdf;
 
 pub use aba::aba;

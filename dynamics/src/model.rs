@@ -100,7 +100,13 @@ impl JointKind {
 /// coordinate axes.
 #[inline]
 pub(crate) fn axis_rotation(axis: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
-    let (s, c) = angle.sin_cos();
+    let (s, c) = crate::trig::sin_cos(angle);
+    rotation_from_sin_cos(axis, s, c)
+}
+
+/// [`axis_rotation`] given the angle's sine and cosine.
+#[inline]
+fn rotation_from_sin_cos(axis: &Vector3<f64>, s: f64, c: f64) -> Matrix3<f64> {
     let (x, y, z) = (axis.x, axis.y, axis.z);
     let t = 1.0 - c;
     Matrix3::new(
@@ -116,35 +122,62 @@ pub(crate) fn axis_rotation(axis: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
     )
 }
 
-/// `r · Rot(axis, angle)`. For the coordinate axes (and their opposites) only two columns
-/// of `r` mix, 12 products instead of a full 3 × 3 matrix product; other axes use
-/// [`axis_rotation`].
-#[inline(always)]
-pub(crate) fn rotate_about_axis(r: &Matrix3<f64>, axis: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
-    let (s, c) = angle.sin_cos();
-    // Columns (a, b) of `r` rotated in their plane: (c a + s b, c b − s a).
-    let mix = |a: usize, b: usize, s: f64| {
-        let (ca, cb) = (r.column(a), r.column(b));
-        (ca * c + cb * s, cb * c - ca * s)
-    };
-    let unit = |v: f64, o1: f64, o2: f64| (v == 1.0 || v == -1.0) && o1 == 0.0 && o2 == 0.0;
-    let mut out = *r;
-    if unit(axis.x, axis.y, axis.z) {
-        let (a, b) = mix(1, 2, s * axis.x);
-        out.set_column(1, &a);
-        out.set_column(2, &b);
-    } else if unit(axis.y, axis.z, axis.x) {
-        let (a, b) = mix(2, 0, s * axis.y);
-        out.set_column(2, &a);
-        out.set_column(0, &b);
-    } else if unit(axis.z, axis.x, axis.y) {
-        let (a, b) = mix(0, 1, s * axis.z);
-        out.set_column(0, &a);
-        out.set_column(1, &b);
-    } else {
-        out = r * axis_rotation(axis, angle);
+/// How the joint transforms turn a revolute joint's placement rotation: about a signed
+/// coordinate axis only two of its columns mix (12 products instead of a 3 × 3 matrix
+/// product); other axes take the full product. Classified once per joint by
+/// [`Model::finalize`], as Pinocchio specialises its revolute joints by axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum AxisPlane {
+    /// `±x` (the sign is the axis's x component): columns y and z turn.
+    X(f64),
+    /// `±y`: columns z and x turn.
+    Y(f64),
+    /// `±z`: columns x and y turn.
+    Z(f64),
+    /// Any other axis (and every non-revolute joint, which never asks).
+    General,
+}
+
+impl AxisPlane {
+    /// The plane of a joint kind's axis.
+    pub(crate) fn of(kind: &JointKind) -> Self {
+        let JointKind::Revolute { axis } = kind else { return AxisPlane::General };
+        let unit = |v: f64, o1: f64, o2: f64| (v == 1.0 || v == -1.0) && o1 == 0.0 && o2 == 0.0;
+        if unit(axis.x, axis.y, axis.z) {
+            AxisPlane::X(axis.x)
+        } else if unit(axis.y, axis.z, axis.x) {
+            AxisPlane::Y(axis.y)
+        } else if unit(axis.z, axis.x, axis.y) {
+            AxisPlane::Z(axis.z)
+        } else {
+            AxisPlane::General
+        }
     }
-    out
+}
+
+/// `r · Rot(axis, angle)`, given `(sin angle, cos angle)` and the axis's [`AxisPlane`].
+#[inline(always)]
+pub(crate) fn rotate_about_axis(
+    r: &Matrix3<f64>,
+    axis: &Vector3<f64>,
+    plane: AxisPlane,
+    (s, c): (f64, f64),
+) -> Matrix3<f64> {
+    // Columns (a, b) of `r` rotated in their plane: (c a + s b, c b − s a).
+    let turn = |a: usize, b: usize, s: f64| {
+        let (ca, cb) = (r.column(a), r.column(b));
+        let (na, nb) = (ca * c + cb * s, cb * c - ca * s);
+        let mut out = *r;
+        out.set_column(a, &na);
+        out.set_column(b, &nb);
+        out
+    };
+    match plane {
+        AxisPlane::X(sign) => turn(1, 2, s * sign),
+        AxisPlane::Y(sign) => turn(2, 0, s * sign),
+        AxisPlane::Z(sign) => turn(0, 1, s * sign),
+        AxisPlane::General => r * rotation_from_sin_cos(axis, s, c),
+    }
 }
 
 /// One joint of the tree and the body it moves.
@@ -306,6 +339,8 @@ pub struct Model {
     /// Flattened ancestor lists: `dof_support(k)` = `dof_supports[starts[k]..starts[k + 1]]`.
     pub(crate) dof_supports: Vec<usize>,
     pub(crate) dof_support_starts: Vec<usize>,
+    /// Per joint: the plane its revolute axis turns ([`AxisPlane`]).
+    pub(crate) axis_planes: Vec<AxisPlane>,
 }
 
 impl Model {
@@ -341,6 +376,7 @@ impl Model {
             joint_of_v: Vec::new(),
             dof_supports: Vec::new(),
             dof_support_starts: vec![0],
+            axis_planes: Vec::new(),
         };
         m.finalize();
         m
@@ -489,7 +525,9 @@ impl Model {
         self.joints.len() - 1
     }
 
-    /// Recomputes the derived tree structure (supports, dof parents, subtree sizes).
+    /// Recomputes the derived tree structure (supports, dof parents, subtree sizes) and the
+    /// per-joint axis planes the transforms use. Call it after editing `joints` (their
+    /// parents, kinds or axes); inertias, placements and limits need no call.
     ///
     /// # Panics
     /// If the joints are not in depth-first order (a programming error of the caller).
@@ -523,6 +561,7 @@ impl Model {
                 );
             }
         }
+        self.axis_planes = self.joints.iter().map(|j| AxisPlane::of(&j.kind)).collect();
         self.parent_v = vec![None; self.nv];
         self.nv_subtree_from_row = vec![0; self.nv];
         self.joint_of_v = vec![0; self.nv];
@@ -583,8 +622,9 @@ mod tests {
             Vector3::new(1.0, 2.0, -2.0) / 3.0,
         ];
         for axis in axes {
-            for angle in [-2.5, -0.3, 0.0, 0.7, 3.0] {
-                let fast = rotate_about_axis(&r, &axis, angle);
+            for angle in [-2.5f64, -0.3, 0.0, 0.7, 3.0] {
+                let plane = AxisPlane::of(&JointKind::Revolute { axis });
+                let fast = rotate_about_axis(&r, &axis, plane, angle.sin_cos());
                 let full = r * axis_rotation(&axis, angle);
                 assert!((fast - full).abs().max() < 1e-15, "axis {axis:?}, angle {angle}");
             }
