@@ -23,14 +23,13 @@ use crate::spatial::{Force, Motion};
 #[track_caller]
 pub fn aba<'a>(model: &Model, data: &'a mut Data, q: &[f64], v: &[f64], tau: &[f64]) -> &'a DVector<f64> {
     check_len("q", q.len(), model.nq);
-    data.trig.fill(q);
     check_len("v", v.len(), model.nv);
     check_len("tau", tau.len(), model.nv);
     let n = model.njoints();
     data.v[0] = Motion::zero();
     for i in 1..n {
         let j = &model.joints[i];
-        let li = joint_placement(j, model.axis_planes[i], q, &data.trig);
+        let li = joint_placement(j, model.axis_planes[i], q);
         data.li_m_i[i] = li;
         let vj = j.kind.motion(&v[j.idx_v..j.idx_v + j.nv()]);
         let vi = li.act_inv_motion(&data.v[j.parent]) + vj;

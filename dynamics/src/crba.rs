@@ -59,13 +59,12 @@ fn column(jac: &Matrix6xX<f64>, k: usize) -> Motion {
 #[track_caller]
 pub fn crba<'a>(model: &Model, data: &'a mut Data, q: &[f64]) -> &'a DMatrix<f64> {
     check_len("q", q.len(), model.nq);
-    data.trig.fill(q);
     let nv = model.nv;
     let ycrb = &mut data.ycrb;
     ycrb[0] = OriginInertia::zero();
     for i in 1..model.njoints() {
         let j = &model.joints[i];
-        data.li_m_i[i] = joint_placement(j, model.axis_planes[i], q, &data.trig);
+        data.li_m_i[i] = joint_placement(j, model.axis_planes[i], q);
         ycrb[i] = OriginInertia::from_inertia(&model.inertias[i]);
     }
     let fcrb = &mut data.f_crb;

@@ -4,7 +4,6 @@ use nalgebra::{DMatrix, DVector, Matrix3xX, Matrix6, Matrix6xX, Vector3};
 
 use crate::model::Model;
 use crate::spatial::{Force, Motion, OriginInertia, Se3};
-use crate::trig::JointTrig;
 
 /// Workspace and results of the algorithms for one [`Model`].
 ///
@@ -55,8 +54,6 @@ pub struct Data {
     pub kinetic_energy: f64,
     /// Potential energy from [`crate::potential_energy`].
     pub potential_energy: f64,
-    // Sines and cosines of the last `q` (filled by every algorithm that places joints).
-    pub(crate) trig: JointTrig,
     // CRBA workspace: composite inertia of each subtree in its joint frame, and composite
     // inertia times each subspace column (moved up the tree as the pass goes).
     pub(crate) ycrb: Vec<OriginInertia>,
@@ -103,7 +100,6 @@ impl Data {
             jacobian_com: Matrix3xX::zeros(nv),
             kinetic_energy: 0.0,
             potential_energy: 0.0,
-            trig: JointTrig::new(model.nq),
             ycrb: vec![OriginInertia::zero(); n],
             f_crb: vec![Force::zero(); nv],
             y_aba: vec![Matrix6::zeros(); n],

@@ -13,10 +13,9 @@ use crate::spatial::{Motion, Se3};
 #[track_caller]
 pub fn compute_joint_jacobians(model: &Model, data: &mut Data, q: &[f64]) {
     check_len("q", q.len(), model.nq);
-    data.trig.fill(q);
     for i in 1..model.njoints() {
         let j = &model.joints[i];
-        let li = joint_placement(j, model.axis_planes[i], q, &data.trig);
+        let li = joint_placement(j, model.axis_planes[i], q);
         data.li_m_i[i] = li;
         let o = if j.parent == 0 { li } else { data.o_m_i[j.parent].mul(&li) };
         data.o_m_i[i] = o;

@@ -5,7 +5,6 @@ use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use crate::data::{Data, check_len};
 use crate::model::{AxisPlane, Joint, JointKind, Model, rotate_about_axis};
 use crate::spatial::{Motion, Se3, exp6, log6};
-use crate::trig::JointTrig;
 
 /// In which frame a Jacobian, velocity or acceleration is expressed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -19,15 +18,15 @@ pub enum ReferenceFrame {
     Local,
 }
 
-/// `ⁱ⁻¹Mᵢ(q) = placement · M_J(q)` of joint `j`, specialised per joint kind; `q` is the
-/// whole configuration and `trig` its sines and cosines ([`JointTrig::fill`]).
+/// `ⁱ⁻¹Mᵢ(q) = placement · M_J(q)` of joint `j` (whose axis turns in `plane`), specialised
+/// per joint kind; `q` is the whole configuration.
 #[inline(always)]
-pub(crate) fn joint_placement(j: &Joint, plane: AxisPlane, q: &[f64], trig: &JointTrig) -> Se3 {
+pub(crate) fn joint_placement(j: &Joint, plane: AxisPlane, q: &[f64]) -> Se3 {
     let placement = &j.placement;
     let q = &q[j.idx_q..j.idx_q + j.nq()];
     match &j.kind {
         JointKind::Revolute { axis } => Se3 {
-            rotation: rotate_about_axis(&placement.rotation, axis, plane, trig.get(j.idx_q)),
+            rotation: rotate_about_axis(&placement.rotation, axis, plane, q[0].sin_cos()),
             translation: placement.translation,
         },
         JointKind::Prismatic { axis } => Se3 {
@@ -43,10 +42,9 @@ pub(crate) fn joint_placement(j: &Joint, plane: AxisPlane, q: &[f64], trig: &Joi
 #[track_caller]
 pub fn forward_kinematics(model: &Model, data: &mut Data, q: &[f64]) {
     check_len("q", q.len(), model.nq);
-    data.trig.fill(q);
     for i in 1..model.njoints() {
         let j = &model.joints[i];
-        let li = joint_placement(j, model.axis_planes[i], q, &data.trig);
+        let li = joint_placement(j, model.axis_planes[i], q);
         data.li_m_i[i] = li;
         data.o_m_i[i] = if j.parent == 0 { li } else { data.o_m_i[j.parent].mul(&li) };
     }
@@ -56,12 +54,11 @@ pub fn forward_kinematics(model: &Model, data: &mut Data, q: &[f64]) {
 #[track_caller]
 pub fn forward_kinematics_velocity(model: &Model, data: &mut Data, q: &[f64], v: &[f64]) {
     check_len("q", q.len(), model.nq);
-    data.trig.fill(q);
     check_len("v", v.len(), model.nv);
     data.v[0] = Motion::zero();
     for i in 1..model.njoints() {
         let j = &model.joints[i];
-        let li = joint_placement(j, model.axis_planes[i], q, &data.trig);
+        let li = joint_placement(j, model.axis_planes[i], q);
         data.li_m_i[i] = li;
         data.o_m_i[i] = if j.parent == 0 { li } else { data.o_m_i[j.parent].mul(&li) };
         let vj = j.kind.motion(&v[j.idx_v..j.idx_v + j.nv()]);
@@ -74,14 +71,13 @@ pub fn forward_kinematics_velocity(model: &Model, data: &mut Data, q: &[f64], v:
 #[track_caller]
 pub fn forward_kinematics_acceleration(model: &Model, data: &mut Data, q: &[f64], v: &[f64], a: &[f64]) {
     check_len("q", q.len(), model.nq);
-    data.trig.fill(q);
     check_len("v", v.len(), model.nv);
     check_len("a", a.len(), model.nv);
     data.v[0] = Motion::zero();
     data.a[0] = Motion::zero();
     for i in 1..model.njoints() {
         let j = &model.joints[i];
-        let li = joint_placement(j, model.axis_planes[i], q, &data.trig);
+        let li = joint_placement(j, model.axis_planes[i], q);
         data.li_m_i[i] = li;
         data.o_m_i[i] = if j.parent == 0 { li } else { data.o_m_i[j.parent].mul(&li) };
         let vj = j.kind.motion(&v[j.idx_v..j.idx_v + j.nv()]);

@@ -104,7 +104,6 @@ mod model;
 mod rnea;
 mod robot;
 mod state;
-mod trig;
 mod urdf;
 
 pub use aba::aba;

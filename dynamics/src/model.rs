@@ -100,7 +100,7 @@ impl JointKind {
 /// coordinate axes.
 #[inline]
 pub(crate) fn axis_rotation(axis: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
-    let (s, c) = crate::trig::sin_cos(angle);
+    let (s, c) = angle.sin_cos();
     rotation_from_sin_cos(axis, s, c)
 }
 
@@ -608,6 +608,20 @@ impl Model {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn axis_planes_follow_the_joints_after_finalize() {
+        let mut m = Model::new("planes");
+        let z = m.add_joint("z", JointKind::Revolute { axis: -Vector3::z() }, 0, Se3::identity());
+        let g =
+            m.add_joint("g", JointKind::Revolute { axis: Vector3::new(0.6, 0.8, 0.0) }, z, Se3::identity());
+        m.add_joint("p", JointKind::Prismatic { axis: Vector3::x() }, g, Se3::identity());
+        assert_eq!(m.axis_planes[1..], [AxisPlane::Z(-1.0), AxisPlane::General, AxisPlane::General]);
+        // An edited axis takes effect through `finalize`, as the docs say.
+        m.joints[2].kind = JointKind::Revolute { axis: Vector3::y() };
+        m.finalize();
+        assert_eq!(m.axis_planes[2], AxisPlane::Y(1.0));
+    }
 
     #[test]
     fn rotate_about_axis_matches_the_full_product() {

@@ -32,14 +32,13 @@ fn rnea_into(
     a: Option<&[f64]>,
     out: &mut DVector<f64>,
 ) {
-    data.trig.fill(q);
     data.v[0] = Motion::zero();
     // Gravity enters as an upward acceleration of the world (the "fictitious" base acceleration).
     data.a_gf[0] = Motion::new(-model.gravity, nalgebra::Vector3::zeros());
     for i in 1..model.njoints() {
         let j = &model.joints[i];
         let nv = j.nv();
-        let li = joint_placement(j, model.axis_planes[i], q, &data.trig);
+        let li = joint_placement(j, model.axis_planes[i], q);
         data.li_m_i[i] = li;
         let vj = j.kind.motion(&v[j.idx_v..j.idx_v + nv]);
         let vi = li.act_inv_motion(&data.v[j.parent]) + vj;
@@ -91,11 +90,10 @@ pub fn nonlinear_effects<'a>(model: &Model, data: &'a mut Data, q: &[f64], v: &[
 #[track_caller]
 pub fn gravity_torques<'a>(model: &Model, data: &'a mut Data, q: &[f64]) -> &'a DVector<f64> {
     check_len("q", q.len(), model.nq);
-    data.trig.fill(q);
     data.a_gf[0] = Motion::new(-model.gravity, nalgebra::Vector3::zeros());
     for i in 1..model.njoints() {
         let j = &model.joints[i];
-        let li = joint_placement(j, model.axis_planes[i], q, &data.trig);
+        let li = joint_placement(j, model.axis_planes[i], q);
         data.li_m_i[i] = li;
         let ai = li.act_inv_motion(&data.a_gf[j.parent]);
         data.a_gf[i] = ai;
