@@ -22,6 +22,8 @@ pub enum ReferenceFrame {
 /// per joint kind; `q` is the whole configuration.
 #[inline(always)]
 pub(crate) fn joint_placement(j: &Joint, plane: AxisPlane, q: &[f64]) -> Se3 {
+    // A joint edited without `Model::finalize` would keep a stale plane.
+    debug_assert_eq!(plane, AxisPlane::of(&j.kind), "joint '{}' changed: call Model::finalize", j.name);
     let placement = &j.placement;
     let q = &q[j.idx_q..j.idx_q + j.nq()];
     match &j.kind {

@@ -303,7 +303,7 @@ pub struct Model {
     pub name: String,
     /// Where the model came from (file path or a label), used in error messages.
     pub source: String,
-    /// Joints, index 0 being the universe.
+    /// Joints, index 0 being the universe. After editing them, call [`Model::finalize`].
     pub joints: Vec<Joint>,
     /// Body inertias, one per joint, in the joint frame (index 0: what is welded to the world).
     pub inertias: Vec<Inertia>,
