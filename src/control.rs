@@ -12,7 +12,9 @@
 use std::time::Instant;
 
 use centaur_dynamics::nalgebra::Vector3;
-use centaur_envs::{LocomotionConfig, LocomotionEnv, MinitaurConfig, MinitaurEnv, RobotEnv};
+use centaur_envs::{
+    LocomotionConfig, LocomotionEnv, MinitaurConfig, MinitaurEnv, ModularConfig, ModularEnv, RobotEnv,
+};
 use centaur_mpc::{Command, ConfigError, ControllerConfig, Gait, JointCommand, LocomotionController};
 use centaur_rl::EnvError;
 
@@ -29,6 +31,9 @@ pub const ROBOT_ENV_NAMES: &[&str] = &[
     "hopper",
     "halfcheetah",
     "humanoid",
+    "gecko",
+    "modular-ant",
+    "spider",
 ];
 
 /// Why a control run could not happen.
@@ -81,6 +86,14 @@ pub fn make_robot_env(
         "minitaur-fast" => {
             let c = MinitaurConfig::fast();
             Box::new(MinitaurEnv::new(MinitaurConfig { max_episode_steps: steps(c.max_episode_steps), ..c })?)
+        }
+        "gecko" | "modular-ant" | "spider" => {
+            let c = match name {
+                "gecko" => ModularConfig::gecko(),
+                "modular-ant" => ModularConfig::ant(),
+                _ => ModularConfig::spider(),
+            };
+            Box::new(ModularEnv::new(ModularConfig { max_episode_steps: steps(c.max_episode_steps), ..c })?)
         }
         other => {
             let config = match other {

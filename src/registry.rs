@@ -6,6 +6,7 @@
 //! | `minitaur`, `minitaur-fast` | PyBullet's MinitaurBulletEnv-v0 ([`centaur_envs::MinitaurEnv`]; `-fast`: 3.3 ms physics steps) |
 //! | `ant`, `ant27` | Gymnasium Ant-v5 (`ant27`: the 27-d observation without contact forces) |
 //! | `walker2d`, `hopper`, `halfcheetah`, `humanoid` | Gymnasium Walker2d-, Hopper-, HalfCheetah-, Humanoid-v5 |
+//! | `gecko`, `modular-ant`, `spider` | Revolve2's modular robots of those names ([`centaur_envs::ModularEnv`]) |
 //! | `<robot>-residual` | the hybrid: a residual policy on the controller ([`crate::residual::ResidualEnv`]; minitaur, ant, walker2d, humanoid) |
 
 use centaur_rl::pendulum::Pendulum;
@@ -22,6 +23,9 @@ pub const ENV_NAMES: &[&str] = &[
     "hopper",
     "halfcheetah",
     "humanoid",
+    "gecko",
+    "modular-ant",
+    "spider",
     "minitaur-residual",
     "minitaur-fast-residual",
     "ant-residual",

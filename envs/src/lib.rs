@@ -1,15 +1,21 @@
 //! # centaur-envs
 //!
 //! Benchmark environments simulated with Rapier: PyBullet's Minitaur and Gymnasium's Ant,
-//! Walker2d, Hopper, HalfCheetah and Humanoid, built from the same URDF the controller uses.
+//! Walker2d, Hopper, HalfCheetah and Humanoid, built from the same URDF the controller uses;
+//! and modular robots in the style of Revolve2 ([`modular`]: core, bricks, active hinges;
+//! the gecko, ant and spider).
 
 pub mod locomotion;
 pub mod minitaur;
+pub mod modular;
 pub mod mujoco;
 pub mod robot;
 pub mod sim;
 
 pub use locomotion::{LocomotionConfig, LocomotionEnv, LocomotionRobot};
 pub use minitaur::{MinitaurConfig, MinitaurEnv};
+pub use modular::{
+    Body, Face, ModularConfig, ModularEnv, ModularError, ModularReward, ModuleId, ModuleKind, ModuleSpecs,
+};
 pub use robot::{FootContact, JointTarget, ObsOptions, RobotEnv};
 pub use sim::{ColliderSpec, LoopClosure, Sim, SimConfig, SimError};

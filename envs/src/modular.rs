@@ -1,0 +1,1153 @@
+//! Modular robots in the style of Revolve2: a core, bricks and active hinges put together
+//! into a tree, turned into a URDF that `centaur-dynamics` loads and [`Sim`] simulates.
+//!
+//! A [`Body`] starts with its core. [`Body::attach`] adds a module at a free face of a
+//! module already in the body:
+//!
+//! | module | faces children attach to | what it is |
+//! |---|---|---|
+//! | core | front, back, left, right | the central box, 0.089 × 0.089 × 0.0603 m, 250 g |
+//! | brick | front, left, right | a passive box, 0.0629 × 0.0629 × 0.0603 m, 30 g |
+//! | active hinge | attachment | a servo: a frame fixed to the parent, a servo body behind a revolute joint about the hinge's local y axis, ±60°, 0.948 N·m |
+//!
+//! Each module is attached with a rotation about the direction it points in (its local x
+//! axis, Revolve2's `rotation` argument): a hinge at rotation 0 swings in the vertical plane
+//! (a leg lifting), at π/2 in the horizontal plane (a spine bending). The geometry, masses,
+//! servo limits, armature and PD gains are those of Revolve2's V1 modules
+//! (`revolve2.modular_robot.body.v1`, read from its source; only the numbers are used
+//! here) and are all in [`ModuleSpecs`]. [`Body::gecko`], [`Body::ant`]
+//! and [`Body::spider`] build the robots of the same names in `revolve2.standards`.
+//!
+//! **From a body to a robot.** [`Body::to_urdf`] writes one URDF link per module part
+//! (core, brick, hinge frame, servo, servo horn), fixed joints between rigidly connected
+//! parts and a revolute joint per hinge, with the boxes as visual and collision shapes and
+//! solid-box inertias. `centaur-dynamics` merges the fixed joints, so the model has one body
+//! per rigid group and one degree of freedom per hinge, after the free-flyer of the core.
+//! Rotations that are multiples of 90° are written exactly, so the hinge axes are exact
+//! coordinate axes. [`Body::attach`] rejects a face the module does not have, a face that
+//! is taken, a non-finite rotation and a module that would overlap another one.
+//!
+//! **The environment.** [`ModularEnv`] (Gymnasium semantics, `centaur train --env gecko`,
+//! `modular-ant` or `spider`) drives each hinge like Revolve2's MuJoCo servo: the action
+//! `a ∈ [−1, 1]ⁿ` sets the target angle `a · 60°`, and every physics step applies
+//! `τ = kp (q* − q) − kd q̇` with kp 5 and kd 0.05 (Revolve2's position and velocity
+//! actuators), limited to the servo's torque–speed envelope ([`servo_torque`]: 0.948 N·m at
+//! rest, falling to zero at the rated 6.34 rad/s). Revolve2's MuJoCo scenes do not limit the
+//! servos' speed; with only a ±0.948 N·m clip, PPO learned to whip the hinges at 38 rad/s,
+//! six times the servo's rated speed, and bounce the gecko 24 m in 30 s. The control
+//! period is Revolve2's standard 20 Hz; an episode lasts its standard 30 s (600 steps) and
+//! never terminates early (a modular robot cannot fall in a way that ends
+//! its run). The default reward is the change of the core's horizontal distance from its
+//! start, so that an episode's return is Revolve2's `xy_displacement` fitness exactly;
+//! [`ModularReward::ForwardX`] rewards progress along x instead.
+//!
+//! Differences from Revolve2's MuJoCo scenes: Rapier's rigid contacts and PGS solver with
+//! 5 ms steps instead of MuJoCo's soft contacts and 1 ms steps (2 ms steps make the env
+//! about 2.2× slower; the gecko's PPO gait travels 18.0–18.2 m in 30 s at 5, 2 and 1 ms
+//! alike); modules collide with the ground only, not with each other; the servos have a
+//! torque–speed envelope.
+
+use centaur_dynamics::nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use centaur_dynamics::{BaseKind, Data, Model, RobotState, Shape};
+use centaur_rl::env::{check_action, check_observation};
+use centaur_rl::{BoxSpace, Env, EnvError, Rng, Step, StepInfo};
+
+use crate::robot::{FootContact, JointHistory, ObsOptions, RobotEnv};
+use crate::sim::{ColliderSpec, Sim, SimConfig};
+
+/// The kinds of module.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ModuleKind {
+    /// The central box; every body has exactly one, as its root.
+    Core,
+    /// A passive box.
+    Brick,
+    /// A servo with one revolute joint.
+    ActiveHinge,
+}
+
+impl ModuleKind {
+    /// The faces children can be attached to.
+    pub fn faces(&self) -> &'static [Face] {
+        match self {
+            ModuleKind::Core => &[Face::Front, Face::Back, Face::Left, Face::Right],
+            ModuleKind::Brick => &[Face::Front, Face::Left, Face::Right],
+            ModuleKind::ActiveHinge => &[Face::Attachment],
+        }
+    }
+
+    fn name(&self) -> &'static str {
+        match self {
+            ModuleKind::Core => "core",
+            ModuleKind::Brick => "brick",
+            ModuleKind::ActiveHinge => "hinge",
+        }
+    }
+}
+
+/// Where a child is attached to its parent.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Face {
+    /// Along the parent's +x.
+    Front,
+    /// Along the parent's −x (core only).
+    Back,
+    /// Along the parent's +y.
+    Left,
+    /// Along the parent's −y.
+    Right,
+    /// The end of an active hinge.
+    Attachment,
+}
+
+impl Face {
+    fn index(&self) -> usize {
+        match self {
+            Face::Front => 0,
+            Face::Back => 1,
+            Face::Left => 2,
+            Face::Right => 3,
+            Face::Attachment => 4,
+        }
+    }
+
+    /// Turn about z from the parent's x axis to the face's outward direction.
+    fn yaw(&self) -> f64 {
+        match self {
+            Face::Front | Face::Attachment => 0.0,
+            Face::Back => std::f64::consts::PI,
+            Face::Left => std::f64::consts::FRAC_PI_2,
+            Face::Right => 3.0 * std::f64::consts::FRAC_PI_2,
+        }
+    }
+
+    fn name(&self) -> &'static str {
+        match self {
+            Face::Front => "front",
+            Face::Back => "back",
+            Face::Left => "left",
+            Face::Right => "right",
+            Face::Attachment => "attachment",
+        }
+    }
+}
+
+/// A module of a [`Body`] (an index into it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ModuleId(pub usize);
+
+/// Why a body could not be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ModularError {
+    /// The parent is not a module of this body.
+    #[error("module {0} does not exist in this body")]
+    NoSuchModule(usize),
+    /// The parent has no such face.
+    #[error("a {kind} has no {face} face (it has: {faces})")]
+    NoSuchFace {
+        /// The parent's kind.
+        kind: &'static str,
+        /// The face asked for.
+        face: &'static str,
+        /// The faces it has.
+        faces: String,
+    },
+    /// The face already holds a module.
+    #[error("the {face} face of {path} is already taken")]
+    FaceTaken {
+        /// The parent's path from the core.
+        path: String,
+        /// The face.
+        face: &'static str,
+    },
+    /// A second core.
+    #[error("a body has exactly one core, its root")]
+    SecondCore,
+    /// A rotation that is not a finite number.
+    #[error("rotation {0} is not finite")]
+    BadRotation(f64),
+    /// The new module would overlap a module already in the body.
+    #[error("{new} would overlap {existing}")]
+    Overlap {
+        /// Path of the new module.
+        new: String,
+        /// Path of the module it would overlap.
+        existing: String,
+    },
+    /// The generated URDF did not load (a bug if it happens; reported, not hidden).
+    #[error("the body's URDF does not load: {0}")]
+    Model(String),
+}
+
+/// Geometry, masses and servo properties of the modules (defaults: Revolve2's V1 modules).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModuleSpecs {
+    /// Core box side lengths (m).
+    pub core_size: [f64; 3],
+    /// Core mass (kg).
+    pub core_mass: f64,
+    /// Brick box side lengths (m).
+    pub brick_size: [f64; 3],
+    /// Brick mass (kg).
+    pub brick_mass: f64,
+    /// Hinge frame box (fixed to the parent) side lengths (m).
+    pub frame_size: [f64; 3],
+    /// Hinge frame mass (kg).
+    pub frame_mass: f64,
+    /// Distance from the attachment face to the frame's reference point, doubled (m)
+    /// (Revolve2's `frame_offset`).
+    pub frame_offset: f64,
+    /// Servo body box side lengths (m).
+    pub servo1_size: [f64; 3],
+    /// Servo body mass (kg).
+    pub servo1_mass: f64,
+    /// Servo horn plate side lengths (m), at the far end of the servo body.
+    pub servo2_size: [f64; 3],
+    /// Servo horn plate mass (kg).
+    pub servo2_mass: f64,
+    /// Servo body centre from the frame's reference point (m).
+    pub servo_offset: f64,
+    /// Joint axis from the frame's reference point (m).
+    pub joint_offset: f64,
+    /// Child attachment point from the servo body centre (m).
+    pub child_offset: f64,
+    /// Joint range, symmetric (rad).
+    pub range: f64,
+    /// Torque limit (N·m).
+    pub effort: f64,
+    /// Rated no-load speed (rad/s): the servo's torque falls to zero at this speed
+    /// ([`servo_torque`]; `f64::INFINITY` removes the limit).
+    pub velocity: f64,
+    /// Reflected rotor inertia (kg·m²).
+    pub armature: f64,
+    /// Servo position gain (N·m/rad).
+    pub kp: f64,
+    /// Servo velocity gain (N·m·s/rad).
+    pub kd: f64,
+    /// Friction coefficient of every module.
+    pub friction: f64,
+}
+
+impl Default for ModuleSpecs {
+    /// Revolve2's `CoreV1`, `BrickV1` and `ActiveHingeV1`.
+    fn default() -> Self {
+        ModuleSpecs {
+            core_size: [0.089, 0.089, 0.0603],
+            core_mass: 0.250,
+            brick_size: [0.06288625, 0.06288625, 0.0603],
+            brick_mass: 0.030,
+            frame_size: [0.018, 0.053, 0.0165891],
+            frame_mass: 0.011,
+            frame_offset: 0.04525,
+            servo1_size: [0.0583, 0.0512, 0.020],
+            servo1_mass: 0.058,
+            servo2_size: [0.002, 0.053, 0.053],
+            servo2_mass: 0.02,
+            servo_offset: 0.0299,
+            joint_offset: 0.0119,
+            child_offset: 0.0583 / 2.0 + 0.002,
+            // 60°, Revolve2's 1.047197551.
+            range: std::f64::consts::FRAC_PI_3,
+            effort: 0.948013269,
+            velocity: 6.338968228,
+            armature: 0.002,
+            kp: 5.0,
+            kd: 0.05,
+            friction: 1.0,
+        }
+    }
+}
+
+impl ModuleSpecs {
+    /// Mass of one module of a kind (kg).
+    pub fn mass(&self, kind: ModuleKind) -> f64 {
+        match kind {
+            ModuleKind::Core => self.core_mass,
+            ModuleKind::Brick => self.brick_mass,
+            ModuleKind::ActiveHinge => self.frame_mass + self.servo1_mass + self.servo2_mass,
+        }
+    }
+
+    /// Servo body centre from the joint axis, along the hinge (m).
+    fn servo_from_joint(&self) -> f64 {
+        self.servo_offset - self.joint_offset
+    }
+
+    /// Joint axis from the attachment face, along the hinge (m).
+    fn joint_from_face(&self) -> f64 {
+        self.frame_offset / 2.0 + self.joint_offset
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+struct Node {
+    kind: ModuleKind,
+    rotation: f64,
+    parent: Option<(ModuleId, Face)>,
+    children: [Option<ModuleId>; 5],
+}
+
+/// A modular robot's body: a tree of modules rooted at the core (see the module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Body {
+    specs: ModuleSpecs,
+    nodes: Vec<Node>,
+}
+
+impl Default for Body {
+    fn default() -> Self {
+        Body::new()
+    }
+}
+
+/// A rotation by `angle` about `axis` (0 = x, 2 = z), exact for multiples of 90°.
+fn axis_rotation(axis: usize, angle: f64) -> Rotation3<f64> {
+    let quarter = angle / std::f64::consts::FRAC_PI_2;
+    let (s, c) = if (quarter - quarter.round()).abs() < 1e-12 {
+        match (quarter.round() as i64).rem_euclid(4) {
+            0 => (0.0, 1.0),
+            1 => (1.0, 0.0),
+            2 => (0.0, -1.0),
+            _ => (-1.0, 0.0),
+        }
+    } else {
+        angle.sin_cos()
+    };
+    let m = if axis == 0 {
+        Matrix3::new(1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
+    } else {
+        Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
+    };
+    Rotation3::from_matrix_unchecked(m)
+}
+
+fn iso(t: Vector3<f64>, r: Rotation3<f64>) -> Isometry3<f64> {
+    Isometry3::from_parts(Translation3::from(t), UnitQuaternion::from_rotation_matrix(&r))
+}
+
+/// A module's main box in the core's frame (all hinges at zero).
+struct ModuleBox {
+    module: ModuleId,
+    centre: Vector3<f64>,
+    rotation: Matrix3<f64>,
+    half: Vector3<f64>,
+}
+
+/// One box of the body: the link it belongs to, its centre pose in that link's frame.
+#[derive(Clone, Debug)]
+struct Part {
+    link: String,
+    parent_link: String,
+    /// Pose of this link in the parent link (for fixed and revolute joints).
+    joint_origin: (Vector3<f64>, Rotation3<f64>),
+    hinge: bool,
+    size: [f64; 3],
+    mass: f64,
+    /// Box centre in the link frame (along x).
+    offset: f64,
+    module: ModuleId,
+}
+
+impl Body {
+    /// A body holding only the core, with Revolve2's V1 modules.
+    pub fn new() -> Body {
+        Body::with_specs(ModuleSpecs::default())
+    }
+
+    /// A body holding only the core, with the given module properties.
+    pub fn with_specs(specs: ModuleSpecs) -> Body {
+        Body {
+            specs,
+            nodes: vec![Node { kind: ModuleKind::Core, rotation: 0.0, parent: None, children: [None; 5] }],
+        }
+    }
+
+    /// The module properties.
+    pub fn specs(&self) -> &ModuleSpecs {
+        &self.specs
+    }
+
+    /// The core.
+    pub fn core(&self) -> ModuleId {
+        ModuleId(0)
+    }
+
+    /// Number of modules, the core included.
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Whether the body holds only its core.
+    pub fn is_empty(&self) -> bool {
+        self.nodes.len() == 1
+    }
+
+    /// The kind of a module.
+    pub fn kind(&self, id: ModuleId) -> Option<ModuleKind> {
+        self.nodes.get(id.0).map(|n| n.kind)
+    }
+
+    /// The hinges, in the order of their joints (and of the environment's actions).
+    pub fn hinges(&self) -> Vec<ModuleId> {
+        (0..self.nodes.len())
+            .filter(|&k| self.nodes[k].kind == ModuleKind::ActiveHinge)
+            .map(ModuleId)
+            .collect()
+    }
+
+    /// Total mass (kg).
+    pub fn mass(&self) -> f64 {
+        self.nodes.iter().map(|n| self.specs.mass(n.kind)).sum()
+    }
+
+    /// Revolve2-style path of a module, e.g. `core.back.attachment.front`.
+    pub fn path(&self, id: ModuleId) -> String {
+        let mut faces = Vec::new();
+        let mut cur = id;
+        while let Some((p, f)) = self.nodes.get(cur.0).and_then(|n| n.parent) {
+            faces.push(f.name());
+            cur = p;
+        }
+        faces.push("core");
+        faces.reverse();
+        faces.join(".")
+    }
+
+    /// The module attached at `face` of `parent`, if any.
+    pub fn child(&self, parent: ModuleId, face: Face) -> Option<ModuleId> {
+        self.nodes.get(parent.0).and_then(|n| n.children[face.index()])
+    }
+
+    /// Attaches a new module of `kind` at `face` of `parent`, turned by `rotation` (rad)
+    /// about the direction it points in, and returns it.
+    pub fn attach(
+        &mut self,
+        parent: ModuleId,
+        face: Face,
+        kind: ModuleKind,
+        rotation: f64,
+    ) -> Result<ModuleId, ModularError> {
+        let node = self.nodes.get(parent.0).ok_or(ModularError::NoSuchModule(parent.0))?;
+        if kind == ModuleKind::Core {
+            return Err(ModularError::SecondCore);
+        }
+        if !rotation.is_finite() {
+            return Err(ModularError::BadRotation(rotation));
+        }
+        if !node.kind.faces().contains(&face) {
+            return Err(ModularError::NoSuchFace {
+                kind: node.kind.name(),
+                face: face.name(),
+                faces: node.kind.faces().iter().map(|f| f.name()).collect::<Vec<_>>().join(", "),
+            });
+        }
+        if node.children[face.index()].is_some() {
+            return Err(ModularError::FaceTaken { path: self.path(parent), face: face.name() });
+        }
+        let id = ModuleId(self.nodes.len());
+        self.nodes.push(Node { kind, rotation, parent: Some((parent, face)), children: [None; 5] });
+        self.nodes[parent.0].children[face.index()] = Some(id);
+        if let Some(other) = self.overlapping(id) {
+            let (new, existing) = (self.path(id), self.path(other));
+            self.nodes.pop();
+            self.nodes[parent.0].children[face.index()] = None;
+            return Err(ModularError::Overlap { new, existing });
+        }
+        Ok(id)
+    }
+
+    /// [`Body::attach`] of an active hinge.
+    pub fn hinge(&mut self, parent: ModuleId, face: Face, rotation: f64) -> Result<ModuleId, ModularError> {
+        self.attach(parent, face, ModuleKind::ActiveHinge, rotation)
+    }
+
+    /// [`Body::attach`] of a brick.
+    pub fn brick(&mut self, parent: ModuleId, face: Face, rotation: f64) -> Result<ModuleId, ModularError> {
+        self.attach(parent, face, ModuleKind::Brick, rotation)
+    }
+
+    /// Slot pose of a child at `face` of a module, in the module's own frame (the core's
+    /// centre; a brick's centre; a hinge's servo-link frame at the joint).
+    fn child_slot(&self, parent: &Node, face: Face, child: &Node) -> Isometry3<f64> {
+        let s = &self.specs;
+        let along = match parent.kind {
+            ModuleKind::Core => s.core_size[0] / 2.0,
+            ModuleKind::Brick => s.brick_size[0] / 2.0,
+            ModuleKind::ActiveHinge => s.servo_from_joint() + s.child_offset,
+        };
+        let yaw = axis_rotation(2, face.yaw());
+        iso(yaw * Vector3::new(along, 0.0, 0.0), yaw * axis_rotation(0, child.rotation))
+    }
+
+    /// Every box of the body with its link and placement, in tree order.
+    fn parts(&self) -> Vec<Part> {
+        let s = &self.specs;
+        let mut parts = vec![Part {
+            link: "core".into(),
+            parent_link: String::new(),
+            joint_origin: (Vector3::zeros(), Rotation3::identity()),
+            hinge: false,
+            size: s.core_size,
+            mass: s.core_mass,
+            offset: 0.0,
+            module: ModuleId(0),
+        }];
+        // (module, link holding its frame, the module's frame in that link)
+        let mut stack = vec![(ModuleId(0), "core".to_string(), Isometry3::identity())];
+        while let Some((id, link, frame)) = stack.pop() {
+            let node = &self.nodes[id.0];
+            for face in node.kind.faces().iter().rev() {
+                let Some(cid) = node.children[face.index()] else { continue };
+                let child = &self.nodes[cid.0];
+                let slot = frame * self.child_slot(node, *face, child);
+                let (t, r) = (slot.translation.vector, slot.rotation.to_rotation_matrix());
+                let r = snap(r);
+                match child.kind {
+                    ModuleKind::Brick => {
+                        let name = format!("brick{}", cid.0);
+                        let centre = t + r * Vector3::new(s.brick_size[0] / 2.0, 0.0, 0.0);
+                        parts.push(Part {
+                            link: name.clone(),
+                            parent_link: link.clone(),
+                            joint_origin: (centre, r),
+                            hinge: false,
+                            size: s.brick_size,
+                            mass: s.brick_mass,
+                            offset: 0.0,
+                            module: cid,
+                        });
+                        stack.push((cid, name, Isometry3::identity()));
+                    }
+                    ModuleKind::ActiveHinge => {
+                        let frame_link = format!("hinge{}_frame", cid.0);
+                        let servo = format!("hinge{}", cid.0);
+                        parts.push(Part {
+                            link: frame_link.clone(),
+                            parent_link: link.clone(),
+                            joint_origin: (t, r),
+                            hinge: false,
+                            size: s.frame_size,
+                            mass: s.frame_mass,
+                            offset: s.frame_size[0] / 2.0,
+                            module: cid,
+                        });
+                        parts.push(Part {
+                            link: servo.clone(),
+                            parent_link: frame_link,
+                            joint_origin: (
+                                Vector3::new(s.joint_from_face(), 0.0, 0.0),
+                                Rotation3::identity(),
+                            ),
+                            hinge: true,
+                            size: s.servo1_size,
+                            mass: s.servo1_mass,
+                            offset: s.servo_from_joint(),
+                            module: cid,
+                        });
+                        parts.push(Part {
+                            link: format!("hinge{}_horn", cid.0),
+                            parent_link: servo.clone(),
+                            joint_origin: (Vector3::zeros(), Rotation3::identity()),
+                            hinge: false,
+                            size: s.servo2_size,
+                            mass: s.servo2_mass,
+                            offset: s.servo_from_joint() + (s.servo1_size[0] + s.servo2_size[0]) / 2.0,
+                            module: cid,
+                        });
+                        stack.push((cid, servo, Isometry3::identity()));
+                    }
+                    ModuleKind::Core => {}
+                }
+            }
+        }
+        parts
+    }
+
+    /// The URDF of the body (see the module docs), with the robot named `name`.
+    pub fn to_urdf(&self, name: &str) -> String {
+        let s = &self.specs;
+        let mut links = String::new();
+        let mut joints = String::new();
+        for p in self.parts() {
+            let [x, y, z] = p.size;
+            let m = p.mass;
+            let (ixx, iyy, izz) =
+                (m / 12.0 * (y * y + z * z), m / 12.0 * (x * x + z * z), m / 12.0 * (x * x + y * y));
+            let o = format!("<origin xyz=\"{} 0 0\" rpy=\"0 0 0\"/>", p.offset);
+            let geometry = format!("<geometry><box size=\"{x} {y} {z}\"/></geometry>");
+            links += &format!(
+                "  <link name=\"{l}\">\n    <inertial>{o}<mass value=\"{m}\"/>\
+                 <inertia ixx=\"{ixx}\" ixy=\"0\" ixz=\"0\" iyy=\"{iyy}\" iyz=\"0\" izz=\"{izz}\"/></inertial>\n    \
+                 <visual>{o}{geometry}</visual>\n    <collision>{o}{geometry}</collision>\n  </link>\n",
+                l = p.link,
+            );
+            if p.parent_link.is_empty() {
+                continue;
+            }
+            let (t, r) = p.joint_origin;
+            let (roll, pitch, yaw) = r.euler_angles();
+            let origin = format!(
+                "<origin xyz=\"{} {} {}\" rpy=\"{} {} {}\"/>",
+                clean(t.x),
+                clean(t.y),
+                clean(t.z),
+                clean(roll),
+                clean(pitch),
+                clean(yaw)
+            );
+            if p.hinge {
+                joints += &format!(
+                    "  <joint name=\"{l}\" type=\"revolute\">\n    <parent link=\"{pl}\"/><child link=\"{l}\"/>\
+                     {origin}<axis xyz=\"0 1 0\"/>\n    <limit lower=\"{lo}\" upper=\"{hi}\" effort=\"{e}\" velocity=\"{v}\"/>\n  </joint>\n",
+                    l = p.link,
+                    pl = p.parent_link,
+                    lo = -s.range,
+                    hi = s.range,
+                    e = s.effort,
+                    v = s.velocity,
+                );
+            } else {
+                joints += &format!(
+                    "  <joint name=\"{l}_fixed\" type=\"fixed\">\n    <parent link=\"{pl}\"/><child link=\"{l}\"/>{origin}\n  </joint>\n",
+                    l = p.link,
+                    pl = p.parent_link,
+                );
+            }
+        }
+        format!(
+            "<?xml version=\"1.0\"?>\n<!-- Modular robot built by centaur-envs::modular (module properties of Revolve2's V1 modules) -->\n<robot name=\"{name}\">\n{links}{joints}</robot>\n"
+        )
+    }
+
+    /// The body as a floating-base `Model`.
+    pub fn to_model(&self, name: &str) -> Result<Model, ModularError> {
+        Model::from_urdf_str(&self.to_urdf(name), name, BaseKind::Floating)
+            .map_err(|e| ModularError::Model(e.to_string()))
+    }
+
+    /// World boxes (centre, rotation, half extents) of each module's main part with the
+    /// core at the origin and every hinge at zero.
+    fn module_boxes(&self) -> Vec<ModuleBox> {
+        let s = &self.specs;
+        let mut world: Vec<(String, Isometry3<f64>)> = Vec::new();
+        let mut out = Vec::new();
+        for p in self.parts() {
+            let parent =
+                world.iter().find(|(l, _)| *l == p.parent_link).map_or(Isometry3::identity(), |(_, w)| *w);
+            let pose = parent * iso(p.joint_origin.0, p.joint_origin.1);
+            world.push((p.link.clone(), pose));
+            let main = match self.nodes[p.module.0].kind {
+                ModuleKind::ActiveHinge => p.hinge,
+                _ => true,
+            };
+            if main {
+                let r = pose.rotation.to_rotation_matrix().into_inner();
+                let c = pose * centaur_dynamics::nalgebra::Point3::new(p.offset, 0.0, 0.0);
+                let size = if p.hinge { s.servo1_size } else { p.size };
+                out.push(ModuleBox {
+                    module: p.module,
+                    centre: c.coords,
+                    rotation: r,
+                    half: Vector3::new(size[0], size[1], size[2]) / 2.0,
+                });
+            }
+        }
+        out
+    }
+
+    /// A module whose box overlaps `id`'s (other than its parent and children), if any.
+    fn overlapping(&self, id: ModuleId) -> Option<ModuleId> {
+        const SLACK: f64 = 0.004;
+        let boxes = self.module_boxes();
+        let b = boxes.iter().find(|b| b.module == id)?;
+        let half = |b: &ModuleBox| b.rotation.abs() * b.half - Vector3::repeat(SLACK);
+        let ha = half(b);
+        let parent = self.nodes[id.0].parent.map(|p| p.0);
+        boxes.iter().find_map(|o| {
+            let adjacent = o.module == id || Some(o.module) == parent;
+            let hb = half(o);
+            let apart = (0..3).any(|k| (b.centre[k] - o.centre[k]).abs() >= ha[k] + hb[k]);
+            let other = &o.module;
+            (!adjacent && !apart).then_some(*other)
+        })
+    }
+
+    /// Revolve2's `gecko_v1`: two front legs on the core, a two-hinge spine bending sideways,
+    /// two hind legs (6 hinges, 0.964 kg).
+    pub fn gecko() -> Body {
+        Body::lizard(false).expect("the gecko is a valid body")
+    }
+
+    /// Revolve2's `ant_v1`: the gecko with a third pair of legs on the brick between the
+    /// two spine hinges (8 hinges, 1.202 kg).
+    pub fn ant() -> Body {
+        Body::lizard(true).expect("the ant is a valid body")
+    }
+
+    /// The gecko, with or without middle legs.
+    fn lizard(middle_legs: bool) -> Result<Body, ModularError> {
+        use std::f64::consts::FRAC_PI_2 as H;
+        // A leg: a hinge lifting in the vertical plane and a brick as its foot.
+        let leg = |b: &mut Body, parent: ModuleId, face: Face| -> Result<(), ModularError> {
+            let hinge = b.hinge(parent, face, 0.0)?;
+            b.brick(hinge, Face::Attachment, 0.0).map(|_| ())
+        };
+        let mut b = Body::new();
+        let c = b.core();
+        leg(&mut b, c, Face::Left)?;
+        leg(&mut b, c, Face::Right)?;
+        let spine = b.hinge(c, Face::Back, H)?;
+        let mid = b.brick(spine, Face::Attachment, -H)?;
+        if middle_legs {
+            leg(&mut b, mid, Face::Left)?;
+            leg(&mut b, mid, Face::Right)?;
+        }
+        let spine2 = b.hinge(mid, Face::Front, H)?;
+        let hip = b.brick(spine2, Face::Attachment, -H)?;
+        leg(&mut b, hip, Face::Left)?;
+        leg(&mut b, hip, Face::Right)?;
+        Ok(b)
+    }
+
+    /// Revolve2's `spider_v1`: four two-hinge legs, hip swinging sideways, knee lifting
+    /// (8 hinges).
+    pub fn spider() -> Body {
+        use std::f64::consts::FRAC_PI_2 as H;
+        let mut b = Body::new();
+        let c = b.core();
+        let build = |b: &mut Body| -> Result<(), ModularError> {
+            for face in [Face::Left, Face::Right, Face::Front, Face::Back] {
+                let hip = b.hinge(c, face, H)?;
+                let upper = b.brick(hip, Face::Attachment, -H)?;
+                let knee = b.hinge(upper, Face::Front, 0.0)?;
+                b.brick(knee, Face::Attachment, 0.0)?;
+            }
+            Ok(())
+        };
+        build(&mut b).expect("the spider is a valid body");
+        b
+    }
+}
+
+/// Rounds the entries of a rotation that are within 1e-15 of 0 or ±1 (turns composed of
+/// exact quarter turns stay exact).
+fn snap(r: Rotation3<f64>) -> Rotation3<f64> {
+    let m = r.into_inner().map(|x| {
+        if x.abs() < 1e-15 {
+            0.0
+        } else if (x.abs() - 1.0).abs() < 1e-15 {
+            x.signum()
+        } else {
+            x
+        }
+    });
+    Rotation3::from_matrix_unchecked(m)
+}
+
+/// Writes `x` with negative zero and rounding residue below 1e-15 as 0.
+fn clean(x: f64) -> f64 {
+    if x.abs() < 1e-15 { 0.0 } else { x }
+}
+
+/// What the reward measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ModularReward {
+    /// The change of the core's horizontal distance from its start: the return of an
+    /// episode is Revolve2's `xy_displacement` fitness (default).
+    #[default]
+    XyDisplacement,
+    /// The core's displacement along the world x axis.
+    ForwardX,
+}
+
+/// Configuration of a [`ModularEnv`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModularConfig {
+    /// The robot's body.
+    pub body: Body,
+    /// Name of the environment and robot (e.g. `"gecko"`).
+    pub name: String,
+    /// Physics steps per control step (default: 10 steps of 5 ms, Revolve2's 20 Hz).
+    pub frame_skip: usize,
+    /// Episode length in control steps (default: 600, Revolve2's standard 30 s).
+    pub max_episode_steps: usize,
+    /// What the reward measures (default: the xy displacement).
+    pub reward: ModularReward,
+    /// Weight of `Σ a²` subtracted from the reward (default: 0).
+    pub ctrl_cost_weight: f64,
+    /// Hinge angles at reset are uniform in ±this (rad) (default: 0.05).
+    pub reset_noise_scale: f64,
+    /// Physics settings (default: 5 ms steps, 8 PGS iterations).
+    pub sim: SimConfig,
+    /// Observation options.
+    pub obs: ObsOptions,
+}
+
+impl ModularConfig {
+    /// An environment for `body`, named `name`, with the defaults above.
+    pub fn new(name: &str, body: Body) -> Self {
+        ModularConfig {
+            body,
+            name: name.to_string(),
+            frame_skip: 10,
+            max_episode_steps: 600,
+            reward: ModularReward::XyDisplacement,
+            ctrl_cost_weight: 0.0,
+            reset_noise_scale: 0.05,
+            sim: SimConfig { dt: 0.005, ..SimConfig::default() },
+            obs: ObsOptions::default(),
+        }
+    }
+
+    /// The gecko ([`Body::gecko`]).
+    pub fn gecko() -> Self {
+        Self::new("gecko", Body::gecko())
+    }
+
+    /// The modular ant ([`Body::ant`]).
+    pub fn ant() -> Self {
+        Self::new("modular-ant", Body::ant())
+    }
+
+    /// The spider ([`Body::spider`]).
+    pub fn spider() -> Self {
+        Self::new("spider", Body::spider())
+    }
+
+    /// Checks the numbers.
+    pub fn validate(&self) -> Result<(), EnvError> {
+        if self.frame_skip == 0 || self.max_episode_steps == 0 {
+            return Err(EnvError::Other(
+                "ModularConfig: frame_skip and max_episode_steps must be positive".into(),
+            ));
+        }
+        let noise_ok = self.reset_noise_scale >= 0.0 && self.reset_noise_scale.is_finite();
+        if !noise_ok || !self.ctrl_cost_weight.is_finite() {
+            return Err(EnvError::Other(
+                "ModularConfig: reset_noise_scale must be finite and non-negative, ctrl_cost_weight finite"
+                    .into(),
+            ));
+        }
+        if self.body.hinges().is_empty() {
+            return Err(EnvError::Other("ModularConfig: the body has no active hinge to drive".into()));
+        }
+        Ok(())
+    }
+}
+
+/// A modular robot learning to move (see the module docs).
+///
+/// Observation (`11 + 2n` entries for `n` hinges, before the shared options): the core's
+/// height, its orientation quaternion `(x, y, z, w)`, the hinge angles, the core's linear
+/// and angular velocity (world axes), the hinge velocities. [`ObsOptions`] drops the
+/// quaternion or appends past hinge angles. Actions outside `[−1, 1]` are clipped.
+pub struct ModularEnv {
+    config: ModularConfig,
+    model: Model,
+    data: Data,
+    sim: Sim,
+    rng: Rng,
+    obs_space: BoxSpace,
+    act_space: BoxSpace,
+    state: RobotState,
+    /// Model joint of each hinge, in action order.
+    actuated: Vec<usize>,
+    targets: Vec<f64>,
+    applied: Vec<f64>,
+    history: JointHistory,
+    joint_scratch: Vec<f32>,
+    start: Vector3<f64>,
+    steps: usize,
+    needs_reset: bool,
+    push: Option<(Vector3<f64>, f64)>,
+    episode_time: f64,
+}
+
+impl ModularEnv {
+    /// Builds the environment.
+    pub fn new(config: ModularConfig) -> Result<ModularEnv, EnvError> {
+        config.validate()?;
+        let model = config.body.to_model(&config.name).map_err(|e| EnvError::Other(e.to_string()))?;
+        // Actions follow the order in which the hinges were attached.
+        let actuated = config
+            .body
+            .hinges()
+            .iter()
+            .map(|h| {
+                model.joint_index(&format!("hinge{}", h.0)).ok_or_else(|| {
+                    EnvError::Other(format!("the model of {} lacks joint hinge{}", config.name, h.0))
+                })
+            })
+            .collect::<Result<Vec<usize>, EnvError>>()?;
+        let n = actuated.len();
+        let obs_dim =
+            11 + 2 * n - if config.obs.drop_base_orientation { 4 } else { 0 } + n * config.obs.joint_history;
+        let sim = build_sim(&model, &config)?;
+        Ok(ModularEnv {
+            obs_space: BoxSpace::unbounded(obs_dim),
+            act_space: BoxSpace::new(vec![-1.0; n], vec![1.0; n]),
+            state: RobotState::new(&model),
+            data: Data::new(&model),
+            targets: vec![0.0; n],
+            applied: vec![0.0; n],
+            history: JointHistory::new(config.obs.joint_history, n),
+            joint_scratch: vec![0.0; n],
+            actuated,
+            start: Vector3::zeros(),
+            steps: 0,
+            needs_reset: true,
+            push: None,
+            episode_time: 0.0,
+            rng: Rng::seed_from_u64(0),
+            sim,
+            model,
+            config,
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &ModularConfig {
+        &self.config
+    }
+
+    /// The simulator.
+    pub fn sim(&self) -> &Sim {
+        &self.sim
+    }
+
+    /// Height of the core's centre that puts the lowest box corner 1 mm above the ground at
+    /// configuration `q` (base at height 0).
+    fn resting_height(&mut self, q: &[f64]) -> f64 {
+        centaur_dynamics::forward_kinematics(&self.model, &mut self.data, q);
+        let mut lowest = f64::INFINITY;
+        for g in &self.model.geometries {
+            let Shape::Box { size } = g.shape else { continue };
+            let pose = self.data.o_m_i[g.parent_joint].mul(&g.placement);
+            for corner in 0..8 {
+                let sign = |bit: usize| if corner & (1 << bit) != 0 { 0.5 } else { -0.5 };
+                let p = Vector3::new(sign(0) * size.x, sign(1) * size.y, sign(2) * size.z);
+                lowest = lowest.min(pose.act_point(&p).z);
+            }
+        }
+        0.001 - lowest
+    }
+
+    fn write_obs(&mut self, obs: &mut [f32]) {
+        let s = &self.state;
+        let mut k = 0;
+        let mut put = |x: f64| {
+            obs[k] = x as f32;
+            k += 1;
+        };
+        put(s.q[2]);
+        if !self.config.obs.drop_base_orientation {
+            for i in 3..7 {
+                put(s.q[i]);
+            }
+        }
+        for &j in &self.actuated {
+            put(s.q[self.model.joints[j].idx_q]);
+        }
+        let (lin, ang) = (s.base_linear_velocity_world(), s.base_angular_velocity_world());
+        for x in lin.iter().chain(ang.iter()) {
+            put(*x);
+        }
+        for &j in &self.actuated {
+            put(s.v[self.model.joints[j].idx_v]);
+        }
+        if self.config.obs.joint_history > 0 {
+            for (h, &j) in self.joint_scratch.iter_mut().zip(&self.actuated) {
+                *h = s.q[self.model.joints[j].idx_q] as f32;
+            }
+            self.history.push(&self.joint_scratch);
+        }
+        self.history.write(&mut obs[k..k + self.history.len()]);
+    }
+
+    fn progress(&self) -> f64 {
+        let d = self.state.base_position() - self.start;
+        match self.config.reward {
+            ModularReward::XyDisplacement => d.x.hypot(d.y),
+            ModularReward::ForwardX => d.x,
+        }
+    }
+}
+
+/// The servo's torque: the PD law `kp (q* − q) − kd q̇`, within the torque–speed envelope
+/// of a DC servo — the full `effort` at rest, falling linearly to zero at the rated
+/// `velocity` in the direction of motion (braking torque stays available).
+pub fn servo_torque(specs: &ModuleSpecs, target: f64, q: f64, qd: f64) -> f64 {
+    let pd = specs.kp * (target - q) - specs.kd * qd;
+    let fraction = |x: f64| x.clamp(0.0, 1.0);
+    let upper = specs.effort * fraction(1.0 - qd / specs.velocity);
+    let lower = -specs.effort * fraction(1.0 + qd / specs.velocity);
+    pd.clamp(lower, upper)
+}
+
+fn build_sim(model: &Model, config: &ModularConfig) -> Result<Sim, EnvError> {
+    let specs = config.body.specs();
+    let colliders = ColliderSpec { default_friction: specs.friction, ..ColliderSpec::default() };
+    let mut sim =
+        Sim::new(model, &config.sim, &colliders, &[]).map_err(|e| EnvError::Other(e.to_string()))?;
+    for j in 1..model.njoints() {
+        if model.joints[j].nv() == 1 {
+            sim.set_armature(model.joints[j].idx_v, specs.armature);
+            sim.set_damping(model.joints[j].idx_v, 0.0);
+        }
+    }
+    Ok(sim)
+}
+
+impl Env for ModularEnv {
+    fn name(&self) -> &str {
+        &self.config.name
+    }
+
+    fn observation_space(&self) -> &BoxSpace {
+        &self.obs_space
+    }
+
+    fn action_space(&self) -> &BoxSpace {
+        &self.act_space
+    }
+
+    fn max_episode_steps(&self) -> usize {
+        self.config.max_episode_steps
+    }
+
+    fn dt(&self) -> f64 {
+        self.config.sim.dt * self.config.frame_skip as f64
+    }
+
+    fn reward_term_names(&self) -> &'static [&'static str] {
+        &["progress", "ctrl_cost"]
+    }
+
+    fn reset(&mut self, seed: Option<u64>, obs: &mut [f32]) -> Result<(), EnvError> {
+        check_observation(&self.obs_space, obs)?;
+        if let Some(s) = seed {
+            self.rng = Rng::seed_from_u64(s);
+        }
+        self.sim = build_sim(&self.model, &self.config)?;
+        let mut q = self.model.neutral_configuration();
+        let a = self.config.reset_noise_scale;
+        for &j in &self.actuated {
+            q[self.model.joints[j].idx_q] = self.rng.range(-a, a);
+        }
+        q[2] = self.resting_height(q.as_slice());
+        self.state.q.copy_from(&q);
+        self.state.v.fill(0.0);
+        self.sim.set_state(&self.state);
+        self.start = self.state.base_position();
+        for (t, &j) in self.targets.iter_mut().zip(&self.actuated) {
+            *t = q[self.model.joints[j].idx_q];
+        }
+        self.applied.fill(0.0);
+        for (h, &j) in self.joint_scratch.iter_mut().zip(&self.actuated) {
+            *h = q[self.model.joints[j].idx_q] as f32;
+        }
+        self.history.fill(&self.joint_scratch);
+        self.steps = 0;
+        self.episode_time = 0.0;
+        self.push = None;
+        self.sim.set_external_force(1, Vector3::zeros());
+        self.write_obs(obs);
+        self.needs_reset = false;
+        Ok(())
+    }
+
+    fn step(&mut self, action: &[f32], obs: &mut [f32]) -> Result<Step, EnvError> {
+        check_action(&self.act_space, action)?;
+        check_observation(&self.obs_space, obs)?;
+        if self.needs_reset {
+            return Err(EnvError::NeedsReset);
+        }
+        let specs = self.config.body.specs().clone();
+        for (t, a) in self.targets.iter_mut().zip(action) {
+            *t = (*a).clamp(-1.0, 1.0) as f64 * specs.range;
+        }
+        let before = self.progress();
+        let mut energy = 0.0;
+        for _ in 0..self.config.frame_skip {
+            if let Some((f, until)) = self.push {
+                let active = self.episode_time < until;
+                self.sim.set_external_force(1, if active { f } else { Vector3::zeros() });
+                if !active {
+                    self.push = None;
+                }
+            }
+            for (k, &j) in self.actuated.iter().enumerate() {
+                let (q, qd) = self.sim.joint_state(j);
+                let tau = servo_torque(&specs, self.targets[k], q, qd);
+                self.applied[k] = tau;
+                self.sim.set_joint_torque(self.model.joints[j].idx_v, tau);
+                energy += (tau * qd).abs() * self.config.sim.dt;
+            }
+            self.sim.step();
+            self.episode_time += self.config.sim.dt;
+        }
+        self.steps += 1;
+        self.sim.read_state(&mut self.state);
+        let mut info = StepInfo { energy, ..StepInfo::default() };
+        if !self.state.is_finite() || self.state.v.amax() > 1e4 {
+            self.needs_reset = true;
+            info.unstable = true;
+            return Ok(Step { reward: 0.0, terminated: true, truncated: false, info });
+        }
+        let progress = self.progress() - before;
+        let ctrl_cost =
+            self.config.ctrl_cost_weight * action.iter().map(|a| (*a as f64).powi(2)).sum::<f64>();
+        info.reward_terms[..2].copy_from_slice(&[progress, -ctrl_cost]);
+        info.forward_velocity = self.state.base_linear_velocity_world().x;
+        self.write_obs(obs);
+        let truncated = self.steps >= self.config.max_episode_steps;
+        self.needs_reset = truncated;
+        Ok(Step { reward: progress - ctrl_cost, terminated: false, truncated, info })
+    }
+}
+
+impl RobotEnv for ModularEnv {
+    fn model(&self) -> &Model {
+        &self.model
+    }
+
+    fn robot_state(&self) -> &RobotState {
+        &self.state
+    }
+
+    /// Modular robots have no designated feet: empty.
+    fn foot_contacts(&self) -> &[FootContact] {
+        &[]
+    }
+
+    fn foot_frames(&self) -> &[String] {
+        &[]
+    }
+
+    fn actuated_joints(&self) -> &[usize] {
+        &self.actuated
+    }
+
+    fn episode_time(&self) -> f64 {
+        self.episode_time
+    }
+
+    fn push(&mut self, force: Vector3<f64>, duration: f64) {
+        self.push = Some((force, self.episode_time + duration));
+    }
+
+    fn last_torques(&self) -> &[f64] {
+        &self.applied
+    }
+
+    /// The servo target whose PD torque at the current state is `τ`:
+    /// `a = (q + (τ + kd q̇) / kp) / range`, clipped to `[−1, 1]`.
+    fn action_for_torques(&self, tau: &[f64], out: &mut [f32]) {
+        let s = self.config.body.specs();
+        for ((o, &j), t) in out.iter_mut().zip(&self.actuated).zip(tau) {
+            let joint = &self.model.joints[j];
+            let (q, qd) = (self.state.q[joint.idx_q], self.state.v[joint.idx_v]);
+            *o = (((q + (t + s.kd * qd) / s.kp) / s.range) as f32).clamp(-1.0, 1.0);
+        }
+    }
+}

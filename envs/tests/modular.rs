@@ -1,0 +1,284 @@
+//! Modular robots (Revolve2-style bodies): the builder's checks, the generated model against
+//! Revolve2's V1 module numbers, and the environment's behaviour.
+
+use centaur_dynamics::nalgebra::Vector3;
+use centaur_dynamics::{Data, Model, forward_kinematics};
+use centaur_envs::modular::{Body, Face, ModularConfig, ModularEnv, ModularError, ModularReward, ModuleKind};
+use centaur_envs::{ObsOptions, RobotEnv};
+use centaur_rl::{Env, EnvError, Rng};
+
+fn joint_of(model: &Model, body: &Body, path: &[Face]) -> usize {
+    let mut id = body.core();
+    for f in path {
+        id = body.child(id, *f).expect("module on the path");
+    }
+    assert_eq!(body.kind(id), Some(ModuleKind::ActiveHinge));
+    model.joint_index(&format!("hinge{}", id.0)).expect("hinge joint")
+}
+
+#[test]
+fn builder_rejects_what_cannot_be_built_and_keeps_the_body_unchanged() {
+    let mut b = Body::new();
+    let c = b.core();
+    let brick = b.brick(c, Face::Front, 0.0).unwrap();
+    let hinge = b.hinge(c, Face::Left, 0.0).unwrap();
+    assert!(matches!(b.brick(brick, Face::Back, 0.0), Err(ModularError::NoSuchFace { kind: "brick", .. })));
+    assert!(matches!(b.brick(hinge, Face::Front, 0.0), Err(ModularError::NoSuchFace { kind: "hinge", .. })));
+    assert!(matches!(b.hinge(c, Face::Attachment, 0.0), Err(ModularError::NoSuchFace { kind: "core", .. })));
+    let taken = b.hinge(c, Face::Front, 0.0).unwrap_err();
+    assert_eq!(taken, ModularError::FaceTaken { path: "core".into(), face: "front" });
+    assert_eq!(b.attach(c, Face::Back, ModuleKind::Core, 0.0), Err(ModularError::SecondCore));
+    assert!(matches!(b.hinge(c, Face::Back, f64::NAN), Err(ModularError::BadRotation(_))));
+    assert_eq!(b.brick(centaur_envs::ModuleId(99), Face::Front, 0.0), Err(ModularError::NoSuchModule(99)));
+    // A brick left of the front brick would sit where the left arm's side brick is.
+    let mut b = Body::new();
+    let c = b.core();
+    let left = b.brick(c, Face::Left, 0.0).unwrap();
+    b.brick(left, Face::Right, 0.0).unwrap();
+    let front = b.brick(c, Face::Front, 0.0).unwrap();
+    let before = b.clone();
+    let err = b.brick(front, Face::Left, 0.0).unwrap_err();
+    assert_eq!(
+        err,
+        ModularError::Overlap { new: "core.front.left".into(), existing: "core.left.right".into() }
+    );
+    assert_eq!(b, before, "a rejected module leaves no trace");
+    assert!(b.child(front, Face::Left).is_none());
+    let msg = err.to_string();
+    assert!(msg.contains("core.front.left") && msg.contains("overlap"), "{msg}");
+}
+
+#[test]
+fn presets_have_revolve2s_modules_masses_and_joints() {
+    // (body, modules, hinges, mass): V1 core 250 g, brick 30 g, hinge 11 + 58 + 20 g.
+    for (name, body, modules, hinges, mass) in [
+        ("gecko", Body::gecko(), 13, 6, 0.964),
+        ("modular-ant", Body::ant(), 17, 8, 1.202),
+        ("spider", Body::spider(), 17, 8, 1.202),
+    ] {
+        assert_eq!(body.len(), modules, "{name}");
+        assert_eq!(body.hinges().len(), hinges, "{name}");
+        assert!((body.mass() - mass).abs() < 1e-12, "{name}: {}", body.mass());
+        let model = body.to_model(name).unwrap();
+        assert!((model.total_mass() - mass).abs() < 1e-12, "{name}: model mass {}", model.total_mass());
+        assert_eq!(model.nv, 6 + hinges, "{name}: a free-flyer and one dof per hinge");
+        for j in 2..model.njoints() {
+            assert!(model.joints[j].name.starts_with("hinge"), "{name}: {}", model.joints[j].name);
+            let v = model.joints[j].idx_v;
+            // 60°: Revolve2 writes 1.047197551.
+            assert!(
+                (model.upper_position_limit[model.joints[j].idx_q] - std::f64::consts::FRAC_PI_3).abs()
+                    < 1e-12
+            );
+            assert!((model.effort_limit[v] - 0.948013269).abs() < 1e-12);
+        }
+    }
+}
+
+#[test]
+fn geometry_and_axes_follow_revolve2s_construction() {
+    let body = Body::gecko();
+    let model = body.to_model("gecko").unwrap();
+    let mut data = Data::new(&model);
+    let q = model.neutral_configuration();
+    forward_kinematics(&model, &mut data, q.as_slice());
+    let axis = |j: usize| data.o_m_i[j].rotation * Vector3::y();
+    // Front legs (rotation 0 on the left/right faces): the axis lies along the body, so the
+    // leg lifts in the vertical plane; the joint sits 0.0445 (half core) + 0.034525 (half
+    // frame offset + joint offset) from the core's centre.
+    let left = joint_of(&model, &body, &[Face::Left]);
+    assert!((axis(left).x.abs() - 1.0).abs() < 1e-15, "{:?}", axis(left));
+    let p = data.o_m_i[left].translation;
+    assert!((p - Vector3::new(0.0, 0.0445 + 0.034525, 0.0)).norm() < 1e-15, "{p:?}");
+    // The spine (rotation π/2 on the back face) bends in the horizontal plane.
+    for path in [&[Face::Back][..], &[Face::Back, Face::Attachment, Face::Front]] {
+        let j = joint_of(&model, &body, path);
+        assert!((axis(j).z.abs() - 1.0).abs() < 1e-15, "{path:?}: {:?}", axis(j));
+    }
+    // The left foot brick's centre: hinge slot 0.0445, slot to child slot 0.083675 (frame
+    // offset / 2 + servo offset + servo half length + 2 mm), half a brick 0.0314431.
+    let foot = body.child(body.child(body.core(), Face::Left).unwrap(), Face::Attachment).unwrap();
+    let f = model.frame_index(&format!("brick{}", foot.0)).unwrap();
+    let placement = centaur_dynamics::frame_placement(&model, &data, f);
+    let expected = 0.0445 + 0.083675 + 0.06288625 / 2.0;
+    assert!((placement.translation - Vector3::new(0.0, expected, 0.0)).norm() < 1e-15, "{placement:?}");
+}
+
+fn env(config: ModularConfig) -> (ModularEnv, Vec<f32>) {
+    let env = ModularEnv::new(config).unwrap();
+    let obs = vec![0.0; env.observation_space().dim()];
+    (env, obs)
+}
+
+#[test]
+fn rests_on_the_ground_without_creeping() {
+    let (mut env, mut obs) = env(ModularConfig::gecko());
+    env.reset(Some(3), &mut obs).unwrap();
+    let start = env.robot_state().base_position();
+    let zero = vec![0.0; env.action_space().dim()];
+    for _ in 0..200 {
+        let s = env.step(&zero, &mut obs).unwrap();
+        assert!(!s.done());
+    }
+    let p = env.robot_state().base_position();
+    // The core box is 0.0603 m high and lies flat on the ground.
+    assert!((p.z - 0.0603 / 2.0).abs() < 1e-3, "core height {}", p.z);
+    assert!((p - start).xy().norm() < 5e-3, "crept {:?}", p - start);
+    assert!(env.robot_state().base_angular_velocity().norm() < 1e-2);
+}
+
+#[test]
+fn servos_track_their_targets() {
+    // Without gravity: on the ground, friction holds a servo as weak as kp = 5 N·m/rad
+    // a few degrees off its target (measured: 3° past it, the rear half stuck).
+    let body = Body::gecko();
+    let mut config = ModularConfig::new("gecko", body.clone());
+    config.sim.gravity = [0.0; 3];
+    let (mut env, mut obs) = env(config);
+    env.reset(Some(0), &mut obs).unwrap();
+    let model = env.model().clone();
+    let spine = joint_of(&model, &body, &[Face::Back]);
+    let k = env.actuated_joints().iter().position(|&j| j == spine).unwrap();
+    let mut a = vec![0.0f32; env.action_space().dim()];
+    a[k] = 0.5;
+    for _ in 0..20 {
+        env.step(&a, &mut obs).unwrap();
+    }
+    let q = env.robot_state().q[model.joints[spine].idx_q];
+    let target = 0.5 * std::f64::consts::FRAC_PI_3;
+    assert!((q - target).abs() < 0.01, "spine at {q}, target {target}");
+    // The torque applied is the clipped PD law of the servo.
+    let tau = env.last_torques()[k];
+    assert!(tau.abs() <= 0.948013269 + 1e-12);
+    // Actions beyond ±1 are clipped: a = 5 behaves exactly like a = 1.
+    let run = |scale: f32| {
+        let (mut e, mut o) = (ModularEnv::new(ModularConfig::gecko()).unwrap(), obs.clone());
+        e.reset(Some(1), &mut o).unwrap();
+        let a = vec![scale; e.action_space().dim()];
+        for _ in 0..10 {
+            e.step(&a, &mut o).unwrap();
+        }
+        o
+    };
+    assert_eq!(run(5.0), run(1.0));
+}
+
+#[test]
+fn an_episodes_return_is_the_xy_displacement_and_runs_are_reproducible() {
+    let rollout = |reward: ModularReward, seed: u64| {
+        let (mut env, mut obs) =
+            env(ModularConfig { reward, max_episode_steps: 120, ..ModularConfig::spider() });
+        env.reset(Some(seed), &mut obs).unwrap();
+        let start = env.robot_state().base_position();
+        let mut rng = Rng::seed_from_u64(seed);
+        let (mut ret, mut trace) = (0.0, Vec::new());
+        loop {
+            let a: Vec<f32> = (0..env.action_space().dim()).map(|_| rng.range(-1.0, 1.0) as f32).collect();
+            let s = env.step(&a, &mut obs).unwrap();
+            ret += s.reward;
+            trace.extend_from_slice(&obs);
+            assert!(!s.terminated && !s.info.unstable);
+            if s.done() {
+                assert!(s.truncated);
+                break;
+            }
+        }
+        assert!(matches!(
+            env.step(&vec![0.0; env.action_space().dim()], &mut obs),
+            Err(EnvError::NeedsReset)
+        ));
+        let d = env.robot_state().base_position() - start;
+        (ret, d, trace)
+    };
+    let (ret, d, trace) = rollout(ModularReward::XyDisplacement, 7);
+    assert!((ret - d.xy().norm()).abs() < 1e-9, "return {ret} vs displacement {}", d.xy().norm());
+    assert!(d.xy().norm() > 1e-3, "random flailing moves the robot a little: {d:?}");
+    let (ret_x, dx, _) = rollout(ModularReward::ForwardX, 7);
+    assert!((ret_x - dx.x).abs() < 1e-9);
+    let (_, _, again) = rollout(ModularReward::XyDisplacement, 7);
+    assert_eq!(trace, again, "same seed, same trajectory bit for bit");
+    let (_, _, other) = rollout(ModularReward::XyDisplacement, 8);
+    assert_ne!(trace, other);
+}
+
+#[test]
+fn bad_actions_and_observation_options() {
+    let (mut env, mut obs) = env(ModularConfig::ant());
+    assert_eq!(env.action_space().dim(), 8);
+    assert_eq!(obs.len(), 11 + 2 * 8);
+    let zero = vec![0.0; 8];
+    assert!(matches!(env.step(&zero, &mut obs), Err(EnvError::NeedsReset)));
+    env.reset(Some(0), &mut obs).unwrap();
+    let mut nan = zero.clone();
+    nan[3] = f32::NAN;
+    assert!(matches!(env.step(&nan, &mut obs), Err(EnvError::NonFiniteAction { index: 3, .. })));
+    assert!(matches!(env.step(&zero[..5], &mut obs), Err(EnvError::ActionLength { expected: 8, got: 5 })));
+    let options = ObsOptions { joint_history: 3, drop_base_orientation: true };
+    let mut c = ModularConfig::ant();
+    c.obs = options;
+    let (mut env, mut obs) = self::env(c);
+    assert_eq!(obs.len(), 11 + 2 * 8 - 4 + 3 * 8);
+    env.reset(Some(0), &mut obs).unwrap();
+    // The history starts filled with the reset angles, which follow the height.
+    assert_eq!(&obs[1..9], &obs[obs.len() - 8..]);
+    let mut no_hinge = ModularConfig::gecko();
+    no_hinge.body = Body::new();
+    assert!(ModularEnv::new(no_hinge).is_err());
+}
+
+#[test]
+fn the_simulator_holds_the_bodys_mass() {
+    for config in [ModularConfig::gecko(), ModularConfig::ant(), ModularConfig::spider()] {
+        let mass = config.body.mass();
+        let env = ModularEnv::new(config).unwrap();
+        assert!((env.sim().total_mass() - mass).abs() < 1e-5, "{} vs {mass}", env.sim().total_mass());
+    }
+}
+
+#[test]
+fn servo_torque_follows_the_pd_law_inside_the_torque_speed_envelope() {
+    use centaur_envs::modular::{ModuleSpecs, servo_torque};
+    let s = ModuleSpecs::default();
+    // At rest: the PD law, clipped to ±effort.
+    assert!((servo_torque(&s, 0.1, 0.0, 0.0) - 0.5).abs() < 1e-12);
+    assert_eq!(servo_torque(&s, 1.0, 0.0, 0.0), s.effort);
+    assert_eq!(servo_torque(&s, -1.0, 0.0, 0.0), -s.effort);
+    // Half the rated speed leaves half the torque in the direction of motion, all of it
+    // against; at the rated speed and beyond, nothing more in the direction of motion.
+    let v = s.velocity;
+    assert!((servo_torque(&s, 1.0, 0.0, v / 2.0) - s.effort / 2.0).abs() < 1e-12);
+    assert_eq!(servo_torque(&s, -1.0, 0.0, v / 2.0), -s.effort);
+    assert_eq!(servo_torque(&s, 1.0, 0.0, v), 0.0);
+    assert_eq!(servo_torque(&s, 1.0, 0.0, 3.0 * v), 0.0);
+    assert!((servo_torque(&s, -1.0, 0.0, -v / 2.0) + s.effort / 2.0).abs() < 1e-12);
+    // Without a speed limit the envelope is the plain clip.
+    let unlimited = ModuleSpecs { velocity: f64::INFINITY, ..ModuleSpecs::default() };
+    assert_eq!(servo_torque(&unlimited, 1.0, 0.0, 30.0), unlimited.effort);
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+    /// Random build sequences, including bad parents, faces, kinds and rotations, never
+    /// panic, and every body the builder accepts loads as a model of the same mass with one
+    /// degree of freedom per hinge.
+    #[test]
+    fn random_bodies_build_or_are_refused(
+        ops in proptest::collection::vec((0usize..40, 0usize..5, 0usize..3, 0usize..6), 0..25)
+    ) {
+        let faces = [Face::Front, Face::Back, Face::Left, Face::Right, Face::Attachment];
+        let kinds = [ModuleKind::Core, ModuleKind::Brick, ModuleKind::ActiveHinge];
+        let rotations = [0.0, std::f64::consts::FRAC_PI_2, -std::f64::consts::FRAC_PI_2, 0.3, f64::NAN, f64::INFINITY];
+        let mut body = Body::new();
+        for (parent, face, kind, rotation) in ops {
+            let before = body.clone();
+            let r = body.attach(centaur_envs::ModuleId(parent), faces[face], kinds[kind], rotations[rotation]);
+            if r.is_err() {
+                proptest::prop_assert_eq!(&body, &before);
+            }
+        }
+        let model = body.to_model("random").unwrap();
+        proptest::prop_assert!((model.total_mass() - body.mass()).abs() < 1e-12);
+        proptest::prop_assert_eq!(model.nv, 6 + body.hinges().len());
+    }
+}
