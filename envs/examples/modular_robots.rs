@@ -54,7 +54,7 @@ fn main() {
         let std = (returns.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / returns.len() as f64).sqrt();
         println!(
             "| {name} | {} | {} | {:.3} | {mean:.2} ± {std:.2} | {rate:.0} |",
-            body.len(),
+            body.num_modules(),
             body.hinges().len(),
             body.mass()
         );

@@ -23,9 +23,15 @@
 //! parts and a revolute joint per hinge, with the boxes as visual and collision shapes and
 //! solid-box inertias. `centaur-dynamics` merges the fixed joints, so the model has one body
 //! per rigid group and one degree of freedom per hinge, after the free-flyer of the core.
-//! Rotations that are multiples of 90° are written exactly, so the hinge axes are exact
-//! coordinate axes. [`Body::attach`] rejects a face the module does not have, a face that
-//! is taken, a non-finite rotation and a module that would overlap another one.
+//! Rotations that are multiples of 90° are composed exactly (no rounding residue in the
+//! URDF's `xyz`; the `rpy` angles are exact multiples of π/2). [`Body::attach`] rejects a
+//! face the module does not have, a face that is taken, a second core, a non-finite
+//! rotation and a module that would overlap another one. The overlap test compares the
+//! modules' main boxes (core, brick, servo body) at zero hinge angles as boxes aligned with
+//! the core's axes, each shrunk by 4 mm per side: exact for quarter turns up to that
+//! tolerance (touching neighbours may interpenetrate by up to 8 mm, as on Revolve2's grid),
+//! conservative for other rotations (a valid body can be refused), and blind to the thin
+//! hinge frames and horn plates.
 //!
 //! **The environment.** [`ModularEnv`] (Gymnasium semantics, `centaur train --env gecko`,
 //! `modular-ant` or `spider`) drives each hinge like Revolve2's MuJoCo servo: the action
@@ -36,14 +42,14 @@
 //! servos' speed; with only a ±0.948 N·m clip, PPO learned to whip the hinges at 38 rad/s,
 //! six times the servo's rated speed, and bounce the gecko 24 m in 30 s. The control
 //! period is Revolve2's standard 20 Hz; an episode lasts its standard 30 s (600 steps) and
-//! never terminates early (a modular robot cannot fall in a way that ends
-//! its run). The default reward is the change of the core's horizontal distance from its
+//! never terminates early (a modular robot cannot fall in a way that ends its run), except
+//! when the simulation blows up: then `terminated` is set with `info.unstable`. The default reward is the change of the core's horizontal distance from its
 //! start, so that an episode's return is Revolve2's `xy_displacement` fitness exactly;
 //! [`ModularReward::ForwardX`] rewards progress along x instead.
 //!
 //! Differences from Revolve2's MuJoCo scenes: Rapier's rigid contacts and PGS solver with
 //! 5 ms steps instead of MuJoCo's soft contacts and 1 ms steps (2 ms steps make the env
-//! about 2.2× slower; the gecko's PPO gait travels 18.0–18.2 m in 30 s at 5, 2 and 1 ms
+//! about 2.2× slower; the gecko's PPO gait travels 17.2–17.8 m in 30 s at 5, 2 and 1 ms
 //! alike); modules collide with the ground only, not with each other; the servos have a
 //! torque–speed envelope.
 
@@ -174,6 +180,14 @@ pub enum ModularError {
         /// Path of the module it would overlap.
         existing: String,
     },
+    /// A module property that is not physical.
+    #[error("module property {field} = {value} is not physical")]
+    BadSpec {
+        /// The field of `ModuleSpecs`.
+        field: &'static str,
+        /// Its value.
+        value: f64,
+    },
     /// The generated URDF did not load (a bug if it happens; reported, not hidden).
     #[error("the body's URDF does not load: {0}")]
     Model(String),
@@ -259,6 +273,56 @@ impl Default for ModuleSpecs {
 }
 
 impl ModuleSpecs {
+    /// Checks that every number is physical: sizes, masses, offsets and gains finite and
+    /// positive (`kd`, `armature`, `friction` may be zero; `velocity` may be infinite), the
+    /// range in (0, π].
+    pub fn validate(&self) -> Result<(), ModularError> {
+        let positive = [
+            ("core_mass", self.core_mass),
+            ("brick_mass", self.brick_mass),
+            ("frame_mass", self.frame_mass),
+            ("servo1_mass", self.servo1_mass),
+            ("servo2_mass", self.servo2_mass),
+            ("frame_offset", self.frame_offset),
+            ("servo_offset", self.servo_offset),
+            ("joint_offset", self.joint_offset),
+            ("child_offset", self.child_offset),
+            ("effort", self.effort),
+            ("kp", self.kp),
+        ];
+        let sizes = [
+            ("core_size", self.core_size),
+            ("brick_size", self.brick_size),
+            ("frame_size", self.frame_size),
+            ("servo1_size", self.servo1_size),
+            ("servo2_size", self.servo2_size),
+        ];
+        let non_negative = [("kd", self.kd), ("armature", self.armature), ("friction", self.friction)];
+        let bad = |field: &'static str, value: f64| Err(ModularError::BadSpec { field, value });
+        for (field, value) in positive {
+            if !(value > 0.0 && value.is_finite()) {
+                return bad(field, value);
+            }
+        }
+        for (field, size) in sizes {
+            if let Some(&value) = size.iter().find(|v| !(**v > 0.0 && v.is_finite())) {
+                return bad(field, value);
+            }
+        }
+        for (field, value) in non_negative {
+            if !(value >= 0.0 && value.is_finite()) {
+                return bad(field, value);
+            }
+        }
+        if self.velocity.is_nan() || self.velocity <= 0.0 {
+            return bad("velocity", self.velocity);
+        }
+        if !(self.range > 0.0 && self.range <= std::f64::consts::PI) {
+            return bad("range", self.range);
+        }
+        Ok(())
+    }
+
     /// Mass of one module of a kind (kg).
     pub fn mass(&self, kind: ModuleKind) -> f64 {
         match kind {
@@ -351,15 +415,20 @@ struct Part {
 impl Body {
     /// A body holding only the core, with Revolve2's V1 modules.
     pub fn new() -> Body {
-        Body::with_specs(ModuleSpecs::default())
-    }
-
-    /// A body holding only the core, with the given module properties.
-    pub fn with_specs(specs: ModuleSpecs) -> Body {
         Body {
-            specs,
+            specs: ModuleSpecs::default(),
             nodes: vec![Node { kind: ModuleKind::Core, rotation: 0.0, parent: None, children: [None; 5] }],
         }
+    }
+
+    /// A body holding only the core, with the given module properties (checked by
+    /// [`ModuleSpecs::validate`]).
+    pub fn with_specs(specs: ModuleSpecs) -> Result<Body, ModularError> {
+        specs.validate()?;
+        Ok(Body {
+            specs,
+            nodes: vec![Node { kind: ModuleKind::Core, rotation: 0.0, parent: None, children: [None; 5] }],
+        })
     }
 
     /// The module properties.
@@ -373,13 +442,8 @@ impl Body {
     }
 
     /// Number of modules, the core included.
-    pub fn len(&self) -> usize {
+    pub fn num_modules(&self) -> usize {
         self.nodes.len()
-    }
-
-    /// Whether the body holds only its core.
-    pub fn is_empty(&self) -> bool {
-        self.nodes.len() == 1
     }
 
     /// The kind of a module.
@@ -387,7 +451,10 @@ impl Body {
         self.nodes.get(id.0).map(|n| n.kind)
     }
 
-    /// The hinges, in the order of their joints (and of the environment's actions).
+    /// The hinges, in the order they were attached: the order of [`ModularEnv`]'s actions.
+    /// Hinge `h` is the model joint named `hinge{h.0}`; the model numbers its joints in
+    /// depth-first order, which can differ ([`RobotEnv::actuated_joints`] maps one to the
+    /// other).
     pub fn hinges(&self) -> Vec<ModuleId> {
         (0..self.nodes.len())
             .filter(|&k| self.nodes[k].kind == ModuleKind::ActiveHinge)
@@ -400,8 +467,14 @@ impl Body {
         self.nodes.iter().map(|n| self.specs.mass(n.kind)).sum()
     }
 
-    /// Revolve2-style path of a module, e.g. `core.back.attachment.front`.
-    pub fn path(&self, id: ModuleId) -> String {
+    /// Revolve2-style path of a module, e.g. `core.back.attachment.front` (`None` for a
+    /// module not in this body).
+    pub fn path(&self, id: ModuleId) -> Option<String> {
+        self.nodes.get(id.0)?;
+        Some(self.path_of(id))
+    }
+
+    fn path_of(&self, id: ModuleId) -> String {
         let mut faces = Vec::new();
         let mut cur = id;
         while let Some((p, f)) = self.nodes.get(cur.0).and_then(|n| n.parent) {
@@ -442,13 +515,13 @@ impl Body {
             });
         }
         if node.children[face.index()].is_some() {
-            return Err(ModularError::FaceTaken { path: self.path(parent), face: face.name() });
+            return Err(ModularError::FaceTaken { path: self.path_of(parent), face: face.name() });
         }
         let id = ModuleId(self.nodes.len());
         self.nodes.push(Node { kind, rotation, parent: Some((parent, face)), children: [None; 5] });
         self.nodes[parent.0].children[face.index()] = Some(id);
         if let Some(other) = self.overlapping(id) {
-            let (new, existing) = (self.path(id), self.path(other));
+            let (new, existing) = (self.path_of(id), self.path_of(other));
             self.nodes.pop();
             self.nodes[parent.0].children[face.index()] = None;
             return Err(ModularError::Overlap { new, existing });
@@ -470,9 +543,11 @@ impl Body {
     /// centre; a brick's centre; a hinge's servo-link frame at the joint).
     fn child_slot(&self, parent: &Node, face: Face, child: &Node) -> Isometry3<f64> {
         let s = &self.specs;
+        // Front and back faces sit half the length (x) away, left and right half the width (y).
+        let axis = if matches!(face, Face::Left | Face::Right) { 1 } else { 0 };
         let along = match parent.kind {
-            ModuleKind::Core => s.core_size[0] / 2.0,
-            ModuleKind::Brick => s.brick_size[0] / 2.0,
+            ModuleKind::Core => s.core_size[axis] / 2.0,
+            ModuleKind::Brick => s.brick_size[axis] / 2.0,
             ModuleKind::ActiveHinge => s.servo_from_joint() + s.child_offset,
         };
         let yaw = axis_rotation(2, face.yaw());
@@ -614,6 +689,17 @@ impl Body {
                 );
             }
         }
+        let name: String = name
+            .chars()
+            .map(|c| match c {
+                '&' => "&amp;".to_string(),
+                '<' => "&lt;".to_string(),
+                '>' => "&gt;".to_string(),
+                '"' => "&quot;".to_string(),
+                '\'' => "&apos;".to_string(),
+                c => c.to_string(),
+            })
+            .collect();
         format!(
             "<?xml version=\"1.0\"?>\n<!-- Modular robot built by centaur-envs::modular (module properties of Revolve2's V1 modules) -->\n<robot name=\"{name}\">\n{links}{joints}</robot>\n"
         )
@@ -976,12 +1062,16 @@ impl ModularEnv {
 /// The servo's torque: the PD law `kp (q* − q) − kd q̇`, within the torque–speed envelope
 /// of a DC servo — the full `effort` at rest, falling linearly to zero at the rated
 /// `velocity` in the direction of motion (braking torque stays available).
+/// A state that is not finite gets no torque (the step then reports the blow-up).
 pub fn servo_torque(specs: &ModuleSpecs, target: f64, q: f64, qd: f64) -> f64 {
     let pd = specs.kp * (target - q) - specs.kd * qd;
+    if !pd.is_finite() {
+        return 0.0;
+    }
     let fraction = |x: f64| x.clamp(0.0, 1.0);
     let upper = specs.effort * fraction(1.0 - qd / specs.velocity);
     let lower = -specs.effort * fraction(1.0 + qd / specs.velocity);
-    pd.clamp(lower, upper)
+    pd.max(lower).min(upper)
 }
 
 fn build_sim(model: &Model, config: &ModularConfig) -> Result<Sim, EnvError> {
@@ -1062,7 +1152,7 @@ impl Env for ModularEnv {
         if self.needs_reset {
             return Err(EnvError::NeedsReset);
         }
-        let specs = self.config.body.specs().clone();
+        let specs = self.config.body.specs();
         for (t, a) in self.targets.iter_mut().zip(action) {
             *t = (*a).clamp(-1.0, 1.0) as f64 * specs.range;
         }
@@ -1078,7 +1168,7 @@ impl Env for ModularEnv {
             }
             for (k, &j) in self.actuated.iter().enumerate() {
                 let (q, qd) = self.sim.joint_state(j);
-                let tau = servo_torque(&specs, self.targets[k], q, qd);
+                let tau = servo_torque(specs, self.targets[k], q, qd);
                 self.applied[k] = tau;
                 self.sim.set_joint_torque(self.model.joints[j].idx_v, tau);
                 energy += (tau * qd).abs() * self.config.sim.dt;
@@ -1098,7 +1188,7 @@ impl Env for ModularEnv {
         let ctrl_cost =
             self.config.ctrl_cost_weight * action.iter().map(|a| (*a as f64).powi(2)).sum::<f64>();
         info.reward_terms[..2].copy_from_slice(&[progress, -ctrl_cost]);
-        info.forward_velocity = self.state.base_linear_velocity_world().x;
+        info.forward_velocity = progress / self.dt();
         self.write_obs(obs);
         let truncated = self.steps >= self.config.max_episode_steps;
         self.needs_reset = truncated;

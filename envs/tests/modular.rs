@@ -2,8 +2,10 @@
 //! Revolve2's V1 module numbers, and the environment's behaviour.
 
 use centaur_dynamics::nalgebra::Vector3;
-use centaur_dynamics::{Data, Model, forward_kinematics};
-use centaur_envs::modular::{Body, Face, ModularConfig, ModularEnv, ModularError, ModularReward, ModuleKind};
+use centaur_dynamics::{Data, JointKind, Model, forward_kinematics};
+use centaur_envs::modular::{
+    Body, Face, ModularConfig, ModularEnv, ModularError, ModularReward, ModuleKind, ModuleSpecs,
+};
 use centaur_envs::{ObsOptions, RobotEnv};
 use centaur_rl::{Env, EnvError, Rng};
 
@@ -56,7 +58,7 @@ fn presets_have_revolve2s_modules_masses_and_joints() {
         ("modular-ant", Body::ant(), 17, 8, 1.202),
         ("spider", Body::spider(), 17, 8, 1.202),
     ] {
-        assert_eq!(body.len(), modules, "{name}");
+        assert_eq!(body.num_modules(), modules, "{name}");
         assert_eq!(body.hinges().len(), hinges, "{name}");
         assert!((body.mass() - mass).abs() < 1e-12, "{name}: {}", body.mass());
         let model = body.to_model(name).unwrap();
@@ -75,6 +77,14 @@ fn presets_have_revolve2s_modules_masses_and_joints() {
     }
 }
 
+/// World axis of a revolute joint at the current kinematics.
+fn joint_axis(model: &Model, data: &Data, j: usize) -> Vector3<f64> {
+    match model.joints[j].kind {
+        JointKind::Revolute { axis } => data.o_m_i[j].rotation * axis,
+        _ => panic!("joint {j} is not revolute"),
+    }
+}
+
 #[test]
 fn geometry_and_axes_follow_revolve2s_construction() {
     let body = Body::gecko();
@@ -82,26 +92,85 @@ fn geometry_and_axes_follow_revolve2s_construction() {
     let mut data = Data::new(&model);
     let q = model.neutral_configuration();
     forward_kinematics(&model, &mut data, q.as_slice());
-    let axis = |j: usize| data.o_m_i[j].rotation * Vector3::y();
-    // Front legs (rotation 0 on the left/right faces): the axis lies along the body, so the
-    // leg lifts in the vertical plane; the joint sits 0.0445 (half core) + 0.034525 (half
-    // frame offset + joint offset) from the core's centre.
-    let left = joint_of(&model, &body, &[Face::Left]);
-    assert!((axis(left).x.abs() - 1.0).abs() < 1e-15, "{:?}", axis(left));
-    let p = data.o_m_i[left].translation;
-    assert!((p - Vector3::new(0.0, 0.0445 + 0.034525, 0.0)).norm() < 1e-15, "{p:?}");
-    // The spine (rotation π/2 on the back face) bends in the horizontal plane.
-    for path in [&[Face::Back][..], &[Face::Back, Face::Attachment, Face::Front]] {
+    // Distances along the chain, from Revolve2's V1 numbers: half the core 0.0445; a hinge's
+    // slot to its joint 0.034525 (frame offset / 2 + joint offset) and to its child's slot
+    // 0.083675 (frame offset / 2 + servo offset + servo half length + 2 mm); a brick's
+    // length 0.06288625.
+    let (core, joint, hinge, brick) = (0.0445, 0.034525, 0.083675, 0.06288625);
+    let hip = -(core + hinge + brick + hinge + brick / 2.0);
+    // Every hinge: (path, joint position, joint axis), all at z = 0. A leg on a face at
+    // yaw ψ (rotation 0) turns about R_z(ψ) y; the spine (rotation π/2 on the back face,
+    // whose yaw is π) about R_z(π) R_x(π/2) y = +z; the hip brick faces backwards (yaw π),
+    // so its left leg is on the −y side.
+    let expected: [(&[Face], [f64; 3], [f64; 3]); 6] = [
+        (&[Face::Left], [0.0, core + joint, 0.0], [-1.0, 0.0, 0.0]),
+        (&[Face::Right], [0.0, -(core + joint), 0.0], [1.0, 0.0, 0.0]),
+        (&[Face::Back], [-(core + joint), 0.0, 0.0], [0.0, 0.0, 1.0]),
+        (
+            &[Face::Back, Face::Attachment, Face::Front],
+            [-(core + hinge + brick + joint), 0.0, 0.0],
+            [0.0, 0.0, 1.0],
+        ),
+        (
+            &[Face::Back, Face::Attachment, Face::Front, Face::Attachment, Face::Left],
+            [hip, -(brick / 2.0 + joint), 0.0],
+            [1.0, 0.0, 0.0],
+        ),
+        (
+            &[Face::Back, Face::Attachment, Face::Front, Face::Attachment, Face::Right],
+            [hip, brick / 2.0 + joint, 0.0],
+            [-1.0, 0.0, 0.0],
+        ),
+    ];
+    for (path, position, axis) in expected {
         let j = joint_of(&model, &body, path);
-        assert!((axis(j).z.abs() - 1.0).abs() < 1e-15, "{path:?}: {:?}", axis(j));
+        let p = data.o_m_i[j].translation;
+        assert!(
+            (p - Vector3::from(position)).norm() < 1e-12,
+            "{path:?}: joint at {p:?}, expected {position:?}"
+        );
+        let a = joint_axis(&model, &data, j);
+        assert!((a - Vector3::from(axis)).norm() < 1e-12, "{path:?}: axis {a:?}, expected {axis:?}");
     }
-    // The left foot brick's centre: hinge slot 0.0445, slot to child slot 0.083675 (frame
-    // offset / 2 + servo offset + servo half length + 2 mm), half a brick 0.0314431.
+    // The left foot brick's centre: hinge slot 0.0445, slot to child slot 0.083675, half a
+    // brick.
     let foot = body.child(body.child(body.core(), Face::Left).unwrap(), Face::Attachment).unwrap();
     let f = model.frame_index(&format!("brick{}", foot.0)).unwrap();
     let placement = centaur_dynamics::frame_placement(&model, &data, f);
-    let expected = 0.0445 + 0.083675 + 0.06288625 / 2.0;
+    let expected = core + hinge + brick / 2.0;
     assert!((placement.translation - Vector3::new(0.0, expected, 0.0)).norm() < 1e-15, "{placement:?}");
+}
+
+#[test]
+fn custom_module_specs_are_checked_and_used() {
+    for (field, specs) in [
+        ("velocity", ModuleSpecs { velocity: 0.0, ..ModuleSpecs::default() }),
+        ("kp", ModuleSpecs { kp: f64::NAN, ..ModuleSpecs::default() }),
+        ("armature", ModuleSpecs { armature: -1.0, ..ModuleSpecs::default() }),
+        ("brick_size", ModuleSpecs { brick_size: [0.06, 0.0, 0.06], ..ModuleSpecs::default() }),
+        ("range", ModuleSpecs { range: 4.0, ..ModuleSpecs::default() }),
+    ] {
+        match Body::with_specs(specs) {
+            Err(ModularError::BadSpec { field: f, .. }) => assert_eq!(f, field),
+            other => panic!("{field}: {other:?}"),
+        }
+    }
+    // A brick twice as wide as long: children on its sides sit half its width away.
+    let specs = ModuleSpecs { brick_size: [0.05, 0.1, 0.06], ..ModuleSpecs::default() };
+    let mut body = Body::with_specs(specs).unwrap();
+    let front = body.brick(body.core(), Face::Front, 0.0).unwrap();
+    let side = body.hinge(front, Face::Left, 0.0).unwrap();
+    let model = body.to_model("wide").unwrap();
+    let mut data = Data::new(&model);
+    forward_kinematics(&model, &mut data, model.neutral_configuration().as_slice());
+    let j = model.joint_index(&format!("hinge{}", side.0)).unwrap();
+    let p = data.o_m_i[j].translation;
+    let expected = Vector3::new(0.0445 + 0.025, 0.05 + 0.034525, 0.0);
+    assert!((p - expected).norm() < 1e-12, "{p:?}");
+    assert_eq!(body.path(side).as_deref(), Some("core.front.left"));
+    assert_eq!(body.path(centaur_envs::ModuleId(17)), None);
+    // Odd robot names are escaped in the URDF.
+    assert!(body.to_model("a<b & \"c\"").is_ok());
 }
 
 fn env(config: ModularConfig) -> (ModularEnv, Vec<f32>) {
@@ -147,9 +216,31 @@ fn servos_track_their_targets() {
     let q = env.robot_state().q[model.joints[spine].idx_q];
     let target = 0.5 * std::f64::consts::FRAC_PI_3;
     assert!((q - target).abs() < 0.01, "spine at {q}, target {target}");
-    // The torque applied is the clipped PD law of the servo.
-    let tau = env.last_torques()[k];
-    assert!(tau.abs() <= 0.948013269 + 1e-12);
+    // Driven back and forth at full stroke, a hinge runs at the servo's rated 6.34 rad/s
+    // (measured 6.37: the torque–speed envelope acts on the previous physics step's speed,
+    // so it can overshoot by up to one step's acceleration); without the envelope, at
+    // 33 rad/s.
+    let fastest = |velocity: f64| {
+        let specs = ModuleSpecs { velocity, ..ModuleSpecs::default() };
+        let mut body = Body::with_specs(specs).unwrap();
+        let hinge = body.hinge(body.core(), Face::Back, std::f64::consts::FRAC_PI_2).unwrap();
+        body.brick(hinge, Face::Attachment, 0.0).unwrap();
+        let mut config = ModularConfig::new("arm", body);
+        config.sim.gravity = [0.0; 3];
+        let (mut env, mut obs) = self::env(config);
+        env.reset(Some(0), &mut obs).unwrap();
+        let v = env.model().joints[env.actuated_joints()[0]].idx_v;
+        let mut top = 0.0f64;
+        for step in 0..60 {
+            let a = if (step / 5) % 2 == 0 { 1.0 } else { -1.0 };
+            env.step(&[a], &mut obs).unwrap();
+            top = top.max(env.robot_state().v[v].abs());
+        }
+        top
+    };
+    let (limited, unlimited) = (fastest(6.338968228), fastest(f64::INFINITY));
+    assert!(limited > 5.0 && limited < 6.338968228 + 1.5, "fastest hinge speed {limited} rad/s");
+    assert!(unlimited > 2.0 * limited, "without the envelope: {unlimited} rad/s");
     // Actions beyond ±1 are clipped: a = 5 behaves exactly like a = 1.
     let run = |scale: f32| {
         let (mut e, mut o) = (ModularEnv::new(ModularConfig::gecko()).unwrap(), obs.clone());
@@ -219,8 +310,33 @@ fn bad_actions_and_observation_options() {
     let (mut env, mut obs) = self::env(c);
     assert_eq!(obs.len(), 11 + 2 * 8 - 4 + 3 * 8);
     env.reset(Some(0), &mut obs).unwrap();
-    // The history starts filled with the reset angles, which follow the height.
-    assert_eq!(&obs[1..9], &obs[obs.len() - 8..]);
+    // The history starts filled with the reset angles (which follow the height), in all
+    // three slots.
+    for slot in 0..3 {
+        let start = obs.len() - 24 + 8 * slot;
+        assert_eq!(&obs[1..9], &obs[start..start + 8], "slot {slot}");
+    }
+    // After a step the newest slot holds the new angles and the oldest is dropped.
+    let before = obs[1..9].to_vec();
+    env.step(&[0.5; 8], &mut obs).unwrap();
+    let n = obs.len();
+    assert_eq!(&obs[1..9], &obs[n - 8..]);
+    assert_eq!(&before[..], &obs[n - 16..n - 8]);
+    assert_eq!(&before[..], &obs[n - 24..n - 16]);
+    // A push no simulator survives ends the episode with the flag, without a panic.
+    let (mut env, mut obs) = self::env(ModularConfig::gecko());
+    env.reset(Some(0), &mut obs).unwrap();
+    env.push(Vector3::new(1e30, 0.0, 0.0), 1.0);
+    let mut ended = false;
+    for _ in 0..5 {
+        let s = env.step(&[0.0; 6], &mut obs).unwrap();
+        if s.done() {
+            assert!(s.terminated && s.info.unstable, "{s:?}");
+            ended = true;
+            break;
+        }
+    }
+    assert!(ended, "the blown-up episode ended");
     let mut no_hinge = ModularConfig::gecko();
     no_hinge.body = Body::new();
     assert!(ModularEnv::new(no_hinge).is_err());
@@ -280,5 +396,9 @@ proptest::proptest! {
         let model = body.to_model("random").unwrap();
         proptest::prop_assert!((model.total_mass() - body.mass()).abs() < 1e-12);
         proptest::prop_assert_eq!(model.nv, 6 + body.hinges().len());
+        for h in body.hinges() {
+            let name = format!("hinge{}", h.0);
+            proptest::prop_assert!(model.joint_index(&name).is_some(), "no joint {}", name);
+        }
     }
 }
