@@ -513,7 +513,7 @@ pub struct ExampleArgs {
     /// Seed of both agents' training (the evaluation seeds follow from it)
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Run directory [default: runs/<example name>]
+    /// Run directory [default: runs/EXAMPLE, the example's name]
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Parallel environments per agent [default: the example's]

@@ -18,7 +18,7 @@
 //! neighbourhood faster than the scale allows.
 //!
 //! The step reports the residual's root-mean-square (in action units, after scaling) as the
-//! last reward term ([`StepInfo::reward_terms`]`[7]`, named `residual_rms`; it is not part
+//! last reward term ([`centaur_rl::StepInfo::reward_terms`]`[7]`, named `residual_rms`; it is not part
 //! of the reward).
 
 use centaur_envs::RobotEnv;

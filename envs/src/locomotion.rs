@@ -8,11 +8,11 @@
 //!
 //! | | forward velocity | reward | healthy / termination | observation |
 //! |---|---|---|---|---|
-//! | Ant | torso xy, finite difference | `v_x + 1·healthy − 0.5 Σa² − 5e-4 Σ clip(cfrc_ext, ±1)²` | z ∈ [0.2, 1.0], state finite | qpos[2:] 13, qvel 14, clip(cfrc_ext) 78 (or the 27-d v4 variant) |
-//! | Walker2d | qpos[0] | `v_x + 1·healthy − 1e-3 Σa²` | 0.8 < z < 2, −1 < angle < 1 | qpos[1:] 8, clip(qvel, ±10) 9 |
-//! | Hopper | qpos[0] | `v_x + 1·healthy − 1e-3 Σa²` | z > 0.7, \|angle\| < 0.2, \|state[2:]\| < 100 | qpos[1:] 5, clip(qvel, ±10) 6 |
-//! | HalfCheetah | qpos[0] | `v_x − 0.1 Σa²` | never | qpos[1:] 8, qvel 9 |
-//! | Humanoid | centre of mass | `1.25 v_x + 5·healthy − 0.1 Σa² − min(5e-7 Σ cfrc_ext², 10)` | 1 < z < 2 | qpos[2:] 22, qvel 23, qfrc_actuator[6:] 17, cfrc_ext 78 |
+//! | Ant | torso xy, finite difference | `v_x + 1·healthy − 0.5 Σa² − 5e-4 Σ clip(cfrc_ext, ±1)²` | z ∈ [0.2, 1.0], state finite | `qpos[2:]` 13, qvel 14, clip(cfrc_ext) 78 (or the 27-d v4 variant) |
+//! | Walker2d | `qpos[0]` | `v_x + 1·healthy − 1e-3 Σa²` | 0.8 < z < 2, −1 < angle < 1 | `qpos[1:]` 8, clip(qvel, ±10) 9 |
+//! | Hopper | `qpos[0]` | `v_x + 1·healthy − 1e-3 Σa²` | z > 0.7, \|angle\| < 0.2, \|`state[2:]`\| < 100 | `qpos[1:]` 5, clip(qvel, ±10) 6 |
+//! | HalfCheetah | `qpos[0]` | `v_x − 0.1 Σa²` | never | `qpos[1:]` 8, qvel 9 |
+//! | Humanoid | centre of mass | `1.25 v_x + 5·healthy − 0.1 Σa² − min(5e-7 Σ cfrc_ext², 10)` | 1 < z < 2 | `qpos[2:]` 22, qvel 23, `qfrc_actuator[6:]` 17, cfrc_ext 78 |
 //!
 //! with 1000-step truncation and Gymnasium's reset noise. The control cost uses the action
 //! as given (Gymnasium's behaviour); the actuators use it clipped to the control range

@@ -65,7 +65,7 @@ impl JointCommand {
     /// For position-controlled actuators with stiffness `kp_motor`: the position target that
     /// makes a PD servo produce this command's torque near the current state,
     /// `q_des + τ / k_p,motor` (written into `out`). This is the mapping to PD-target action
-    /// spaces (e.g. the Minitaur's motor angles, see [`crate::minitaur`]).
+    /// spaces (e.g. the Minitaur's motor angles, see `centaur_envs::minitaur`).
     #[track_caller]
     pub fn position_targets(&self, kp_motor: f64, out: &mut [f64]) {
         assert!(out.len() == self.tau.len());

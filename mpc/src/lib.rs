@@ -19,7 +19,7 @@
 //! | footholds, swing curves | [`swing`] | Raibert + capture point `√(h/g)(v − v_cmd)`; Bézier swing |
 //! | robot description | [`robot`], [`config`] | contacts, actuated/passive joints, loop closures, presets |
 //! | controller | [`controller`] | [`LocomotionController::tick`], status, fallbacks |
-//! | Minitaur action mapping | [`minitaur`] | PD targets → motor angles → PyBullet leg model |
+//! | Minitaur action mapping | `centaur_envs::minitaur` | PD targets → motor angles → PyBullet leg model |
 //!
 //! ## Conventions
 //!
@@ -36,7 +36,7 @@
 //!   cannot produce are limited by the WBC's torque rows and no-slip task.
 //! * **Minitaur**: the same, with the four 5-bar loops closed in the WBC by constraint
 //!   forces `λ` along the two in-plane directions, passive knees (`τ = 0` rows), toe
-//!   contacts; [`minitaur`] maps the command to the env's motor-angle / leg-model actions.
+//!   contacts; `centaur_envs::minitaur` maps the command to the env's motor-angle / leg-model actions.
 //! * **Walker2d**: the **planar** MPC variant ([`MpcConfig::biped_planar`]: lateral force
 //!   columns removed, feet projected to the sagittal plane) + WBC on its planar root
 //!   joints, biped walk, heel and toe contacts per foot.

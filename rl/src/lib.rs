@@ -20,7 +20,7 @@
 //!
 //! | module | content |
 //! |---|---|
-//! | [`env`] | [`Env`], [`VecEnv`] (parallel stepping, auto-reset, thread-count-independent results) |
+//! | [`env`](mod@env) | [`Env`], [`VecEnv`] (parallel stepping, auto-reset, thread-count-independent results) |
 //! | [`nn`] | [`nn::Mlp`]: batched forward/backward on faer (`Par::Seq`), fast tanh, orthogonal init |
 //! | [`optim`] | Adam, RMSprop, global gradient clipping, linear decay |
 //! | [`distributions`] | diagonal Gaussian, tanh-squashed Gaussian (stable log-det), tanh head |
