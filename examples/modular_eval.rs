@@ -2,14 +2,19 @@
 //! that its gait is not an artefact of the simulator's 5 ms step: return (m in 30 s), motor
 //! work, fastest hinge, fastest and highest core, over 3 deterministic episodes each.
 //!
-//! `cargo run --release -p centaur-envs --example modular_eval -- gecko runs/gecko/checkpoint`
+//! ```text
+//! cargo run --release --example modular_eval -- gecko runs/gecko/checkpoint [--record gecko.mcap]
+//! ```
 //! (robots: gecko, modular-ant, spider; the checkpoint of `centaur train --env <robot>`).
+//! `--record FILE` writes the first episode at the 5 ms step as an MCAP file that Foxglove
+//! opens (3D panel: the modules as boxes; plots: reward, speed, actions).
 
 use std::path::Path;
 
-use centaur_envs::RobotEnv;
-use centaur_envs::modular::{ModularConfig, ModularEnv};
-use centaur_rl::{Env, Policy};
+use centaur::envs::RobotEnv;
+use centaur::envs::modular::{ModularConfig, ModularEnv};
+use centaur::recording::{Frame, Recorder};
+use centaur::rl::{Env, Policy};
 
 fn fail(msg: String) -> ! {
     eprintln!("modular_eval: {msg}");
@@ -17,9 +22,14 @@ fn fail(msg: String) -> ! {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let record = match args.iter().position(|a| a == "--record") {
+        Some(i) if i + 1 < args.len() => Some(args.drain(i..i + 2).nth(1).unwrap_or_default()),
+        Some(_) => fail("--record needs a file name".into()),
+        None => None,
+    };
     let [robot, checkpoint] = args.as_slice() else {
-        fail("usage: modular_eval <gecko|modular-ant|spider> <checkpoint>".into());
+        fail("usage: modular_eval <gecko|modular-ant|spider> <checkpoint> [--record FILE.mcap]".into());
     };
     let preset = |dt: f64| {
         let mut c = match robot.as_str() {
@@ -48,6 +58,12 @@ fn main() {
         let mut action = vec![0.0; env.action_space().dim()];
         for episode in 0..3 {
             env.reset(Some(100 + episode), &mut obs).unwrap_or_else(|e| fail(e.to_string()));
+            let mut recorder = match (&record, episode, dt) {
+                (Some(path), 0, 0.005) => Some(
+                    Recorder::create(Path::new(path), env.model()).unwrap_or_else(|e| fail(e.to_string())),
+                ),
+                _ => None,
+            };
             let (mut ret, mut work, mut hinge, mut speed, mut height) = (0.0, 0.0, 0.0f64, 0.0f64, 0.0f64);
             loop {
                 policy.act(&obs, &mut action);
@@ -60,6 +76,18 @@ fn main() {
                 }
                 speed = speed.max(state.base_linear_velocity_world().norm());
                 height = height.max(state.q[2]);
+                if let Some(r) = recorder.as_mut() {
+                    let frame = Frame {
+                        time: env.episode_time(),
+                        state: Some(state),
+                        applied: &action,
+                        reward: step.reward,
+                        forward_velocity: step.info.forward_velocity,
+                        energy: step.info.energy,
+                        ..Frame::default()
+                    };
+                    r.record(&frame).unwrap_or_else(|e| fail(e.to_string()));
+                }
                 if step.done() {
                     break;
                 }
@@ -68,6 +96,10 @@ fn main() {
                 "| {} ms | {episode} | {ret:.2} | {work:.1} | {hinge:.1} | {speed:.2} | {height:.3} |",
                 dt * 1e3
             );
+            if let (Some(r), Some(path)) = (recorder, &record) {
+                r.finish().unwrap_or_else(|e| fail(e.to_string()));
+                eprintln!("wrote {path}");
+            }
         }
     }
 }
