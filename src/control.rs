@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use centaur_dynamics::nalgebra::Vector3;
 use centaur_envs::{
-    LocomotionConfig, LocomotionEnv, MinitaurConfig, MinitaurEnv, ModularConfig, ModularEnv, RobotEnv,
+    Body, LocomotionConfig, LocomotionEnv, MinitaurConfig, MinitaurEnv, ModularConfig, ModularEnv, RobotEnv,
 };
 use centaur_mpc::{Command, ConfigError, ControllerConfig, Gait, JointCommand, LocomotionController};
 use centaur_rl::EnvError;
@@ -86,6 +86,16 @@ pub fn make_robot_env(
         "minitaur-fast" => {
             let c = MinitaurConfig::fast();
             Box::new(MinitaurEnv::new(MinitaurConfig { max_episode_steps: steps(c.max_episode_steps), ..c })?)
+        }
+        custom if custom.starts_with("modular:") => {
+            let path = std::path::PathBuf::from(&custom["modular:".len()..]);
+            let text = std::fs::read_to_string(&path)
+                .map_err(|source| ControlError::Io { path: path.clone(), source })?;
+            let body = Body::from_json(&text)
+                .map_err(|e| ControlError::Invalid(format!("{}: {e}", path.display())))?;
+            let name = path.file_stem().map_or("modular".to_string(), |s| s.to_string_lossy().into_owned());
+            let c = ModularConfig::new(&name, body);
+            Box::new(ModularEnv::new(ModularConfig { max_episode_steps: steps(c.max_episode_steps), ..c })?)
         }
         "gecko" | "modular-ant" | "spider" => {
             let c = match name {
@@ -414,5 +424,26 @@ mod tests {
         }
         assert!(matches!(make_robot_env("cartpole", None), Err(ControlError::UnknownEnv(_))));
         assert!(matches!(controller_config("hopper"), Err(ControlError::NoController(_))));
+    }
+
+    #[test]
+    fn modular_robots_load_from_json_files() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/modular/snake.json");
+        let env = make_robot_env(&format!("modular:{path}"), Some(7)).unwrap();
+        assert_eq!(env.name(), "snake");
+        assert_eq!(env.action_space().dim(), 4);
+        assert_eq!(env.max_episode_steps(), 7);
+        assert!(matches!(make_robot_env("modular:/no/such/body.json", None), Err(ControlError::Io { .. })));
+        let dir = std::env::temp_dir().join(format!("centaur-modular-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let bad = dir.join("bad.json");
+        std::fs::write(&bad, r#"{"kind": "core", "back": {"kind": "brick", "back": {"kind": "brick"}}}"#)
+            .unwrap();
+        match make_robot_env(&format!("modular:{}", bad.display()), None) {
+            Err(ControlError::Invalid(msg)) => assert!(msg.contains("no back face"), "{msg}"),
+            Err(other) => panic!("{other}"),
+            Ok(_) => panic!("a brick has no back face"),
+        }
+        std::fs::remove_dir_all(&dir).ok();
     }
 }

@@ -7,6 +7,7 @@
 //! | `ant`, `ant27` | Gymnasium Ant-v5 (`ant27`: the 27-d observation without contact forces) |
 //! | `walker2d`, `hopper`, `halfcheetah`, `humanoid` | Gymnasium Walker2d-, Hopper-, HalfCheetah-, Humanoid-v5 |
 //! | `gecko`, `modular-ant`, `spider` | Revolve2's modular robots of those names ([`centaur_envs::ModularEnv`]) |
+//! | `modular:FILE.json` | a modular robot described in a JSON file ([`centaur_envs::Body::from_json`]) |
 //! | `<robot>-residual` | the hybrid: a residual policy on the controller ([`crate::residual::ResidualEnv`]; minitaur, ant, walker2d, humanoid) |
 
 use centaur_rl::pendulum::Pendulum;
@@ -60,6 +61,7 @@ pub fn make_env(name: &str) -> Result<Box<dyn Env>, RegistryError> {
     };
     match name {
         "pendulum" => Ok(Box::new(Pendulum::new())),
+        _ if name.starts_with("modular:") => Ok(crate::control::make_robot_env(name, None).map_err(control)?),
         _ if !ENV_NAMES.contains(&name) => Err(RegistryError::UnknownEnv { name: name.to_string() }),
         _ => match name.strip_suffix("-residual") {
             Some(robot) => {

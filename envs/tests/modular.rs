@@ -402,3 +402,35 @@ proptest::proptest! {
         }
     }
 }
+
+#[test]
+fn bodies_read_back_from_json_and_bad_documents_are_refused() {
+    for body in [Body::gecko(), Body::ant(), Body::spider()] {
+        let text = body.to_json();
+        assert_eq!(Body::from_json(&text).unwrap(), body, "{text}");
+    }
+    let parse = |text: &str| Body::from_json(text).unwrap_err();
+    assert!(matches!(parse("{\"kind\": \"core\""), ModularError::Parse(_)));
+    assert!(matches!(parse("{\"kind\": \"core\", \"legs\": 4}"), ModularError::Parse(_)));
+    assert!(matches!(parse("{\"kind\": \"brick\"}"), ModularError::Parse(_)));
+    assert!(matches!(parse("{\"kind\": \"core\", \"left\": {\"kind\": \"wheel\"}}"), ModularError::Parse(_)));
+    assert_eq!(parse("{\"kind\": \"core\", \"left\": {\"kind\": \"core\"}}"), ModularError::SecondCore);
+    assert!(matches!(
+        parse("{\"kind\": \"core\", \"left\": {\"kind\": \"hinge\", \"front\": {\"kind\": \"brick\"}}}"),
+        ModularError::NoSuchFace { kind: "hinge", .. }
+    ));
+    let overlap = r#"{"kind": "core", "left": {"kind": "brick", "right": {"kind": "brick"}},
+                      "front": {"kind": "brick", "left": {"kind": "brick"}}}"#;
+    assert!(matches!(parse(overlap), ModularError::Overlap { .. }));
+    // A nesting 10,000 levels deep is refused by the parser, without exhausting the stack.
+    let deep = "{\"kind\": \"core\", \"front\": ".to_string()
+        + &"{\"kind\": \"hinge\", \"attachment\": ".repeat(10_000)
+        + "{\"kind\": \"brick\"}"
+        + &"}".repeat(10_001);
+    assert!(matches!(parse(&deep), ModularError::Parse(_)));
+    // The example body in the assets.
+    let snake = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/modular/snake.json"))
+        .unwrap();
+    let snake = Body::from_json(&snake).unwrap();
+    assert_eq!((snake.num_modules(), snake.hinges().len()), (9, 4));
+}

@@ -297,7 +297,7 @@ fn main() -> ExitCode {
         Err(e) => {
             eprintln!("error: {e}");
             if matches!(e, centaur::train::TrainError::Registry(_)) {
-                eprintln!("available environments: {}", ENV_NAMES.join(", "));
+                eprintln!("available environments: {}, modular:FILE.json", ENV_NAMES.join(", "));
             }
             ExitCode::FAILURE
         }
