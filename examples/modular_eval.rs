@@ -5,14 +5,15 @@
 //! ```text
 //! cargo run --release --example modular_eval -- gecko runs/gecko/checkpoint [--record gecko.mcap]
 //! ```
-//! (robots: gecko, modular-ant, spider; the checkpoint of `centaur train --env <robot>`).
+//! (robots: gecko, modular-ant, spider or `modular:FILE.json`; the checkpoint of
+//! `centaur train --env <robot>`).
 //! `--record FILE` writes the first episode at the 5 ms step as an MCAP file that Foxglove
 //! opens (3D panel: the modules as boxes; plots: reward, speed, actions).
 
 use std::path::Path;
 
 use centaur::envs::RobotEnv;
-use centaur::envs::modular::{ModularConfig, ModularEnv};
+use centaur::envs::modular::{Body, ModularConfig, ModularEnv};
 use centaur::recording::{Frame, Recorder};
 use centaur::rl::{Env, Policy};
 
@@ -24,19 +25,36 @@ fn fail(msg: String) -> ! {
 fn main() {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
     let record = match args.iter().position(|a| a == "--record") {
-        Some(i) if i + 1 < args.len() => Some(args.drain(i..i + 2).nth(1).unwrap_or_default()),
+        Some(i) if i + 1 < args.len() && args[i + 1].ends_with(".mcap") => {
+            Some(args.drain(i..i + 2).nth(1).unwrap_or_default())
+        }
+        Some(i) if i + 1 < args.len() => {
+            fail(format!("--record {}: the file name must end in .mcap", args[i + 1]))
+        }
         Some(_) => fail("--record needs a file name".into()),
         None => None,
     };
     let [robot, checkpoint] = args.as_slice() else {
-        fail("usage: modular_eval <gecko|modular-ant|spider> <checkpoint> [--record FILE.mcap]".into());
+        fail("usage: modular_eval <gecko|modular-ant|spider|modular:FILE.json> <checkpoint> [--record FILE.mcap]".into());
     };
     let preset = |dt: f64| {
         let mut c = match robot.as_str() {
             "gecko" => ModularConfig::gecko(),
             "modular-ant" => ModularConfig::ant(),
             "spider" => ModularConfig::spider(),
-            other => fail(format!("unknown robot `{other}` (gecko, modular-ant, spider)")),
+            other => match other.strip_prefix("modular:") {
+                Some(path) => {
+                    let text = std::fs::read_to_string(path).unwrap_or_else(|e| fail(format!("{path}: {e}")));
+                    let body = Body::from_json(&text).unwrap_or_else(|e| fail(format!("{path}: {e}")));
+                    let name = Path::new(path)
+                        .file_stem()
+                        .map_or("modular".into(), |s| s.to_string_lossy().into_owned());
+                    ModularConfig::new(&name, body)
+                }
+                None => {
+                    fail(format!("unknown robot `{other}` (gecko, modular-ant, spider, modular:FILE.json)"))
+                }
+            },
         };
         let control_period = c.sim.dt * c.frame_skip as f64;
         c.sim.dt = dt;
@@ -49,7 +67,7 @@ fn main() {
         "| physics step | episode | return (m) | motor work (J) | max hinge speed (rad/s) | max core speed (m/s) | max core height (m) |"
     );
     println!("|---|---:|---:|---:|---:|---:|---:|");
-    for dt in [0.005, 0.002, 0.001] {
+    for (k, dt) in [0.005, 0.002, 0.001].into_iter().enumerate() {
         let mut env = ModularEnv::new(preset(dt)).unwrap_or_else(|e| fail(e.to_string()));
         if policy.obs_dim() != env.observation_space().dim() || policy.act_dim() != env.action_space().dim() {
             fail(format!("{checkpoint} was not trained on {robot}"));
@@ -58,8 +76,8 @@ fn main() {
         let mut action = vec![0.0; env.action_space().dim()];
         for episode in 0..3 {
             env.reset(Some(100 + episode), &mut obs).unwrap_or_else(|e| fail(e.to_string()));
-            let mut recorder = match (&record, episode, dt) {
-                (Some(path), 0, 0.005) => Some(
+            let mut recorder = match (&record, episode, k) {
+                (Some(path), 0, 0) => Some(
                     Recorder::create(Path::new(path), env.model()).unwrap_or_else(|e| fail(e.to_string())),
                 ),
                 _ => None,

@@ -40,7 +40,7 @@ pub const ROBOT_ENV_NAMES: &[&str] = &[
 #[derive(Debug, thiserror::Error)]
 pub enum ControlError {
     /// No robot environment has this name.
-    #[error("unknown robot environment `{0}` (available: {names})", names = ROBOT_ENV_NAMES.join(", "))]
+    #[error("unknown robot environment `{0}` (available: {names}, modular:FILE.json)", names = ROBOT_ENV_NAMES.join(", "))]
     UnknownEnv(String),
     /// No controller preset for this robot.
     #[error("no controller for `{0}` (controllers exist for minitaur, ant, walker2d and humanoid)")]
@@ -57,6 +57,14 @@ pub enum ControlError {
     /// A bad option.
     #[error("{0}")]
     Invalid(String),
+    /// A modular robot's body file describes no valid body.
+    #[error("{path}: {source}")]
+    Body {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Why.
+        source: centaur_envs::ModularError,
+    },
     /// Writing the summary failed.
     #[error("{path}: {source}")]
     Io {
@@ -91,8 +99,8 @@ pub fn make_robot_env(
             let path = std::path::PathBuf::from(&custom["modular:".len()..]);
             let text = std::fs::read_to_string(&path)
                 .map_err(|source| ControlError::Io { path: path.clone(), source })?;
-            let body = Body::from_json(&text)
-                .map_err(|e| ControlError::Invalid(format!("{}: {e}", path.display())))?;
+            let body =
+                Body::from_json(&text).map_err(|source| ControlError::Body { path: path.clone(), source })?;
             let name = path.file_stem().map_or("modular".to_string(), |s| s.to_string_lossy().into_owned());
             let c = ModularConfig::new(&name, body);
             Box::new(ModularEnv::new(ModularConfig { max_episode_steps: steps(c.max_episode_steps), ..c })?)
@@ -440,7 +448,12 @@ mod tests {
         std::fs::write(&bad, r#"{"kind": "core", "back": {"kind": "brick", "back": {"kind": "brick"}}}"#)
             .unwrap();
         match make_robot_env(&format!("modular:{}", bad.display()), None) {
-            Err(ControlError::Invalid(msg)) => assert!(msg.contains("no back face"), "{msg}"),
+            Err(ControlError::Body { source, .. }) => {
+                assert!(
+                    matches!(source, centaur_envs::ModularError::NoSuchFace { kind: "brick", .. }),
+                    "{source}"
+                )
+            }
             Err(other) => panic!("{other}"),
             Ok(_) => panic!("a brick has no back face"),
         }

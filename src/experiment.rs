@@ -634,6 +634,8 @@ pub fn run_experiment(
     opts: &ExperimentOptions,
     progress: &mut dyn FnMut(Phase, &UpdateMetrics),
 ) -> Result<ExperimentResult, ExperimentError> {
+    // The hybrid needs a controller: refuse a robot without one before training anything.
+    crate::control::controller_config(&opts.env)?;
     std::fs::create_dir_all(&opts.out).map_err(io_err(&opts.out))?;
     // Pure RL on the robot environment.
     let mut pure_env =

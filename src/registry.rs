@@ -38,7 +38,7 @@ pub const ENV_NAMES: &[&str] = &[
 #[derive(Debug, thiserror::Error)]
 pub enum RegistryError {
     /// No environment has this name.
-    #[error("unknown environment `{name}` (available: {})", ENV_NAMES.join(", "))]
+    #[error("unknown environment `{name}` (available: {}, modular:FILE.json)", ENV_NAMES.join(", "))]
     UnknownEnv {
         /// The name asked for.
         name: String,

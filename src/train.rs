@@ -170,6 +170,12 @@ pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> R
     let ckpt = opts.out.join("checkpoint");
     let mut checkpoint = algo.to_checkpoint();
     checkpoint.set_meta("env", &opts.env);
+    if let Some(path) = opts.env.strip_prefix("modular:") {
+        // The body itself, so that the policy stays tied to it if the file changes.
+        if let Ok(body) = std::fs::read_to_string(path) {
+            checkpoint.set_meta("body", body);
+        }
+    }
     checkpoint.write(&ckpt).map_err(RlError::from)?;
     let mut policy = Policy::load(&ckpt).map_err(RlError::from)?;
     let mut eval_env = make_env(&opts.env)?;

@@ -186,3 +186,45 @@ fn compare_gives_the_same_figures_on_one_thread_and_on_two() {
     assert!(one_mcap == two_mcap, "the hybrid's MCAP recording differs between 1 and 2 threads");
     std::fs::remove_file(&config).unwrap();
 }
+
+#[test]
+fn modular_robots_train_from_a_body_file_and_compare_refuses_them_at_once() {
+    let body = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/modular/snake.json");
+    let out = out_dir("modular_compare");
+    let start = std::time::Instant::now();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args([
+            "compare",
+            "--env",
+            &format!("modular:{body}"),
+            "--algo",
+            "ppo",
+            "--seeds",
+            "1",
+            "--steps",
+            "100000",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(stderr.contains("no controller"), "{stderr}");
+    // Refused before any training: 100,000 steps would take over a minute.
+    assert!(start.elapsed().as_secs_f64() < 20.0, "took {:?}", start.elapsed());
+    let out = out_dir("modular_train");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["train", "--env", &format!("modular:{body}"), "--algo", "ppo", "--steps", "256"])
+        .args(["--eval-episodes", "1"])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let policy = centaur::rl::Policy::load(&out.join("checkpoint")).unwrap();
+    assert_eq!(policy.act_dim(), 4);
+    let checkpoint = centaur::rl::Checkpoint::read(&out.join("checkpoint")).unwrap();
+    let stored: String = checkpoint.get_meta("body").unwrap();
+    assert_eq!(stored, std::fs::read_to_string(body).unwrap(), "the checkpoint keeps the body");
+}

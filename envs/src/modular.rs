@@ -867,7 +867,9 @@ impl ModuleDoc {
                 "core" => return Err(ModularError::SecondCore),
                 other => {
                     return Err(ModularError::Parse(format!(
-                        "unknown module kind `{other}` (core, brick, hinge)"
+                        "unknown module kind `{other}` at the {} face of {} (core, brick, hinge)",
+                        face.name(),
+                        body.path_of(id)
                     )));
                 }
             };
@@ -907,7 +909,8 @@ impl Body {
     }
 
     /// The body as a JSON document that [`Body::from_json`] reads back (module properties
-    /// are not included).
+    /// are not included), as long as no chain of modules is deeper than `serde_json`'s
+    /// nesting limit of 128 objects (about 120 modules in a row).
     pub fn to_json(&self) -> String {
         let doc = self.doc(self.core());
         serde_json::to_string_pretty(&doc).unwrap_or_default()

@@ -32,7 +32,8 @@ enum Command {
     /// Train a learner on an environment; writes metrics.csv, checkpoint,
     /// learning_curve.{svg,png} and summary.json into --out.
     Train {
-        /// Environment name (pendulum).
+        /// Environment name (see `centaur train --env ?` for the list; `modular:FILE.json` for a
+        /// modular robot described in a file).
         #[arg(long)]
         env: String,
         /// Algorithm: ppo, a2c, sac, sac1, td3 or ddpg.
@@ -296,7 +297,10 @@ fn main() -> ExitCode {
         }
         Err(e) => {
             eprintln!("error: {e}");
-            if matches!(e, centaur::train::TrainError::Registry(_)) {
+            if matches!(
+                e,
+                centaur::train::TrainError::Registry(centaur::registry::RegistryError::UnknownEnv { .. })
+            ) {
                 eprintln!("available environments: {}, modular:FILE.json", ENV_NAMES.join(", "));
             }
             ExitCode::FAILURE
