@@ -18,9 +18,9 @@ use centaur::rl::{Env, Rng, VecEnv};
 fn make(name: &str) -> Box<dyn Env> {
     match name {
         "minitaur" => Box::new(MinitaurEnv::new(MinitaurConfig::default()).expect("minitaur")),
-        "gecko" => Box::new(ModularEnv::new(ModularConfig::gecko()).expect("gecko")),
-        "modular-ant" => Box::new(ModularEnv::new(ModularConfig::ant()).expect("modular-ant")),
-        "spider" => Box::new(ModularEnv::new(ModularConfig::spider()).expect("spider")),
+        modular if let Some(c) = ModularConfig::preset(modular) => {
+            Box::new(ModularEnv::new(c).expect("modular robot"))
+        }
         other => {
             let robot = match other {
                 "ant" => LocomotionRobot::Ant,

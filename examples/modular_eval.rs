@@ -13,7 +13,7 @@
 use std::path::Path;
 
 use centaur::envs::RobotEnv;
-use centaur::envs::modular::{Body, ModularConfig, ModularEnv};
+use centaur::envs::modular::ModularEnv;
 use centaur::recording::{Frame, Recorder};
 use centaur::rl::{Env, Policy};
 
@@ -37,25 +37,13 @@ fn main() {
     let [robot, checkpoint] = args.as_slice() else {
         fail("usage: modular_eval <gecko|modular-ant|spider|modular:FILE.json> <checkpoint> [--record FILE.mcap]".into());
     };
+    let base = match centaur::control::modular_config(robot) {
+        Ok(Some(c)) => c,
+        Ok(None) => fail(format!("unknown robot `{robot}` (gecko, modular-ant, spider, modular:FILE.json)")),
+        Err(e) => fail(e.to_string()),
+    };
     let preset = |dt: f64| {
-        let mut c = match robot.as_str() {
-            "gecko" => ModularConfig::gecko(),
-            "modular-ant" => ModularConfig::ant(),
-            "spider" => ModularConfig::spider(),
-            other => match other.strip_prefix("modular:") {
-                Some(path) => {
-                    let text = std::fs::read_to_string(path).unwrap_or_else(|e| fail(format!("{path}: {e}")));
-                    let body = Body::from_json(&text).unwrap_or_else(|e| fail(format!("{path}: {e}")));
-                    let name = Path::new(path)
-                        .file_stem()
-                        .map_or("modular".into(), |s| s.to_string_lossy().into_owned());
-                    ModularConfig::new(&name, body)
-                }
-                None => {
-                    fail(format!("unknown robot `{other}` (gecko, modular-ant, spider, modular:FILE.json)"))
-                }
-            },
-        };
+        let mut c = base.clone();
         let control_period = c.sim.dt * c.frame_skip as f64;
         c.sim.dt = dt;
         c.frame_skip = (control_period / dt).round() as usize;

@@ -95,22 +95,7 @@ pub fn make_robot_env(
             let c = MinitaurConfig::fast();
             Box::new(MinitaurEnv::new(MinitaurConfig { max_episode_steps: steps(c.max_episode_steps), ..c })?)
         }
-        custom if custom.starts_with("modular:") => {
-            let path = std::path::PathBuf::from(&custom["modular:".len()..]);
-            let text = std::fs::read_to_string(&path)
-                .map_err(|source| ControlError::Io { path: path.clone(), source })?;
-            let body =
-                Body::from_json(&text).map_err(|source| ControlError::Body { path: path.clone(), source })?;
-            let name = path.file_stem().map_or("modular".to_string(), |s| s.to_string_lossy().into_owned());
-            let c = ModularConfig::new(&name, body);
-            Box::new(ModularEnv::new(ModularConfig { max_episode_steps: steps(c.max_episode_steps), ..c })?)
-        }
-        "gecko" | "modular-ant" | "spider" => {
-            let c = match name {
-                "gecko" => ModularConfig::gecko(),
-                "modular-ant" => ModularConfig::ant(),
-                _ => ModularConfig::spider(),
-            };
+        modular if let Some(c) = modular_config(modular)? => {
             Box::new(ModularEnv::new(ModularConfig { max_episode_steps: steps(c.max_episode_steps), ..c })?)
         }
         other => {
@@ -127,6 +112,21 @@ pub fn make_robot_env(
             Box::new(LocomotionEnv::new(LocomotionConfig { max_episode_steps: max, ..config })?)
         }
     })
+}
+
+/// The configuration of a modular robot environment: a preset (`gecko`, `modular-ant`,
+/// `spider`) or `modular:FILE.json`, a body read from a file and named after it; `None` for
+/// other names.
+pub fn modular_config(name: &str) -> Result<Option<ModularConfig>, ControlError> {
+    let Some(file) = name.strip_prefix("modular:") else {
+        return Ok(ModularConfig::preset(name));
+    };
+    let path = std::path::PathBuf::from(file);
+    let text =
+        std::fs::read_to_string(&path).map_err(|source| ControlError::Io { path: path.clone(), source })?;
+    let body = Body::from_json(&text).map_err(|source| ControlError::Body { path: path.clone(), source })?;
+    let stem = path.file_stem().map_or("modular".to_string(), |s| s.to_string_lossy().into_owned());
+    Ok(Some(ModularConfig::new(&stem, body)))
 }
 
 /// The controller preset for a robot environment.

@@ -40,7 +40,7 @@ use centaur_rl::env::{check_action, check_observation};
 use centaur_rl::{BoxSpace, Env, EnvError, Rng, Step, StepInfo};
 
 use crate::mujoco::MjRobot;
-use crate::robot::{FootContact, JointHistory, ObsOptions, RobotEnv};
+use crate::robot::{FootContact, JointHistory, ObsOptions, Push, RobotEnv};
 use crate::sim::{Sim, SimConfig};
 
 /// Which robot.
@@ -317,7 +317,7 @@ pub struct LocomotionEnv {
     base_obs: Vec<f32>,
     steps: usize,
     needs_reset: bool,
-    push: Option<(Vector3<f64>, f64)>,
+    push: Push,
     episode_time: f64,
 }
 
@@ -357,7 +357,7 @@ impl LocomotionEnv {
             base_obs: vec![0.0; base_dim],
             steps: 0,
             needs_reset: true,
-            push: None,
+            push: Push::default(),
             episode_time: 0.0,
             rng: Rng::seed_from_u64(0),
             config,
@@ -600,8 +600,8 @@ impl Env for LocomotionEnv {
         self.cfrc.iter_mut().for_each(|x| *x = 0.0);
         self.steps = 0;
         self.episode_time = 0.0;
-        self.push = None;
-        self.sim.set_external_force(self.base_joint(), Vector3::zeros());
+        let base = self.base_joint();
+        self.push.clear(&mut self.sim, base);
         let first_joint = if self.robot.model.has_floating_base() { 7 } else { 3 };
         let nj = self.history.len() / self.config.obs.joint_history.max(1);
         for (h, &x) in self.joint_scratch.iter_mut().zip(&self.qpos[first_joint..first_joint + nj]) {
@@ -632,14 +632,9 @@ impl Env for LocomotionEnv {
             self.applied[k] = self.tau[*iv];
         }
         let mut energy = 0.0;
+        let base = self.base_joint();
         for _ in 0..self.config.frame_skip {
-            if let Some((f, until)) = self.push {
-                let active = self.episode_time < until;
-                self.sim.set_external_force(self.base_joint(), if active { f } else { Vector3::zeros() });
-                if !active {
-                    self.push = None;
-                }
-            }
+            self.push.apply(&mut self.sim, base, self.episode_time);
             self.sim.step();
             self.episode_time += self.config.sim.dt;
             let mut p = 0.0;
@@ -728,7 +723,7 @@ impl RobotEnv for LocomotionEnv {
     }
 
     fn push(&mut self, force: Vector3<f64>, duration: f64) {
-        self.push = Some((force, self.episode_time + duration));
+        self.push.start(force, self.episode_time, duration);
     }
 
     fn last_torques(&self) -> &[f64] {

@@ -42,7 +42,7 @@ use centaur_dynamics::{BaseKind, Inertia, Model, RobotState, Shape, UrdfError};
 use centaur_rl::env::{check_action, check_observation};
 use centaur_rl::{BoxSpace, Env, EnvError, Rng, Step, StepInfo};
 
-use crate::robot::{FootContact, JointHistory, ObsOptions, RobotEnv};
+use crate::robot::{FootContact, JointHistory, ObsOptions, Push, RobotEnv};
 use crate::sim::{ColliderSpec, LoopClosure, Sim, SimConfig};
 
 /// The Minitaur URDF from pybullet_data, compiled into the crate.
@@ -467,7 +467,7 @@ pub struct MinitaurEnv {
     delayed_head: usize,
     delay_steps: usize,
     base_obs: [f32; 28],
-    push: Option<(Vector3<f64>, f64)>,
+    push: Push,
     episode_time: f64,
 }
 
@@ -527,7 +527,7 @@ impl MinitaurEnv {
             steps: 0,
             needs_reset: true,
             base_obs: [0.0; 28],
-            push: None,
+            push: Push::default(),
             episode_time: 0.0,
         };
         env.index_feet();
@@ -787,8 +787,7 @@ impl Env for MinitaurEnv {
         self.motor_enabled = [true; 8];
         self.overheat_counter = [0; 8];
         self.observed_torque = [0.0; 8];
-        self.push = None;
-        self.sim.set_external_force(1, Vector3::zeros());
+        self.push.clear(&mut self.sim, 1);
         // PyBullet settles the robot for 100 physics steps with every motor at π/2.
         if self.config.action != MinitaurAction::Pwm {
             let settle = [std::f64::consts::FRAC_PI_2; 8];
@@ -832,14 +831,7 @@ impl Env for MinitaurEnv {
         };
         let mut energy = 0.0;
         for _ in 0..self.config.action_repeat {
-            if let Some((f, until)) = self.push {
-                if self.episode_time >= until {
-                    self.sim.set_external_force(1, Vector3::zeros());
-                    self.push = None;
-                } else {
-                    self.sim.set_external_force(1, f);
-                }
-            }
+            self.push.apply(&mut self.sim, 1, self.episode_time);
             energy += self.physics_step(&cmd);
         }
         self.steps += 1;
@@ -905,7 +897,7 @@ impl RobotEnv for MinitaurEnv {
     }
 
     fn push(&mut self, force: Vector3<f64>, duration: f64) {
-        self.push = Some((force, self.episode_time + duration));
+        self.push.start(force, self.episode_time, duration);
     }
 
     /// Inverts the motor model at the current motor state: joint torque → motor-frame

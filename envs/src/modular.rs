@@ -58,7 +58,7 @@ use centaur_dynamics::{BaseKind, Data, Model, RobotState, Shape};
 use centaur_rl::env::{check_action, check_observation};
 use centaur_rl::{BoxSpace, Env, EnvError, Rng, Step, StepInfo};
 
-use crate::robot::{FootContact, JointHistory, ObsOptions, RobotEnv};
+use crate::robot::{FootContact, JointHistory, ObsOptions, Push, RobotEnv};
 use crate::sim::{ColliderSpec, Sim, SimConfig};
 
 /// The kinds of module.
@@ -1021,6 +1021,16 @@ impl ModularConfig {
         Self::new("spider", Body::spider())
     }
 
+    /// The preset of a name: `gecko`, `modular-ant` or `spider`.
+    pub fn preset(name: &str) -> Option<Self> {
+        match name {
+            "gecko" => Some(Self::gecko()),
+            "modular-ant" => Some(Self::ant()),
+            "spider" => Some(Self::spider()),
+            _ => None,
+        }
+    }
+
     /// Checks the numbers.
     pub fn validate(&self) -> Result<(), EnvError> {
         if self.frame_skip == 0 || self.max_episode_steps == 0 {
@@ -1066,7 +1076,7 @@ pub struct ModularEnv {
     start: Vector3<f64>,
     steps: usize,
     needs_reset: bool,
-    push: Option<(Vector3<f64>, f64)>,
+    push: Push,
     episode_time: f64,
 }
 
@@ -1103,7 +1113,7 @@ impl ModularEnv {
             start: Vector3::zeros(),
             steps: 0,
             needs_reset: true,
-            push: None,
+            push: Push::default(),
             episode_time: 0.0,
             rng: Rng::seed_from_u64(0),
             sim,
@@ -1260,8 +1270,7 @@ impl Env for ModularEnv {
         self.history.fill(&self.joint_scratch);
         self.steps = 0;
         self.episode_time = 0.0;
-        self.push = None;
-        self.sim.set_external_force(1, Vector3::zeros());
+        self.push.clear(&mut self.sim, 1);
         self.write_obs(obs);
         self.needs_reset = false;
         Ok(())
@@ -1280,13 +1289,7 @@ impl Env for ModularEnv {
         let before = self.progress();
         let mut energy = 0.0;
         for _ in 0..self.config.frame_skip {
-            if let Some((f, until)) = self.push {
-                let active = self.episode_time < until;
-                self.sim.set_external_force(1, if active { f } else { Vector3::zeros() });
-                if !active {
-                    self.push = None;
-                }
-            }
+            self.push.apply(&mut self.sim, 1, self.episode_time);
             for (k, &j) in self.actuated.iter().enumerate() {
                 let (q, qd) = self.sim.joint_state(j);
                 let tau = servo_torque(specs, self.targets[k], q, qd);
@@ -1344,7 +1347,7 @@ impl RobotEnv for ModularEnv {
     }
 
     fn push(&mut self, force: Vector3<f64>, duration: f64) {
-        self.push = Some((force, self.episode_time + duration));
+        self.push.start(force, self.episode_time, duration);
     }
 
     fn last_torques(&self) -> &[f64] {

@@ -5,6 +5,8 @@ use centaur_dynamics::nalgebra::Vector3;
 use centaur_dynamics::{Model, RobotState};
 use centaur_rl::Env;
 
+use crate::sim::Sim;
+
 /// One foot's contact during the last control step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FootContact {
@@ -72,6 +74,39 @@ pub struct ObsOptions {
     pub joint_history: usize,
     /// Remove the base orientation from the observation (default: false).
     pub drop_base_orientation: bool,
+}
+
+/// A force on the robot's base for a while ([`RobotEnv::push`]), shared by the envs.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Push {
+    /// The force (N, world frame) and the episode time at which it stops.
+    active: Option<(Vector3<f64>, f64)>,
+}
+
+impl Push {
+    /// Pushes with `force` from `now` for `duration` seconds.
+    pub(crate) fn start(&mut self, force: Vector3<f64>, now: f64, duration: f64) {
+        self.active = Some((force, now + duration));
+    }
+
+    /// Cancels the push and removes its force from `sim` (at reset).
+    pub(crate) fn clear(&mut self, sim: &mut Sim, joint: usize) {
+        self.active = None;
+        sim.set_external_force(joint, Vector3::zeros());
+    }
+
+    /// Before the physics step that starts at episode time `now`: applies the force to the
+    /// body moved by `joint`, or removes it once the push is over. Without a push it leaves
+    /// `sim` alone.
+    pub(crate) fn apply(&mut self, sim: &mut Sim, joint: usize, now: f64) {
+        if let Some((force, until)) = self.active {
+            let on = now < until;
+            sim.set_external_force(joint, if on { force } else { Vector3::zeros() });
+            if !on {
+                self.active = None;
+            }
+        }
+    }
 }
 
 /// A ring of the last `k` joint-position vectors.
