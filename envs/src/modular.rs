@@ -704,7 +704,7 @@ impl Body {
             })
             .collect();
         format!(
-            "<?xml version=\"1.0\"?>\n<!-- Modular robot built by centaur-envs::modular (module properties of Revolve2's V1 modules) -->\n<robot name=\"{name}\">\n{links}{joints}</robot>\n"
+            "<?xml version=\"1.0\"?>\n<!-- Modular robot built by centaur-envs::modular -->\n<robot name=\"{name}\">\n{links}{joints}</robot>\n"
         )
     }
 
