@@ -27,6 +27,19 @@ pub fn compute_joint_jacobians(model: &Model, data: &mut Data, q: &[f64]) {
 #[inline]
 pub(crate) fn write_joint_columns(model: &Model, i: usize, o_m_i: &Se3, jac: &mut Matrix6xX<f64>) {
     let j = &model.joints[i];
+    if let Some((axis, sign)) = model.axis_planes[i].unit() {
+        // A revolute joint about `sign · e_axis`: ω = sign · R e_axis, v = p × ω.
+        let angular = o_m_i.rotation.column(axis) * sign;
+        let linear = o_m_i.translation.cross(&angular);
+        let mut col = jac.column_mut(j.idx_v);
+        col[0] = linear.x;
+        col[1] = linear.y;
+        col[2] = linear.z;
+        col[3] = angular.x;
+        col[4] = angular.y;
+        col[5] = angular.z;
+        return;
+    }
     for k in 0..j.nv() {
         let s = o_m_i.act_motion(&j.kind.subspace_column(k));
         let mut col = jac.column_mut(j.idx_v + k);

@@ -139,6 +139,19 @@ pub(crate) enum AxisPlane {
 }
 
 impl AxisPlane {
+    /// `Some((k, sign))` when the axis is `sign · e_k`, `None` for a general axis. Products
+    /// with such an axis are a component pick, which equals the full product exactly (the
+    /// zero terms add nothing but, at most, the sign of a zero result).
+    #[inline(always)]
+    pub(crate) fn unit(self) -> Option<(usize, f64)> {
+        match self {
+            AxisPlane::X(s) => Some((0, s)),
+            AxisPlane::Y(s) => Some((1, s)),
+            AxisPlane::Z(s) => Some((2, s)),
+            AxisPlane::General => None,
+        }
+    }
+
     /// The plane of a joint kind's axis.
     pub(crate) fn of(kind: &JointKind) -> Self {
         let JointKind::Revolute { axis } = kind else { return AxisPlane::General };
