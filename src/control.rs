@@ -15,7 +15,9 @@ use centaur_dynamics::nalgebra::Vector3;
 use centaur_envs::{
     Body, LocomotionConfig, LocomotionEnv, MinitaurConfig, MinitaurEnv, ModularConfig, ModularEnv, RobotEnv,
 };
-use centaur_mpc::{Command, ConfigError, ControllerConfig, Gait, JointCommand, LocomotionController};
+use centaur_mpc::{
+    Command, ConfigError, ControllerConfig, Gait, JointCommand, LocomotionController, MpcExecution,
+};
 use centaur_rl::EnvError;
 
 use crate::deploy::{CommandTorques, ContactMap};
@@ -216,6 +218,11 @@ pub struct ControlOptions {
     /// Time (s) from which distance, mean speed, lateral and yaw drift are measured, e.g.
     /// after the Ant, which Gymnasium drops from 0.75 m, has landed (default: 0).
     pub measure_from: f64,
+    /// Solve the MPC on the controller's worker thread ([`MpcExecution::Background`]) and
+    /// run the simulation in real time, so that plans arrive as late as on a robot; the run
+    /// then takes `seconds` of wall time and is not reproducible bit for bit (default:
+    /// false).
+    pub background_mpc: bool,
 }
 
 impl Default for ControlOptions {
@@ -228,6 +235,7 @@ impl Default for ControlOptions {
             seed: 0,
             push: None,
             measure_from: 0.0,
+            background_mpc: false,
         }
     }
 }
@@ -311,7 +319,11 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     let steps = (opts.seconds / probe.dt()).round() as usize;
     drop(probe);
     let mut env = make_robot_env(&opts.env, Some(steps + 1))?;
-    let mut ctrl = LocomotionController::new(env.model(), controller_config(&opts.env)?)?;
+    let mut config = controller_config(&opts.env)?;
+    if opts.background_mpc {
+        config.mpc_execution = MpcExecution::Background;
+    }
+    let mut ctrl = LocomotionController::new(env.model(), config)?;
     let n_legs = ctrl.robot().n_legs;
     if !opts.gait.supported(n_legs) {
         return Err(ControlError::Invalid(format!(
@@ -332,7 +344,15 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     let mut fell = false;
     let mut ret = 0.0;
     let mut t = 0.0;
+    let wall = Instant::now();
     for k in 0..steps {
+        if opts.background_mpc {
+            // Real time: this step starts `t` seconds after the first.
+            let ahead = t - wall.elapsed().as_secs_f64();
+            if ahead > 0.0 {
+                std::thread::sleep(std::time::Duration::from_secs_f64(ahead));
+            }
+        }
         if opts.measure_from > 0.0 && t0 == 0.0 && t >= opts.measure_from - 1e-9 {
             (x0, y0, yaw0) = planar_pose(env.as_ref());
             t0 = t;

@@ -1,6 +1,7 @@
 //! Controller configuration: typed structs with documented defaults, presets as named
 //! constructors, and `validate()` returning a typed [`ConfigError`].
 
+use crate::background::MpcExecution;
 use crate::convex_mpc::MpcConfig;
 use crate::gait::Gait;
 use crate::robot::{BaseSpec, ContactSpec, LoopClosureSpec, RobotSpec};
@@ -59,6 +60,9 @@ pub struct ControllerConfig {
     pub mode: ControlMode,
     /// Time between MPC solves (s); the plan is followed in between (default: 0.02).
     pub mpc_period: f64,
+    /// Whether the MPC is solved inside `tick` or on a worker thread (default:
+    /// [`MpcExecution::Inline`], deterministic).
+    pub mpc_execution: MpcExecution,
     /// Swing apex height above the lift-off/touch-down points (m) (default: 0.06).
     pub swing_height: f64,
     /// Use measured contacts (when given) to start each stance only at touch-down and to
@@ -136,6 +140,7 @@ impl ControllerConfig {
             wbc: WbcConfig::default(),
             mode: ControlMode::WholeBody,
             mpc_period: 0.02,
+            mpc_execution: MpcExecution::Inline,
             swing_height: 0.06,
             touchdown_detection: true,
             touchdown_speed: 0.3,

@@ -12,6 +12,7 @@ use centaur_dynamics::{
     jacobian_center_of_mass, nonlinear_effects, update_frame_placements,
 };
 
+use crate::background::{BackgroundMpc, MpcExecution, MpcPlan};
 use crate::config::{Command, ConfigError, ControlMode, ControllerConfig};
 use crate::convex_mpc::{ConvexMpc, NX};
 use crate::gait::{Gait, GaitScheduler, MAX_LEGS, ramp};
@@ -106,11 +107,13 @@ pub struct ControllerStatus {
     pub contact: Vec<bool>,
     /// Predicted stance flags per leg over the MPC horizon.
     pub contact_schedule: Vec<[bool; MAX_LEGS]>,
-    /// Whether the MPC ran this tick.
+    /// Whether the MPC ran this tick ([`MpcExecution::Background`]: whether this tick
+    /// adopted a plan the worker finished).
     pub mpc_ran: bool,
     /// Status of the last MPC solve.
     pub mpc_status: QpStatus,
-    /// Wall time of the last MPC solve (µs).
+    /// Wall time of the last MPC solve (µs; on the worker thread with
+    /// [`MpcExecution::Background`]).
     pub mpc_solve_us: f64,
     /// Iterations of the last MPC solve.
     pub mpc_iterations: u32,
@@ -158,13 +161,20 @@ pub struct ControllerStatus {
     pub rpy: [f64; 3],
 }
 
+/// The convex MPC, solved in `tick` or on a worker thread.
+#[allow(clippy::large_enum_variant)] // one per controller, never moved in a hot path
+enum MpcRunner {
+    Inline { mpc: ConvexMpc, plan: MpcPlan },
+    Background(BackgroundMpc),
+}
+
 /// The locomotion controller. See the crate documentation for the pipeline.
 pub struct LocomotionController {
     cfg: ControllerConfig,
     robot: LeggedRobot,
     data: Data,
     gait: GaitScheduler,
-    mpc: ConvexMpc,
+    mpc: MpcRunner,
     wbc: WholeBodyQp,
     command: JointCommand,
     status: ControllerStatus,
@@ -239,6 +249,10 @@ impl LocomotionController {
         let na = robot.n_actuated();
         let nj = robot.joint_v.len();
         let h = config.mpc.horizon;
+        let mpc = match config.mpc_execution {
+            MpcExecution::Inline => MpcRunner::Inline { mpc, plan: MpcPlan::new(h, nc) },
+            MpcExecution::Background => MpcRunner::Background(BackgroundMpc::start(mpc, h, nc)?),
+        };
         let passive_joint_v: Vec<usize> =
             robot.unactuated_v.iter().copied().filter(|k| !robot.base_v.contains(k)).collect();
         let nl = robot.n_closure_rows;
@@ -381,6 +395,9 @@ impl LocomotionController {
         self.v_cmd = Vector3::zeros();
         self.yaw_rate_cmd = 0.0;
         self.mpc_consecutive_failures = 0;
+        if let MpcRunner::Background(bg) = &mut self.mpc {
+            bg.reset();
+        }
         self.was_stance.iter_mut().for_each(|s| *s = true);
         self.touched.iter_mut().for_each(|s| *s = true);
         self.early.iter_mut().for_each(|s| *s = false);
@@ -512,6 +529,11 @@ impl LocomotionController {
         self.update_position_reference(dt, &target);
         self.update_swing(height, dt);
         // MPC.
+        if let MpcRunner::Background(bg) = &mut self.mpc
+            && bg.poll(false)
+        {
+            self.adopt_plan();
+        }
         let due = self.last_mpc_t.is_none_or(|t0| t - t0 >= self.cfg.mpc_period - 1e-9 || t < t0);
         if due || changed || !self.plan_valid {
             self.run_mpc(t, height);
@@ -812,7 +834,10 @@ impl LocomotionController {
         let nc = self.robot.n_contacts();
         let planar = self.cfg.mpc.planar;
         self.gait.contact_schedule(dt, &mut self.schedule);
-        let inp = &mut self.mpc.input;
+        let inp = match &mut self.mpc {
+            MpcRunner::Inline { mpc, .. } => &mut mpc.input,
+            MpcRunner::Background(bg) => &mut bg.staging,
+        };
         let mut x0 = [0.0; NX];
         let yaw = self.yaw_ref + wrap_pi(self.rpy.z - self.yaw_ref);
         x0[0] = self.rpy.x;
@@ -859,23 +884,35 @@ impl LocomotionController {
                 }
             }
         }
-        let t0 = Instant::now();
-        let st = self.mpc.solve();
-        self.status.mpc_solve_us = t0.elapsed().as_secs_f64() * 1e6;
-        self.status.mpc_status = st;
-        self.status.mpc_iterations = self.mpc.iterations();
-        self.status.mpc_ran = true;
         self.last_mpc_t = Some(t);
-        if st.is_ok() {
-            for k in 0..h {
-                for ci in 0..nc {
-                    self.plan_forces[k * nc + ci] = self.mpc.force(k, ci);
+        match &mut self.mpc {
+            MpcRunner::Inline { mpc, plan } => plan.solve(mpc, t, h, nc),
+            MpcRunner::Background(bg) => {
+                bg.submit(t);
+                // With no feasible plan to follow, wait for this one.
+                if self.plan_valid && self.mpc_consecutive_failures == 0 || !bg.poll(true) {
+                    return;
                 }
-                let x = self.mpc.predicted_state(k);
-                self.status.planned_com[k] = [x[3], x[4], x[5]];
             }
+        }
+        self.adopt_plan();
+    }
+
+    /// Takes the plan last solved (in this thread or on the worker) into use.
+    fn adopt_plan(&mut self) {
+        let plan = match &self.mpc {
+            MpcRunner::Inline { plan, .. } => plan,
+            MpcRunner::Background(bg) => &bg.latest,
+        };
+        self.status.mpc_solve_us = plan.solve_us;
+        self.status.mpc_status = plan.status;
+        self.status.mpc_iterations = plan.iterations;
+        self.status.mpc_ran = true;
+        if plan.status.is_ok() {
+            self.plan_forces.copy_from_slice(&plan.forces);
+            self.status.planned_com.copy_from_slice(&plan.com);
             self.plan_valid = true;
-            self.plan_t = t;
+            self.plan_t = plan.t;
             self.mpc_consecutive_failures = 0;
         } else {
             self.status.mpc_failures += 1;

@@ -3,35 +3,43 @@
 //! tree at the start of `solve()`, dropping the nested `HashMap` of sub-timers and
 //! re-creating it (`timers.rs`, `reset_timer("solve")`), which no setting turns off. The
 //! test therefore proves: zero allocations on ticks without a Clarabel solve, and at most
-//! one per Clarabel solve.
+//! one per Clarabel solve. With the MPC on its worker thread (`MpcExecution::Background`)
+//! that solve allocates there: the ticking thread allocates nothing at all. (Allocations are
+//! counted per thread.)
 #![allow(unsafe_code)] // a global allocator cannot be written without it
 
 mod common;
 
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::cell::Cell;
 
-use centaur_mpc::{Command, Gait, LocomotionController, QpBackend};
+use centaur_mpc::{Command, Gait, LocomotionController, MpcExecution, QpBackend};
 
 struct Counting;
 
-static COUNT: AtomicUsize = AtomicUsize::new(0);
-static ON: AtomicBool = AtomicBool::new(false);
+thread_local! {
+    /// Counting is on for this thread.
+    static ON: Cell<bool> = const { Cell::new(false) };
+    /// Allocations this thread made while counting.
+    static COUNT: Cell<usize> = const { Cell::new(0) };
+}
+
+fn count_one() {
+    if ON.try_with(Cell::get).unwrap_or(false) {
+        let _ = COUNT.try_with(|c| c.set(c.get() + 1));
+    }
+}
 
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        if ON.load(Ordering::SeqCst) {
-            COUNT.fetch_add(1, Ordering::SeqCst);
-        }
+        count_one();
         unsafe { System.alloc(layout) }
     }
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
         unsafe { System.dealloc(ptr, layout) }
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        if ON.load(Ordering::SeqCst) {
-            COUNT.fetch_add(1, Ordering::SeqCst);
-        }
+        count_one();
         unsafe { System.realloc(ptr, layout, new_size) }
     }
 }
@@ -41,9 +49,10 @@ static GLOBAL: Counting = Counting;
 
 /// Returns (allocations on ticks without a Clarabel solve, allocations on ticks with one,
 /// number of Clarabel solves).
-fn count_ticks(name: &str, backend: QpBackend) -> (usize, usize, usize) {
+fn count_ticks(name: &str, backend: QpBackend, exec: MpcExecution) -> (usize, usize, usize) {
     let (model, mut cfg) = common::load(name);
     cfg.wbc.backend = backend;
+    cfg.mpc_execution = exec;
     let mut c = LocomotionController::new(&model, cfg).unwrap();
     let s = c.nominal_state();
     // Warm up once (first MPC solve), then count over gait changes and a NaN state.
@@ -53,11 +62,11 @@ fn count_ticks(name: &str, backend: QpBackend) -> (usize, usize, usize) {
     let (mut quiet, mut loud, mut solves) = (0, 0, 0);
     let mut t = 0.0;
     let mut run = |c: &mut LocomotionController, state, cmd: &Command, t: f64| {
-        COUNT.store(0, Ordering::SeqCst);
-        ON.store(true, Ordering::SeqCst);
+        COUNT.with(|c| c.set(0));
+        ON.with(|on| on.set(true));
         c.tick(state, cmd, t);
-        ON.store(false, Ordering::SeqCst);
-        let n = COUNT.load(Ordering::SeqCst);
+        ON.with(|on| on.set(false));
+        let n = COUNT.with(Cell::get);
         let st = c.status();
         let clarabel = usize::from(st.mpc_ran)
             + usize::from(backend == QpBackend::Clarabel && st.wbc_status != centaur_mpc::QpStatus::NotRun);
@@ -81,12 +90,21 @@ fn count_ticks(name: &str, backend: QpBackend) -> (usize, usize, usize) {
 #[test]
 fn tick_does_not_allocate() {
     for name in ["solo12", "ant", "minitaur", "walker2d", "humanoid"] {
-        let (quiet, loud, solves) = count_ticks(name, QpBackend::Dense);
+        let (quiet, loud, solves) = count_ticks(name, QpBackend::Dense, MpcExecution::Inline);
         assert_eq!(quiet, 0, "{name} (dense WBC): allocations outside Clarabel");
         assert!(solves > 0 && loud <= solves, "{name}: {loud} allocations in {solves} Clarabel solves");
     }
     // With the Clarabel WBC each of the 16 per-stance-pattern solvers also fills its timer
     // map on its first solve.
-    let (_, loud, solves) = count_ticks("solo12", QpBackend::Clarabel);
+    let (_, loud, solves) = count_ticks("solo12", QpBackend::Clarabel, MpcExecution::Inline);
     assert!(loud <= solves + 16, "solo12 (Clarabel WBC): {loud} allocations in {solves} Clarabel solves");
+}
+
+#[test]
+fn with_the_mpc_on_its_worker_thread_tick_never_allocates() {
+    for name in ["solo12", "minitaur", "walker2d"] {
+        let (quiet, loud, solves) = count_ticks(name, QpBackend::Dense, MpcExecution::Background);
+        assert_eq!((quiet, loud), (0, 0), "{name}: allocations on the ticking thread");
+        assert!(solves > 0, "{name}: no plan adopted");
+    }
 }

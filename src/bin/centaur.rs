@@ -104,6 +104,10 @@ struct ControlArgs {
     /// Measure distance, speed and drifts from this time (s), e.g. after a landing.
     #[arg(long, default_value_t = 0.0)]
     measure_from: f64,
+    /// Solve the MPC on a worker thread and simulate in real time (ticks then never wait
+    /// for a solve; the run takes `--seconds` of wall time and is not bit-reproducible).
+    #[arg(long)]
+    background_mpc: bool,
 }
 
 #[derive(Args)]
@@ -223,6 +227,7 @@ fn control(args: ControlArgs) -> ExitCode {
             duration: args.push_duration,
         }),
         measure_from: args.measure_from,
+        background_mpc: args.background_mpc,
     };
     let result = run_control(&opts).and_then(|s| write_summary(&args.out, &s).map(|path| (s, path)));
     match result {
