@@ -279,6 +279,11 @@ pub struct ControlSummary {
     pub push: Option<PushSummary>,
     /// Environment return accumulated over the run.
     pub env_return: f64,
+    /// Where the MPC ran: "inline" or "background" (its worker thread).
+    pub mpc_execution: String,
+    /// Ticks that solved the MPC or waited for its solve (inline: every solving tick;
+    /// background: only the ticks before the first plan).
+    pub mpc_blocking_ticks: u64,
 }
 
 /// The push of a run, as recorded in the summary.
@@ -341,6 +346,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     let command = Command::forward(opts.speed, opts.gait);
     let mut ticks = Vec::with_capacity(steps);
     let (mut mpc_us, mut mpc_n, mut wbc_us, mut wbc_n) = (0.0, 0usize, 0.0, 0usize);
+    let mut blocking = 0u64;
     let mut fell = false;
     let mut ret = 0.0;
     let mut t = 0.0;
@@ -372,6 +378,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
             mpc_us += status.mpc_solve_us;
             mpc_n += 1;
         }
+        blocking += u64::from(status.mpc_blocked);
         wbc_us += status.wbc_solve_us;
         wbc_n += 1;
         let step = env.step(&action, &mut obs)?;
@@ -416,6 +423,8 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
             impulse: Vector3::from(p.force).norm() * p.duration,
         }),
         env_return: ret,
+        mpc_execution: if opts.background_mpc { "background" } else { "inline" }.into(),
+        mpc_blocking_ticks: blocking,
     })
 }
 

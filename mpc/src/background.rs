@@ -30,10 +30,20 @@ pub enum MpcExecution {
     /// On a worker thread the controller starts in `new` and joins when dropped. A tick
     /// that is due for a plan only copies the MPC's inputs to the worker; every tick adopts
     /// the newest finished plan and follows it from the time its state was measured, so a
-    /// plan arrives one solve late and no tick waits for a solve — except while the
-    /// controller has no feasible plan at all (the first tick, after a reset or after
-    /// failed solves), when it waits for the one it asked for. Timing-dependent, so not
-    /// reproducible bit for bit: meant for robots, not for training.
+    /// plan arrives one solve late. A tick waits for the worker only while the controller
+    /// has never had a feasible plan (its first ticks, and the first after a reset — which
+    /// may also wait out a solve for the old state that was already running); failed
+    /// solves later do not block: the last feasible plan is followed, decayed, as inline.
+    /// [`crate::ControllerStatus::mpc_blocked`] flags the ticks that waited.
+    ///
+    /// In the status, `mpc_ran`, the MPC status, time, iterations and failure count describe
+    /// plans as they are adopted (a result replaced before any tick took it is not
+    /// counted), while `contact_schedule` is that of the problem last submitted. A plan
+    /// whose state is later than the tick's time (time went back without a reset) is
+    /// dropped. If a solve panics the worker is gone: from then on every tick due for an MPC
+    /// reports [`QpStatus::SolverGone`] and counts an MPC failure, and the controller falls
+    /// back as for failed solves.
+    /// Timing-dependent, so not reproducible bit for bit: meant for robots, not training.
     Background,
 }
 
@@ -144,6 +154,17 @@ impl Drop for GoneOnExit {
     }
 }
 
+/// What [`BackgroundMpc::poll`] found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Poll {
+    /// A plan of the current generation, now in `latest`.
+    Plan,
+    /// No plan (yet).
+    Nothing,
+    /// The worker has ended: no plan will ever come.
+    Gone,
+}
+
 /// The controller's handle on the worker.
 pub(crate) struct BackgroundMpc {
     /// Inputs being assembled for the next submission.
@@ -227,24 +248,32 @@ impl BackgroundMpc {
     }
 
     /// Takes a finished plan of this generation into `self.latest`; with `wait`, blocks
-    /// until one exists (false if the worker is gone).
-    pub(crate) fn poll(&mut self, wait: bool) -> bool {
+    /// until one exists or nothing more can come.
+    pub(crate) fn poll(&mut self, wait: bool) -> Poll {
         let mut s = self.shared.lock();
         loop {
             if s.result_ready && s.result_generation == self.generation {
                 self.latest.copy_from(&s.result);
                 s.result_ready = false;
-                return true;
+                return Poll::Plan;
             }
             if s.result_ready {
                 s.result_ready = false; // solved for an episode that has been reset
             }
-            // Nothing will come: not waiting, no worker, or no work queued or under way.
-            if !wait || s.worker_gone || !s.job_pending && !s.busy {
-                return false;
+            if s.worker_gone {
+                return Poll::Gone;
+            }
+            // Nothing will come now: not waiting, or no work queued or under way.
+            if !wait || !s.job_pending && !s.busy {
+                return Poll::Nothing;
             }
             s = self.shared.changed.wait(s).unwrap_or_else(PoisonError::into_inner);
         }
+    }
+
+    /// Whether the worker has ended (a solve panicked).
+    pub(crate) fn gone(&self) -> bool {
+        self.shared.lock().worker_gone
     }
 
     /// Drops pending work and any plan not yet taken (an episode reset).

@@ -12,7 +12,7 @@ use centaur_dynamics::{
     jacobian_center_of_mass, nonlinear_effects, update_frame_placements,
 };
 
-use crate::background::{BackgroundMpc, MpcExecution, MpcPlan};
+use crate::background::{BackgroundMpc, MpcExecution, MpcPlan, Poll};
 use crate::config::{Command, ConfigError, ControlMode, ControllerConfig};
 use crate::convex_mpc::{ConvexMpc, NX};
 use crate::gait::{Gait, GaitScheduler, MAX_LEGS, ramp};
@@ -110,6 +110,9 @@ pub struct ControllerStatus {
     /// Whether the MPC ran this tick ([`MpcExecution::Background`]: whether this tick
     /// adopted a plan the worker finished).
     pub mpc_ran: bool,
+    /// Whether this tick solved the MPC itself ([`MpcExecution::Inline`]) or waited for
+    /// the worker's solve ([`MpcExecution::Background`], only while no plan exists yet).
+    pub mpc_blocked: bool,
     /// Status of the last MPC solve.
     pub mpc_status: QpStatus,
     /// Wall time of the last MPC solve (µs; on the worker thread with
@@ -264,6 +267,7 @@ impl LocomotionController {
             contact: vec![true; nc],
             contact_schedule: vec![[false; MAX_LEGS]; h],
             mpc_ran: false,
+            mpc_blocked: false,
             mpc_status: QpStatus::NotRun,
             mpc_solve_us: 0.0,
             mpc_iterations: 0,
@@ -458,6 +462,7 @@ impl LocomotionController {
         self.status.ticks += 1;
         self.status.t = t;
         self.status.mpc_ran = false;
+        self.status.mpc_blocked = false;
         self.status.wbc_status = QpStatus::NotRun;
         self.status.fallback = Fallback::None;
         let cmd_ok = command.forward_velocity.is_finite()
@@ -529,8 +534,10 @@ impl LocomotionController {
         self.update_position_reference(dt, &target);
         self.update_swing(height, dt);
         // MPC.
+        // (A plan whose state is later than now, from before time went back, is dropped.)
         if let MpcRunner::Background(bg) = &mut self.mpc
-            && bg.poll(false)
+            && bg.poll(false) == Poll::Plan
+            && bg.latest.t <= t
         {
             self.adopt_plan();
         }
@@ -886,16 +893,39 @@ impl LocomotionController {
         }
         self.last_mpc_t = Some(t);
         match &mut self.mpc {
-            MpcRunner::Inline { mpc, plan } => plan.solve(mpc, t, h, nc),
+            MpcRunner::Inline { mpc, plan } => {
+                self.status.mpc_blocked = true;
+                plan.solve(mpc, t, h, nc);
+            }
             MpcRunner::Background(bg) => {
-                bg.submit(t);
-                // With no feasible plan to follow, wait for this one.
-                if self.plan_valid && self.mpc_consecutive_failures == 0 || !bg.poll(true) {
+                if bg.gone() {
+                    self.mpc_solver_gone();
                     return;
+                }
+                bg.submit(t);
+                if self.plan_valid {
+                    return; // follow the current plan until this one is ready
+                }
+                // Never had a feasible plan: wait for one.
+                self.status.mpc_blocked = true;
+                match bg.poll(true) {
+                    Poll::Plan if bg.latest.t <= t => {}
+                    Poll::Plan | Poll::Nothing => return,
+                    Poll::Gone => {
+                        self.mpc_solver_gone();
+                        return;
+                    }
                 }
             }
         }
         self.adopt_plan();
+    }
+
+    /// The MPC's worker thread has ended: a failed solve, every time one is due.
+    fn mpc_solver_gone(&mut self) {
+        self.status.mpc_status = QpStatus::SolverGone;
+        self.status.mpc_failures += 1;
+        self.mpc_consecutive_failures += 1;
     }
 
     /// Takes the plan last solved (in this thread or on the worker) into use.

@@ -65,8 +65,9 @@
 //! need. On a robot, set [`ControllerConfig::mpc_execution`] to
 //! [`MpcExecution::Background`]: the controller then owns a worker thread that solves
 //! while the control loop goes on, each tick adopts the newest finished plan and follows
-//! it from the time its state was measured (MIT Cheetah's arrangement), and no tick waits
-//! for a solve once the first plan exists. A 1 kHz loop then holds its deadline: in
+//! it from the time its state was measured (MIT Cheetah's arrangement), and a tick waits
+//! for a solve only before the first plan (after construction or a reset), never after
+//! failed solves. A 1 kHz loop then holds its deadline: in
 //! `mpc_bench` the ticks' p99 falls from the solve time to about 0.15 ms.
 //!
 //! ## Limits

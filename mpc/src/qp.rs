@@ -38,6 +38,9 @@ pub enum QpStatus {
     NumericalError,
     /// The solver stopped making progress.
     InsufficientProgress,
+    /// The solver is gone: the MPC's worker thread ([`crate::MpcExecution::Background`])
+    /// ended after a panic inside a solve.
+    SolverGone,
 }
 
 impl QpStatus {

@@ -102,6 +102,17 @@ fn tick_does_not_allocate() {
 
 #[test]
 fn with_the_mpc_on_its_worker_thread_tick_never_allocates() {
+    // The first tick, which waits for the worker's first plan, included.
+    let (model, mut cfg) = common::load("solo12");
+    cfg.mpc_execution = MpcExecution::Background;
+    let mut c = LocomotionController::new(&model, cfg).unwrap();
+    let s = c.nominal_state();
+    COUNT.with(|c| c.set(0));
+    ON.with(|on| on.set(true));
+    c.tick(&s, &Command::stand(), 0.0);
+    ON.with(|on| on.set(false));
+    assert!(c.status().mpc_blocked && c.status().mpc_status.is_ok());
+    assert_eq!(COUNT.with(Cell::get), 0, "the first (waiting) tick allocated");
     for name in ["solo12", "minitaur", "walker2d"] {
         let (quiet, loud, solves) = count_ticks(name, QpBackend::Dense, MpcExecution::Background);
         assert_eq!((quiet, loud), (0, 0), "{name}: allocations on the ticking thread");
