@@ -485,19 +485,26 @@ pub fn run_experiment_with_progress(
     let steps = opts.steps;
     let bar = indicatif::ProgressBar::new(2 * steps);
     bar.set_style(progress_style());
-    let (pure, hybrid) = (format!("pure {learner}"), format!("hybrid {learner}"));
+    // The two agents may train side by side: the bar counts both, the message shows the
+    // latest training return of each.
+    let (mut done, mut returns) = ([0u64; 2], [None::<f64>; 2]);
     let result = run_experiment(opts, &mut |phase, m| {
-        let (offset, label) = match phase {
-            Phase::TrainPure => (0, pure.as_str()),
-            Phase::TrainHybrid => (steps, hybrid.as_str()),
+        let k = match phase {
+            Phase::TrainPure => 0,
+            Phase::TrainHybrid => 1,
             Phase::Evaluate => {
                 bar.set_message("evaluating");
                 bar.set_position(2 * steps);
                 return;
             }
         };
-        bar.set_message(format!("{label} {:.2}", m.episode_return_mean));
-        bar.set_position(offset + m.env_steps.min(steps));
+        done[k] = m.env_steps.min(steps);
+        returns[k] = Some(m.episode_return_mean);
+        let label = |name: &str, r: Option<f64>| r.map(|r| format!("{name} {learner} {r:.2}"));
+        let parts: Vec<String> =
+            [label("pure", returns[0]), label("hybrid", returns[1])].into_iter().flatten().collect();
+        bar.set_message(parts.join(", "));
+        bar.set_position(done[0] + done[1]);
     });
     bar.finish_and_clear();
     result
@@ -637,21 +644,52 @@ pub fn run_experiment(
     // The hybrid needs a controller: refuse a robot without one before training anything.
     crate::control::controller_config(&opts.env)?;
     std::fs::create_dir_all(&opts.out).map_err(io_err(&opts.out))?;
-    // Pure RL on the robot environment.
-    let mut pure_env =
-        vec_env_of(&mut || Ok(make_robot_env(&opts.env, None)? as Box<dyn Env>), opts.n_envs, opts.threads)?;
-    let (pure_ckpt, pure_rows, pure_wall, pure_steps) =
-        train_one(opts, &opts.out.join("pure_rl"), &mut pure_env, Phase::TrainPure, progress)?;
-    drop(pure_env);
-    // The hybrid on the residual environment.
-    let mut hybrid_env = vec_env_of(
-        &mut || Ok(Box::new(ResidualEnv::for_env(&opts.env, opts.residual.clone())?) as Box<dyn Env>),
-        opts.n_envs,
-        opts.threads,
-    )?;
-    let (hybrid_ckpt, hybrid_rows, hybrid_wall, hybrid_steps) =
-        train_one(opts, &opts.out.join("hybrid"), &mut hybrid_env, Phase::TrainHybrid, progress)?;
-    drop(hybrid_env);
+    // Pure RL on the robot environment, the hybrid on the residual environment.
+    let train_pure = |progress: &mut dyn FnMut(Phase, &UpdateMetrics)| {
+        let mut env =
+            vec_env_of(&mut || Ok(make_robot_env(&opts.env, None)? as Box<dyn Env>), opts.n_envs, opts.threads)?;
+        train_one(opts, &opts.out.join("pure_rl"), &mut env, Phase::TrainPure, progress)
+    };
+    let train_hybrid = |progress: &mut dyn FnMut(Phase, &UpdateMetrics)| {
+        let mut env = vec_env_of(
+            &mut || Ok(Box::new(ResidualEnv::for_env(&opts.env, opts.residual.clone())?) as Box<dyn Env>),
+            opts.n_envs,
+            opts.threads,
+        )?;
+        train_one(opts, &opts.out.join("hybrid"), &mut env, Phase::TrainHybrid, progress)
+    };
+    // With several threads the two trainings run side by side: each depends only on its own
+    // seed and environments (and not on the thread count, see `VecEnv`), so the results are
+    // those of one after the other, and the cores one training leaves idle (its learner's
+    // updates are single-threaded) do the other's work. The hybrid's progress reaches
+    // `progress` on this thread through a channel.
+    let (pure, hybrid) = if opts.threads > 1 {
+        std::thread::scope(|s| {
+            let (tx, rx) = std::sync::mpsc::channel::<(Phase, UpdateMetrics)>();
+            let hybrid = s.spawn(move || {
+                train_hybrid(&mut |phase, m| {
+                    let _ = tx.send((phase, *m));
+                })
+            });
+            let pure = train_pure(&mut |phase, m| {
+                progress(phase, m);
+                while let Ok((phase, m)) = rx.try_recv() {
+                    progress(phase, &m);
+                }
+            });
+            // Until the hybrid's thread ends and drops its sender.
+            for (phase, m) in rx.iter() {
+                progress(phase, &m);
+            }
+            let hybrid = hybrid.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
+            (pure, hybrid)
+        })
+    } else {
+        let pure = train_pure(progress)?;
+        (Ok(pure), train_hybrid(progress))
+    };
+    let (pure_ckpt, pure_rows, pure_wall, pure_steps) = pure?;
+    let (hybrid_ckpt, hybrid_rows, hybrid_wall, hybrid_steps) = hybrid?;
     progress(Phase::Evaluate, &UpdateMetrics::default());
 
     // Evaluation: the policies as deployed (loaded back from their checkpoints). The three

@@ -178,18 +178,22 @@ fn compare(args: CompareArgs) -> ExitCode {
     let bar = ProgressBar::new(seeds * 2 * opts.steps);
     bar.set_style(progress_style());
     let steps = opts.steps;
+    // A seed's two agents may train side by side: count both.
+    let mut done = [0u64; 2];
     let result = run_compare(&opts, &mut |seed, phase, m| {
-        let (offset, label) = match phase {
+        let (k, label) = match phase {
             Phase::TrainPure => (0, "pure"),
-            Phase::TrainHybrid => (steps, "hybrid"),
+            Phase::TrainHybrid => (1, "hybrid"),
             Phase::Evaluate => {
+                done = [0; 2];
                 bar.set_message(format!("seed {seed} evaluating"));
                 bar.set_position((seed + 1) * 2 * steps);
                 return;
             }
         };
+        done[k] = m.env_steps.min(steps);
         bar.set_message(format!("seed {seed} {label} {:.2}", m.episode_return_mean));
-        bar.set_position(seed * 2 * steps + offset + m.env_steps.min(steps));
+        bar.set_position(seed * 2 * steps + done[0] + done[1]);
     });
     bar.finish_and_clear();
     match result {
