@@ -1,8 +1,9 @@
 //! Residual PPO on the Minitaur against pure PPO with the same budget and seed, and the
 //! controller alone: trains both, evaluates all three over 10 episodes, prints the table and
 //! writes the run directory (metrics, learning curves, checkpoints, summary.json, MCAP).
-//! The default budget, 300,000 steps per agent, takes about 9 minutes on 2 cores (the
-//! hybrid's cost is the controller: one MPC solve per environment step).
+//! The default budget, 300,000 steps per agent, takes under 10 minutes on 2 cores, the two
+//! agents training side by side (the hybrid's cost is the controller: one MPC solve per
+//! environment step).
 //!
 //! ```text
 //! cargo run --release --example residual_ppo_minitaur

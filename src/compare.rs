@@ -38,7 +38,8 @@ pub struct CompareOptions {
     pub algo_config: Option<String>,
     /// Parallel environments per agent.
     pub n_envs: usize,
-    /// Threads stepping them.
+    /// Threads stepping each agent's environments; with more than one, a seed's two agents
+    /// also train side by side (results unchanged).
     pub threads: usize,
     /// Evaluation episodes per agent and seed.
     pub eval_episodes: usize,

@@ -4,7 +4,10 @@
 //! [`run_experiment`] trains a pure-RL agent on the robot environment and a hybrid agent on
 //! its [`ResidualEnv`] with the same algorithm, hyperparameters, seed and step budget,
 //! evaluates the two policies and the controller alone over the same evaluation seeds with
-//! deterministic actions, and writes:
+//! deterministic actions, and writes what follows. With more than one thread
+//! ([`ExperimentOptions::threads`]) the two agents train side by side and the three are
+//! evaluated side by side; every figure is the same as with one thread, only the wall times
+//! (which then overlap) differ.
 //!
 //! | file | content |
 //! |---|---|
@@ -22,6 +25,7 @@
 
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use centaur_dynamics::nalgebra::Vector3;
@@ -62,6 +66,9 @@ pub enum ExperimentError {
         /// Cause.
         source: std::io::Error,
     },
+    /// A training stopped because the other agent's, running side by side, failed.
+    #[error("stopped: the other agent's training failed")]
+    Stopped,
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> ExperimentError + '_ {
@@ -319,7 +326,8 @@ pub struct ExperimentOptions {
     pub algo_config: Option<String>,
     /// Parallel environments per agent.
     pub n_envs: usize,
-    /// Threads stepping them.
+    /// Threads stepping each agent's environments; with more than one, the two agents also
+    /// train side by side (results unchanged, see [`run_experiment`]).
     pub threads: usize,
     /// Evaluation episodes per agent (≥ 10 recommended).
     pub eval_episodes: usize,
@@ -436,6 +444,7 @@ fn train_one(
     env: &mut VecEnv,
     phase: Phase,
     progress: &mut dyn FnMut(Phase, &UpdateMetrics),
+    stop: &AtomicBool,
 ) -> Result<(PathBuf, Vec<UpdateMetrics>, f64, u64), ExperimentError> {
     std::fs::create_dir_all(dir).map_err(io_err(dir))?;
     let cfg_path = dir.join("config.toml");
@@ -451,6 +460,9 @@ fn train_one(
     let mut csv_error = None;
     let t0 = Instant::now();
     algo.learn(env, opts.steps, &mut |m| {
+        if stop.load(Ordering::Relaxed) {
+            return ControlFlow::Break(());
+        }
         if let Err(e) = csv.write(m) {
             csv_error = Some(e);
             return ControlFlow::Break(());
@@ -460,6 +472,9 @@ fn train_one(
         ControlFlow::Continue(())
     })?;
     let wall = t0.elapsed().as_secs_f64();
+    if stop.load(Ordering::Relaxed) {
+        return Err(ExperimentError::Stopped);
+    }
     if let Some(e) = csv_error {
         return Err(ExperimentError::Io { path: csv_path, source: e });
     }
@@ -526,7 +541,8 @@ pub struct ExampleArgs {
     /// Parallel environments per agent [default: the example's]
     #[arg(long, value_parser = positive_count)]
     pub envs: Option<usize>,
-    /// Threads stepping them, at most one per environment [default: the available cores]
+    /// Threads stepping each agent's environments, at most one per environment; with more
+    /// than one the two agents train side by side [default: the available cores]
     #[arg(long, value_parser = positive_count)]
     pub threads: Option<usize>,
     /// Deterministic evaluation episodes per agent
@@ -645,10 +661,21 @@ pub fn run_experiment(
     crate::control::controller_config(&opts.env)?;
     std::fs::create_dir_all(&opts.out).map_err(io_err(&opts.out))?;
     // Pure RL on the robot environment, the hybrid on the residual environment.
+    // Set when one training fails, to stop the other one running side by side.
+    let stop = AtomicBool::new(false);
+    let failed = |r: Result<_, ExperimentError>| {
+        if r.is_err() {
+            stop.store(true, Ordering::Relaxed);
+        }
+        r
+    };
     let train_pure = |progress: &mut dyn FnMut(Phase, &UpdateMetrics)| {
-        let mut env =
-            vec_env_of(&mut || Ok(make_robot_env(&opts.env, None)? as Box<dyn Env>), opts.n_envs, opts.threads)?;
-        train_one(opts, &opts.out.join("pure_rl"), &mut env, Phase::TrainPure, progress)
+        let mut env = vec_env_of(
+            &mut || Ok(make_robot_env(&opts.env, None)? as Box<dyn Env>),
+            opts.n_envs,
+            opts.threads,
+        )?;
+        train_one(opts, &opts.out.join("pure_rl"), &mut env, Phase::TrainPure, progress, &stop)
     };
     let train_hybrid = |progress: &mut dyn FnMut(Phase, &UpdateMetrics)| {
         let mut env = vec_env_of(
@@ -656,27 +683,28 @@ pub fn run_experiment(
             opts.n_envs,
             opts.threads,
         )?;
-        train_one(opts, &opts.out.join("hybrid"), &mut env, Phase::TrainHybrid, progress)
+        train_one(opts, &opts.out.join("hybrid"), &mut env, Phase::TrainHybrid, progress, &stop)
     };
     // With several threads the two trainings run side by side: each depends only on its own
     // seed and environments (and not on the thread count, see `VecEnv`), so the results are
     // those of one after the other, and the cores one training leaves idle (its learner's
     // updates are single-threaded) do the other's work. The hybrid's progress reaches
-    // `progress` on this thread through a channel.
+    // `progress` on this thread through a channel. Each agent's wall time (summary, metrics)
+    // is then measured while the other one trains too. A failure stops the other training.
     let (pure, hybrid) = if opts.threads > 1 {
         std::thread::scope(|s| {
             let (tx, rx) = std::sync::mpsc::channel::<(Phase, UpdateMetrics)>();
             let hybrid = s.spawn(move || {
-                train_hybrid(&mut |phase, m| {
+                failed(train_hybrid(&mut |phase, m| {
                     let _ = tx.send((phase, *m));
-                })
+                }))
             });
-            let pure = train_pure(&mut |phase, m| {
+            let pure = failed(train_pure(&mut |phase, m| {
                 progress(phase, m);
                 while let Ok((phase, m)) = rx.try_recv() {
                     progress(phase, &m);
                 }
-            });
+            }));
             // Until the hybrid's thread ends and drops its sender.
             for (phase, m) in rx.iter() {
                 progress(phase, &m);
@@ -688,8 +716,14 @@ pub fn run_experiment(
         let pure = train_pure(progress)?;
         (Ok(pure), train_hybrid(progress))
     };
-    let (pure_ckpt, pure_rows, pure_wall, pure_steps) = pure?;
-    let (hybrid_ckpt, hybrid_rows, hybrid_wall, hybrid_steps) = hybrid?;
+    // The first real error (not the other training's `Stopped`).
+    let (
+        (pure_ckpt, pure_rows, pure_wall, pure_steps),
+        (hybrid_ckpt, hybrid_rows, hybrid_wall, hybrid_steps),
+    ) = match (pure, hybrid) {
+        (Ok(p), Ok(h)) => (p, h),
+        (Err(ExperimentError::Stopped), Err(e)) | (Err(e), _) | (Ok(_), Err(e)) => return Err(e),
+    };
     progress(Phase::Evaluate, &UpdateMetrics::default());
 
     // Evaluation: the policies as deployed (loaded back from their checkpoints). The three

@@ -164,8 +164,9 @@ fn without_wall_times(v: &mut serde_json::Value) {
 
 #[test]
 fn compare_gives_the_same_figures_on_one_thread_and_on_two() {
-    // Training steps the environments on the worker threads and the three agents are
-    // evaluated side by side when there are two: neither may change a figure.
+    // With two threads the pure and the hybrid agent train side by side, each stepping its
+    // environments on the worker threads, and the three agents are evaluated side by side:
+    // none of it may change a figure.
     let config = out_dir("threads.toml");
     std::fs::write(&config, "n_steps = 64\nbatch_size = 64\nn_epochs = 2\n").unwrap();
     let run = |threads: &str| {

@@ -134,7 +134,8 @@ struct CompareArgs {
     /// Parallel environments per agent (default: 4 for PPO and A2C, 1 otherwise).
     #[arg(long)]
     envs: Option<usize>,
-    /// Threads stepping them.
+    /// Threads stepping each agent's environments; with more than one, a seed's two agents
+    /// also train side by side (results unchanged).
     #[arg(long, default_value_t = 1)]
     threads: usize,
     /// Evaluation episodes per agent and seed.
@@ -178,21 +179,27 @@ fn compare(args: CompareArgs) -> ExitCode {
     let bar = ProgressBar::new(seeds * 2 * opts.steps);
     bar.set_style(progress_style());
     let steps = opts.steps;
-    // A seed's two agents may train side by side: count both.
-    let mut done = [0u64; 2];
+    // A seed's two agents may train side by side: count both, show both returns.
+    let (mut done, mut returns) = ([0u64; 2], [None::<f64>; 2]);
     let result = run_compare(&opts, &mut |seed, phase, m| {
-        let (k, label) = match phase {
-            Phase::TrainPure => (0, "pure"),
-            Phase::TrainHybrid => (1, "hybrid"),
+        let k = match phase {
+            Phase::TrainPure => 0,
+            Phase::TrainHybrid => 1,
             Phase::Evaluate => {
-                done = [0; 2];
+                (done, returns) = ([0; 2], [None; 2]);
                 bar.set_message(format!("seed {seed} evaluating"));
                 bar.set_position((seed + 1) * 2 * steps);
                 return;
             }
         };
         done[k] = m.env_steps.min(steps);
-        bar.set_message(format!("seed {seed} {label} {:.2}", m.episode_return_mean));
+        returns[k] = Some(m.episode_return_mean);
+        let shown: Vec<String> = ["pure", "hybrid"]
+            .iter()
+            .zip(returns)
+            .filter_map(|(name, r)| r.map(|r| format!("{name} {r:.2}")))
+            .collect();
+        bar.set_message(format!("seed {seed} {}", shown.join(", ")));
         bar.set_position(seed * 2 * steps + done[0] + done[1]);
     });
     bar.finish_and_clear();
