@@ -491,6 +491,40 @@ pub fn progress_style() -> indicatif::ProgressStyle {
         .progress_chars("=> ")
 }
 
+/// Training progress of an experiment's two agents, which may train side by side (see
+/// [`run_experiment`]): the steps both have done and the latest training return of each,
+/// for a progress bar.
+#[derive(Clone, Debug, Default)]
+pub struct TrainingProgress {
+    done: [u64; 2],
+    returns: [Option<f64>; 2],
+}
+
+impl TrainingProgress {
+    /// Records an update of a training phase (the evaluation phase is ignored) and returns
+    /// the steps both agents have done, each counted up to `steps`.
+    pub fn record(&mut self, phase: Phase, m: &UpdateMetrics, steps: u64) -> u64 {
+        let k = match phase {
+            Phase::TrainPure => 0,
+            Phase::TrainHybrid => 1,
+            Phase::Evaluate => return self.done.iter().sum(),
+        };
+        self.done[k] = m.env_steps.min(steps);
+        self.returns[k] = Some(m.episode_return_mean);
+        self.done.iter().sum()
+    }
+
+    /// "pure PPO 1.23, hybrid PPO 4.56" (the agents that have reported so far).
+    pub fn message(&self, learner: &str) -> String {
+        let parts: Vec<String> = ["pure", "hybrid"]
+            .iter()
+            .zip(self.returns)
+            .filter_map(|(name, r)| r.map(|r| format!("{name} {learner} {r:.2}")))
+            .collect();
+        parts.join(", ")
+    }
+}
+
 /// [`run_experiment`] with a progress bar over both agents' training and the evaluation;
 /// `learner` names the algorithm in the bar (e.g. "PPO"). What the examples run.
 pub fn run_experiment_with_progress(
@@ -500,26 +534,15 @@ pub fn run_experiment_with_progress(
     let steps = opts.steps;
     let bar = indicatif::ProgressBar::new(2 * steps);
     bar.set_style(progress_style());
-    // The two agents may train side by side: the bar counts both, the message shows the
-    // latest training return of each.
-    let (mut done, mut returns) = ([0u64; 2], [None::<f64>; 2]);
+    let mut training = TrainingProgress::default();
     let result = run_experiment(opts, &mut |phase, m| {
-        let k = match phase {
-            Phase::TrainPure => 0,
-            Phase::TrainHybrid => 1,
-            Phase::Evaluate => {
-                bar.set_message("evaluating");
-                bar.set_position(2 * steps);
-                return;
-            }
-        };
-        done[k] = m.env_steps.min(steps);
-        returns[k] = Some(m.episode_return_mean);
-        let label = |name: &str, r: Option<f64>| r.map(|r| format!("{name} {learner} {r:.2}"));
-        let parts: Vec<String> =
-            [label("pure", returns[0]), label("hybrid", returns[1])].into_iter().flatten().collect();
-        bar.set_message(parts.join(", "));
-        bar.set_position(done[0] + done[1]);
+        if phase == Phase::Evaluate {
+            bar.set_message("evaluating");
+            bar.set_position(2 * steps);
+            return;
+        }
+        bar.set_position(training.record(phase, m, steps));
+        bar.set_message(training.message(learner));
     });
     bar.finish_and_clear();
     result

@@ -7,9 +7,7 @@ mod common;
 
 use std::time::{Duration, Instant};
 
-use centaur_mpc::{
-    Command, ControllerConfig, Fallback, Gait, HardConstraints, LocomotionController, MpcExecution, QpStatus,
-};
+use centaur_mpc::{Command, ControllerConfig, Fallback, Gait, LocomotionController, MpcExecution, QpStatus};
 
 fn controllers(name: &str) -> (LocomotionController, LocomotionController) {
     let (model, cfg) = common::load(name);
@@ -97,11 +95,7 @@ fn a_reset_discards_plans_solved_for_the_old_state() {
 #[test]
 fn failed_solves_are_reported_without_blocking_the_tick() {
     // A feasible stand, then a command friction cannot deliver (as in `fallback.rs`).
-    let (model, mut cfg) = common::load("solo12");
-    cfg.mpc.mu = 0.05;
-    cfg.mpc.max_normal_force_ratio = 0.3;
-    cfg.mpc.hard = HardConstraints { max_height_drop: None, terminal_velocity_band: Some(0.05) };
-    cfg.max_acceleration = 100.0;
+    let (model, mut cfg) = common::low_friction_solo12();
     cfg.mpc_execution = MpcExecution::Background;
     let mut c = LocomotionController::new(&model, cfg).unwrap();
     let s = c.nominal_state();

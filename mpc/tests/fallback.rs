@@ -32,18 +32,14 @@ fn weak_robot_mpc_infeasible_uses_fallback_forces() {
 #[test]
 fn low_friction_mpc_infeasible_decays_last_forces() {
     // A feasible solve first, then μ too low to reach the commanded speed within the horizon.
-    let (model, mut cfg) = common::load("solo12");
-    cfg.mpc.mu = 0.05;
-    cfg.mpc.max_normal_force_ratio = 0.3;
-    cfg.mpc.hard = HardConstraints { max_height_drop: None, terminal_velocity_band: Some(0.05) };
-    cfg.max_acceleration = 100.0;
+    let (model, cfg) = common::low_friction_solo12();
     let mut c = LocomotionController::new(&model, cfg).unwrap();
     let s = c.nominal_state();
     c.tick(&s, &Command::stand(), 0.0);
     assert!(c.status().mpc_status.is_ok(), "{:?}", c.status().mpc_status);
     let before: f64 = c.status().forces.iter().map(|f| f[2]).sum();
     assert!(before > 20.0);
-    // 1 m/s: needs ≈ 3 m/s², friction gives at most 1.2 · 0.05 · 9.81 = 0.59 m/s².
+    // 1 m/s: out of friction's reach.
     let t0 = Instant::now();
     c.tick(&s, &Command::forward(1.0, Gait::Stand), 0.05);
     assert!(t0.elapsed().as_secs_f64() < 0.05);

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use centaur::compare::{CompareOptions, run_compare};
 use centaur::control::{ControlOptions, Push, parse_gait, run_control, write_summary};
-use centaur::experiment::{Phase, progress_style, tuned_config};
+use centaur::experiment::{Phase, TrainingProgress, progress_style, tuned_config};
 use centaur::registry::ENV_NAMES;
 use centaur::residual::ResidualConfig;
 use centaur::train::{TrainOptions, train};
@@ -179,28 +179,18 @@ fn compare(args: CompareArgs) -> ExitCode {
     let bar = ProgressBar::new(seeds * 2 * opts.steps);
     bar.set_style(progress_style());
     let steps = opts.steps;
-    // A seed's two agents may train side by side: count both, show both returns.
-    let (mut done, mut returns) = ([0u64; 2], [None::<f64>; 2]);
+    let learner = opts.algo.name().to_uppercase();
+    let mut training = TrainingProgress::default();
     let result = run_compare(&opts, &mut |seed, phase, m| {
-        let k = match phase {
-            Phase::TrainPure => 0,
-            Phase::TrainHybrid => 1,
-            Phase::Evaluate => {
-                (done, returns) = ([0; 2], [None; 2]);
-                bar.set_message(format!("seed {seed} evaluating"));
-                bar.set_position((seed + 1) * 2 * steps);
-                return;
-            }
-        };
-        done[k] = m.env_steps.min(steps);
-        returns[k] = Some(m.episode_return_mean);
-        let shown: Vec<String> = ["pure", "hybrid"]
-            .iter()
-            .zip(returns)
-            .filter_map(|(name, r)| r.map(|r| format!("{name} {r:.2}")))
-            .collect();
-        bar.set_message(format!("seed {seed} {}", shown.join(", ")));
-        bar.set_position(seed * 2 * steps + done[0] + done[1]);
+        if phase == Phase::Evaluate {
+            training = TrainingProgress::default(); // the next seed starts afresh
+            bar.set_message(format!("seed {seed} evaluating"));
+            bar.set_position((seed + 1) * 2 * steps);
+            return;
+        }
+        let done = training.record(phase, m, steps);
+        bar.set_message(format!("seed {seed} {}", training.message(&learner)));
+        bar.set_position(seed * 2 * steps + done);
     });
     bar.finish_and_clear();
     match result {
