@@ -5,6 +5,9 @@
 //! cargo run --release -p centaur-dynamics --example dyn_bench -- URDF [--floating-base]
 //! ```
 //!
+//! `--continuous-cos-sin` loads continuous joints as `(cos θ, sin θ)` joints, as Pinocchio
+//! does (then both libraries take the same `q`).
+//!
 //! Each algorithm runs over a pool of 256 random states, in rounds of one pass over the
 //! pool; the figure is the median over rounds of (round time / pool size). Compare with
 //! Pinocchio side by side using `tools/pinocchio/bench_side_by_side.py`.
@@ -17,7 +20,8 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use centaur_dynamics::{
-    BaseKind, Data, Model, aba, centroidal_map, compute_joint_jacobians, crba, forward_kinematics, rnea,
+    BaseKind, Data, Model, UrdfOptions, aba, centroidal_map, compute_joint_jacobians, crba,
+    forward_kinematics, rnea,
 };
 use common::{Rng, random_q, random_v};
 
@@ -41,7 +45,9 @@ fn median_ns(rounds: usize, mut pass: impl FnMut()) -> f64 {
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(path) = args.iter().find(|a| !a.starts_with("--")) else {
-        eprintln!("usage: dyn_bench URDF [--floating-base] [--rounds N] [--only ALGO]");
+        eprintln!(
+            "usage: dyn_bench URDF [--floating-base] [--continuous-cos-sin] [--rounds N] [--only ALGO]"
+        );
         return ExitCode::from(2);
     };
     let base = if args.iter().any(|a| a == "--floating-base") { BaseKind::Floating } else { BaseKind::Fixed };
@@ -54,7 +60,8 @@ fn main() -> ExitCode {
         .and_then(|i| args.get(i + 1))
         .and_then(|s| s.parse().ok())
         .unwrap_or(400);
-    let model = match Model::from_urdf_file(path, base) {
+    let options = UrdfOptions { continuous_as_cos_sin: args.iter().any(|a| a == "--continuous-cos-sin") };
+    let model = match Model::from_urdf_file_with(path, base, options) {
         Ok(m) => m,
         Err(e) => {
             eprintln!("dyn_bench: {e}");

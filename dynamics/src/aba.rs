@@ -46,7 +46,9 @@ pub fn aba<'a>(model: &Model, data: &'a mut Data, q: &[f64], v: &[f64], tau: &[f
         let pi = data.p_aba[i];
         let ci = data.c_aba[i].to_vector();
         let (ya, pa): (Matrix6<f64>, Vector6<f64>) = match j.kind {
-            JointKind::Revolute { .. } | JointKind::Prismatic { .. } => {
+            JointKind::Revolute { .. }
+            | JointKind::RevoluteUnbounded { .. }
+            | JointKind::Prismatic { .. } => {
                 let s = j.kind.subspace_column(0).to_vector();
                 let u = yi * s;
                 let d = s.dot(&u);
@@ -81,7 +83,9 @@ pub fn aba<'a>(model: &Model, data: &'a mut Data, q: &[f64], v: &[f64], tau: &[f
         let iv = j.idx_v;
         let a_prime = data.li_m_i[i].act_inv_motion(&data.a_gf[j.parent]) + data.c_aba[i];
         match j.kind {
-            JointKind::Revolute { .. } | JointKind::Prismatic { .. } => {
+            JointKind::Revolute { .. }
+            | JointKind::RevoluteUnbounded { .. }
+            | JointKind::Prismatic { .. } => {
                 let u = data.u_aba.column(iv);
                 let qdd = data.d_inv[iv] * (data.uu[iv] - u.dot(&a_prime.to_vector()));
                 data.ddq[iv] = qdd;

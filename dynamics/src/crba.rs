@@ -77,7 +77,7 @@ pub fn crba<'a>(model: &Model, data: &'a mut Data, q: &[f64]) -> &'a DMatrix<f64
         for k in 0..j.nv() {
             fcrb[start + k] = match &j.kind {
                 // `Y (0, a) = (a × h, I_O a)`.
-                JointKind::Revolute { axis } => {
+                JointKind::Revolute { axis } | JointKind::RevoluteUnbounded { axis } => {
                     Force { linear: axis.cross(&y.first_moment), angular: y.rotational * axis }
                 }
                 kind => y.mul_motion(&kind.subspace_column(k)),
@@ -90,7 +90,7 @@ pub fn crba<'a>(model: &Model, data: &'a mut Data, q: &[f64]) -> &'a DMatrix<f64
             mm[c + r * nv] = m;
         };
         match &j.kind {
-            JointKind::Revolute { axis } => {
+            JointKind::Revolute { axis } | JointKind::RevoluteUnbounded { axis } => {
                 for c in start..end {
                     put(mm, start, c, axis.dot(&fcrb[c].angular));
                 }

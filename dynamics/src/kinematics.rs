@@ -25,18 +25,23 @@ pub(crate) fn joint_placement(j: &Joint, plane: AxisPlane, q: &[f64]) -> Se3 {
     // A joint edited without `Model::finalize` would keep a stale plane.
     debug_assert_eq!(plane, AxisPlane::of(&j.kind), "joint '{}' changed: call Model::finalize", j.name);
     let placement = &j.placement;
-    let q = &q[j.idx_q..j.idx_q + j.nq()];
+    let iq = j.idx_q;
     match &j.kind {
         JointKind::Revolute { axis } => Se3 {
-            rotation: rotate_about_axis(&placement.rotation, axis, plane, q[0].sin_cos()),
+            rotation: rotate_about_axis(&placement.rotation, axis, plane, q[iq].sin_cos()),
+            translation: placement.translation,
+        },
+        // Pinocchio's unbounded joint: q holds (cos θ, sin θ) already.
+        JointKind::RevoluteUnbounded { axis } => Se3 {
+            rotation: rotate_about_axis(&placement.rotation, axis, plane, (q[iq + 1], q[iq])),
             translation: placement.translation,
         },
         JointKind::Prismatic { axis } => Se3 {
             rotation: placement.rotation,
-            translation: placement.rotation * (axis * q[0]) + placement.translation,
+            translation: placement.rotation * (axis * q[iq]) + placement.translation,
         },
         JointKind::Universe => *placement,
-        kind @ JointKind::FreeFlyer => placement.mul(&kind.transform(q)),
+        kind @ JointKind::FreeFlyer => placement.mul(&kind.transform(&q[iq..iq + 7])),
     }
 }
 
@@ -164,6 +169,14 @@ pub fn integrate(model: &Model, q: &[f64], v: &[f64], out: &mut [f64]) {
                 write_free_flyer(&next, &mut out[iq..iq + 7]);
             }
             JointKind::Revolute { .. } | JointKind::Prismatic { .. } => out[iq] = q[iq] + v[iv],
+            JointKind::RevoluteUnbounded { .. } => {
+                // Turn (cos θ, sin θ) by v, then back onto the unit circle.
+                let (c, s) = (q[iq], q[iq + 1]);
+                let (sv, cv) = v[iv].sin_cos();
+                let (c1, s1) = (c * cv - s * sv, s * cv + c * sv);
+                let n = c1.hypot(s1);
+                (out[iq], out[iq + 1]) = (c1 / n, s1 / n);
+            }
             JointKind::Universe => {}
         }
     }
@@ -186,22 +199,33 @@ pub fn difference(model: &Model, q0: &[f64], q1: &[f64], out: &mut [f64]) {
                 out[iv + 3..iv + 6].copy_from_slice(nu.angular.as_slice());
             }
             JointKind::Revolute { .. } | JointKind::Prismatic { .. } => out[iv] = q1[iq] - q0[iq],
+            JointKind::RevoluteUnbounded { .. } => {
+                // The angle from q0 to q1, in (−π, π].
+                let (c0, s0, c1, s1) = (q0[iq], q0[iq + 1], q1[iq], q1[iq + 1]);
+                out[iv] = (c0 * s1 - s0 * c1).atan2(c0 * c1 + s0 * s1);
+            }
             JointKind::Universe => {}
         }
     }
 }
 
-/// Normalises the quaternions of free-flyer joints in place.
+/// Normalises in place the quaternions of free-flyer joints and the `(cos θ, sin θ)` pairs
+/// of [`JointKind::RevoluteUnbounded`] joints; a zero or non-finite one becomes the
+/// neutral `(0, 0, 0, 1)` / `(1, 0)`.
 pub fn normalize(model: &Model, q: &mut [f64]) {
+    fn unit(s: &mut [f64], neutral: &[f64]) {
+        let n = s.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if n > 0.0 && n.is_finite() {
+            s.iter_mut().for_each(|x| *x /= n);
+        } else {
+            s.copy_from_slice(neutral);
+        }
+    }
     for j in &model.joints[1..] {
-        if j.kind == JointKind::FreeFlyer {
-            let s = &mut q[j.idx_q + 3..j.idx_q + 7];
-            let n = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2] + s[3] * s[3]).sqrt();
-            if n > 0.0 && n.is_finite() {
-                s.iter_mut().for_each(|x| *x /= n);
-            } else {
-                s.copy_from_slice(&[0.0, 0.0, 0.0, 1.0]);
-            }
+        match j.kind {
+            JointKind::FreeFlyer => unit(&mut q[j.idx_q + 3..j.idx_q + 7], &[0.0, 0.0, 0.0, 1.0]),
+            JointKind::RevoluteUnbounded { .. } => unit(&mut q[j.idx_q..j.idx_q + 2], &[1.0, 0.0]),
+            _ => {}
         }
     }
 }

@@ -38,8 +38,12 @@
 //!   expressed **in the root-link frame**; the matching part of a generalized force is the
 //!   wrench on the root link in the root-link frame. These are Pinocchio's conventions.
 //! * **Joint coordinates**: revolute and continuous joints use their angle (one entry in
-//!   `q`, unlike Pinocchio's `(cos, sin)` for continuous joints), prismatic joints their
-//!   displacement, along the normalised URDF axis.
+//!   `q`), prismatic joints their displacement, along the normalised URDF axis. Pinocchio
+//!   parametrises continuous joints by `(cos θ, sin θ)` instead (two entries, no angle to
+//!   wrap, no sine or cosine to evaluate); [`UrdfOptions::continuous_as_cos_sin`] loads
+//!   them that way ([`JointKind::RevoluteUnbounded`]), for the dynamics algorithms only:
+//!   the simulator and the controller take angles and refuse such models with a typed
+//!   error.
 //! * [`RobotState`] is `(q, v)` in this layout, with accessors for the base pose and twist
 //!   in base or world axes.
 //!
@@ -122,4 +126,4 @@ pub use rnea::{gravity_torques, nonlinear_effects, rnea};
 pub use robot::Robot;
 pub use spatial::{Force, Inertia, Motion, OriginInertia, Se3};
 pub use state::RobotState;
-pub use urdf::{BaseKind, UrdfError};
+pub use urdf::{BaseKind, UrdfError, UrdfOptions};

@@ -18,6 +18,16 @@ pub enum JointKind {
         /// Unit rotation axis in the joint frame.
         axis: Vector3<f64>,
     },
+    /// Rotation by the angle `θ` about the unit `axis`, parametrised as Pinocchio
+    /// parametrises unbounded (continuous) joints: `q = (cos θ, sin θ)`, a unit vector, so
+    /// the joint has no angle to wrap and no sine or cosine to evaluate; `v = θ̇`;
+    /// `S = (0, axis)`. Two `q` entries, one degree of freedom. The URDF loader makes
+    /// continuous joints this kind when asked ([`crate::UrdfOptions`]); by default they are
+    /// [`JointKind::Revolute`] with unlimited angles.
+    RevoluteUnbounded {
+        /// Unit rotation axis in the joint frame.
+        axis: Vector3<f64>,
+    },
     /// Translation by `q` along the unit `axis`: `S = (axis, 0)`.
     Prismatic {
         /// Unit translation axis in the joint frame.
@@ -32,6 +42,7 @@ impl JointKind {
         match self {
             JointKind::Universe => 0,
             JointKind::FreeFlyer => 7,
+            JointKind::RevoluteUnbounded { .. } => 2,
             JointKind::Revolute { .. } | JointKind::Prismatic { .. } => 1,
         }
     }
@@ -42,7 +53,9 @@ impl JointKind {
         match self {
             JointKind::Universe => 0,
             JointKind::FreeFlyer => 6,
-            JointKind::Revolute { .. } | JointKind::Prismatic { .. } => 1,
+            JointKind::Revolute { .. }
+            | JointKind::RevoluteUnbounded { .. }
+            | JointKind::Prismatic { .. } => 1,
         }
     }
 
@@ -58,6 +71,9 @@ impl JointKind {
             }
             JointKind::Revolute { axis } => {
                 Se3 { rotation: axis_rotation(axis, q[0]), translation: Vector3::zeros() }
+            }
+            JointKind::RevoluteUnbounded { axis } => {
+                Se3 { rotation: rotation_from_sin_cos(axis, q[1], q[0]), translation: Vector3::zeros() }
             }
             JointKind::Prismatic { axis } => Se3::from_translation(axis * q[0]),
         }
@@ -77,7 +93,9 @@ impl JointKind {
                 }
                 m
             }
-            JointKind::Revolute { axis } => Motion::new(Vector3::zeros(), *axis),
+            JointKind::Revolute { axis } | JointKind::RevoluteUnbounded { axis } => {
+                Motion::new(Vector3::zeros(), *axis)
+            }
             JointKind::Prismatic { axis } => Motion::new(*axis, Vector3::zeros()),
         }
     }
@@ -90,7 +108,9 @@ impl JointKind {
             JointKind::FreeFlyer => {
                 Motion::new(Vector3::new(qd[0], qd[1], qd[2]), Vector3::new(qd[3], qd[4], qd[5]))
             }
-            JointKind::Revolute { axis } => Motion::new(Vector3::zeros(), axis * qd[0]),
+            JointKind::Revolute { axis } | JointKind::RevoluteUnbounded { axis } => {
+                Motion::new(Vector3::zeros(), axis * qd[0])
+            }
             JointKind::Prismatic { axis } => Motion::new(axis * qd[0], Vector3::zeros()),
         }
     }
@@ -154,7 +174,9 @@ impl AxisPlane {
 
     /// The plane of a joint kind's axis.
     pub(crate) fn of(kind: &JointKind) -> Self {
-        let JointKind::Revolute { axis } = kind else { return AxisPlane::General };
+        let (JointKind::Revolute { axis } | JointKind::RevoluteUnbounded { axis }) = kind else {
+            return AxisPlane::General;
+        };
         let unit = |v: f64, o1: f64, o2: f64| (v == 1.0 || v == -1.0) && o1 == 0.0 && o2 == 0.0;
         if unit(axis.x, axis.y, axis.z) {
             AxisPlane::X(axis.x)
@@ -454,12 +476,15 @@ impl Model {
         self.inertias[1..].iter().map(|i| i.mass).sum()
     }
 
-    /// The neutral configuration: zero joint positions, identity base orientation.
+    /// The neutral configuration: zero joint angles and positions (`(1, 0)` for
+    /// [`JointKind::RevoluteUnbounded`]), identity base orientation.
     pub fn neutral_configuration(&self) -> DVector<f64> {
         let mut q = DVector::zeros(self.nq);
         for j in &self.joints[1..] {
-            if j.kind == JointKind::FreeFlyer {
-                q[j.idx_q + 6] = 1.0;
+            match j.kind {
+                JointKind::FreeFlyer => q[j.idx_q + 6] = 1.0,
+                JointKind::RevoluteUnbounded { .. } => q[j.idx_q] = 1.0,
+                _ => {}
             }
         }
         q

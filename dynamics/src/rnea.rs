@@ -12,7 +12,7 @@ use crate::spatial::{Force, Motion};
 #[inline]
 pub(crate) fn project_force(kind: &JointKind, f: &Force, out: &mut [f64]) {
     match kind {
-        JointKind::Revolute { axis } => out[0] = axis.dot(&f.angular),
+        JointKind::Revolute { axis } | JointKind::RevoluteUnbounded { axis } => out[0] = axis.dot(&f.angular),
         JointKind::Prismatic { axis } => out[0] = axis.dot(&f.linear),
         JointKind::FreeFlyer => {
             out[..3].copy_from_slice(f.linear.as_slice());

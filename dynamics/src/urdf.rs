@@ -210,15 +210,35 @@ pub enum UrdfError {
     },
 }
 
+/// Choices the URDF loader leaves to the caller; the default is what
+/// [`Model::from_urdf_file`] and [`Model::from_urdf_str`] use.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct UrdfOptions {
+    /// Load `continuous` joints as [`JointKind::RevoluteUnbounded`] (`q = (cos θ, sin θ)`,
+    /// two entries per joint, as Pinocchio loads them) instead of as
+    /// [`JointKind::Revolute`] with an unlimited angle (one entry, the default, and what
+    /// the simulator and the controller expect).
+    pub continuous_as_cos_sin: bool,
+}
+
 impl Model {
     /// Loads a URDF file. See [`Model::from_urdf_str`] for what is read.
     pub fn from_urdf_file(path: impl AsRef<Path>, base: BaseKind) -> Result<Model, UrdfError> {
+        Model::from_urdf_file_with(path, base, UrdfOptions::default())
+    }
+
+    /// [`Model::from_urdf_file`] with loader options.
+    pub fn from_urdf_file_with(
+        path: impl AsRef<Path>,
+        base: BaseKind,
+        options: UrdfOptions,
+    ) -> Result<Model, UrdfError> {
         let path = path.as_ref();
         let file = path.display().to_string();
         let bytes = std::fs::read(path).map_err(|source| UrdfError::Io { file: file.clone(), source })?;
         let text = String::from_utf8(bytes)
             .map_err(|e| UrdfError::Parse { file: file.clone(), message: format!("not UTF-8 text ({e})") })?;
-        Model::from_urdf_str(&text, &file, base)
+        Model::from_urdf_str_with(&text, &file, base, options)
     }
 
     /// Builds a model from URDF text; `source` names it in errors (a path or a label).
@@ -231,11 +251,21 @@ impl Model {
     /// A revolute joint whose `<limit>` gives neither `lower` nor `upper` (both read as 0) is
     /// treated as position-unlimited, as PyBullet does.
     pub fn from_urdf_str(text: &str, source: &str, base: BaseKind) -> Result<Model, UrdfError> {
+        Model::from_urdf_str_with(text, source, base, UrdfOptions::default())
+    }
+
+    /// [`Model::from_urdf_str`] with loader options.
+    pub fn from_urdf_str_with(
+        text: &str,
+        source: &str,
+        base: BaseKind,
+        options: UrdfOptions,
+    ) -> Result<Model, UrdfError> {
         let file = source.to_string();
         let scan = prescan(text, &file)?;
         let robot = urdf_rs::read_from_string(text)
             .map_err(|e| UrdfError::Parse { file: file.clone(), message: e.to_string() })?;
-        build(&robot, &scan, &file, base)
+        build(&robot, &scan, &file, base, options)
     }
 }
 
@@ -361,7 +391,13 @@ fn convert_shape(file: &str, link: &str, what: &str, g: &urdf_rs::Geometry) -> R
     Ok(shape)
 }
 
-fn build(robot: &urdf_rs::Robot, scan: &Prescan, file: &str, base: BaseKind) -> Result<Model, UrdfError> {
+fn build(
+    robot: &urdf_rs::Robot,
+    scan: &Prescan,
+    file: &str,
+    base: BaseKind,
+    options: UrdfOptions,
+) -> Result<Model, UrdfError> {
     if robot.links.is_empty() {
         return Err(UrdfError::NoLinks { file: file.into() });
     }
@@ -483,6 +519,9 @@ fn build(robot: &urdf_rs::Robot, scan: &Prescan, file: &str, base: BaseKind) -> 
                 let axis = axis / norm;
                 let (kind, kind_name) = match joint.joint_type {
                     urdf_rs::JointType::Prismatic => (JointKind::Prismatic { axis }, "prismatic"),
+                    urdf_rs::JointType::Continuous if options.continuous_as_cos_sin => {
+                        (JointKind::RevoluteUnbounded { axis }, "continuous")
+                    }
                     urdf_rs::JointType::Continuous => (JointKind::Revolute { axis }, "continuous"),
                     _ => (JointKind::Revolute { axis }, "revolute"),
                 };

@@ -131,6 +131,12 @@ pub enum SimError {
     /// A model joint kind the simulator does not support at this place.
     #[error("joint '{0}': a free-flyer is only supported as the root")]
     Unsupported(String),
+    /// A joint parametrised by `(cos θ, sin θ)` (`JointKind::RevoluteUnbounded`).
+    #[error(
+        "joint '{0}' is parametrised by (cos θ, sin θ), but the simulator works with joint angles: \
+         load the URDF with the default UrdfOptions"
+    )]
+    CosSinJoint(String),
     /// A non-physical setting.
     #[error("invalid simulation setting: {0}")]
     InvalidConfig(String),
@@ -333,6 +339,7 @@ impl Sim {
                 JointKind::FreeFlyer | JointKind::Universe => {
                     return Err(SimError::Unsupported(joint.name.clone()));
                 }
+                JointKind::RevoluteUnbounded { .. } => return Err(SimError::CosSinJoint(joint.name.clone())),
             };
             // Exact frames only on fixed-base robots, where they matter (see
             // `joint_axis_frame`); floating-base robots keep the frames their measured

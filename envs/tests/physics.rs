@@ -6,7 +6,7 @@ use centaur_dynamics::{BaseKind, Data, Model, RobotState, centroidal_momentum};
 use centaur_envs::minitaur::minitaur_model;
 use centaur_envs::{
     ColliderSpec, LocomotionConfig, LocomotionEnv, LocomotionRobot, MinitaurConfig, MinitaurEnv, RobotEnv,
-    Sim, SimConfig,
+    Sim, SimConfig, SimError,
 };
 use centaur_rl::{Env, Rng};
 
@@ -324,4 +324,16 @@ fn regression_full_point_to_point_closure_made_motor_speeds_spike() {
         }
     }
     assert!(worst < 60.0, "a motor reached {worst} rad/s");
+}
+
+#[test]
+fn the_simulator_refuses_cos_sin_joints() {
+    // Rapier's joint coordinates are angles; a (cos θ, sin θ) model gets a typed error.
+    let path = format!("{}/../assets/minitaur/minitaur.urdf", env!("CARGO_MANIFEST_DIR"));
+    let options = centaur_dynamics::UrdfOptions { continuous_as_cos_sin: true };
+    let model = Model::from_urdf_file_with(&path, BaseKind::Floating, options).unwrap();
+    let Err(err) = Sim::new(&model, &SimConfig::default(), &ColliderSpec::default(), &[]) else {
+        panic!("a (cos, sin) model was accepted")
+    };
+    assert!(matches!(&err, SimError::CosSinJoint(name) if name.starts_with("motor_")), "{err}");
 }

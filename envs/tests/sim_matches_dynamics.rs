@@ -29,6 +29,7 @@ fn random_state(model: &Model, rng: &mut Rng, velocity_scale: f64) -> RobotState
                 let (lo, hi) = if lo.is_finite() && hi.is_finite() { (lo, hi) } else { (-1.0, 1.0) };
                 s.q[j.idx_q] = rng.range(lo, hi);
             }
+            JointKind::RevoluteUnbounded { .. } => unreachable!("the simulator rejects (cos, sin) joints"),
             JointKind::Universe => {}
         }
     }

@@ -254,6 +254,13 @@ impl LeggedRobot {
         let mut joint_q = Vec::new();
         let mut effort = Vec::new();
         for (i, j) in model.joints.iter().enumerate().skip(1) {
+            if matches!(j.kind, JointKind::RevoluteUnbounded { .. }) {
+                return Err(ConfigError::Inconsistent(format!(
+                    "joint '{}' is parametrised by (cos θ, sin θ), but the controller works with \
+                     joint angles: load the URDF with the default UrdfOptions",
+                    j.name
+                )));
+            }
             if j.kind == JointKind::FreeFlyer || base_v.contains(&j.idx_v) {
                 continue;
             }

@@ -109,3 +109,19 @@ fn cheap_path_on_closed_loops_keeps_passive_knees_free() {
     assert_eq!(c.joint_names().len(), 8);
     assert!(c.joint_names().iter().all(|n| n.starts_with("motor_")));
 }
+
+#[test]
+fn a_model_with_cos_sin_joints_is_refused_with_a_typed_error() {
+    // The controller reads joint angles from q; a (cos θ, sin θ) joint would be misread.
+    let (_, cfg) = common::load("minitaur");
+    let path = format!("{}/../assets/minitaur/minitaur.urdf", env!("CARGO_MANIFEST_DIR"));
+    let options = centaur_dynamics::UrdfOptions { continuous_as_cos_sin: true };
+    let model =
+        centaur_dynamics::Model::from_urdf_file_with(&path, centaur_dynamics::BaseKind::Floating, options)
+            .expect("URDF loads");
+    let Err(err) = LocomotionController::new(&model, cfg) else { panic!("a (cos, sin) model was accepted") };
+    assert!(
+        matches!(&err, centaur_mpc::ConfigError::Inconsistent(m) if m.contains("motor_") && m.contains("cos θ")),
+        "{err}"
+    );
+}

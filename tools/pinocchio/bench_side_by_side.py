@@ -46,13 +46,19 @@ KEYS = ("fk", "jacobians", "rnea", "crba", "aba", "centroidal")
 SOURCE = Path(__file__).resolve().with_name("bench_pinocchio.cpp")
 DEFAULT_CENTAUR_CMD = "cargo run --release -q -p centaur-dynamics --example dyn_bench --"
 # Order of the table; name -> (URDF relative to the repo root, floating base).
-BENCH_ROBOTS = ["solo12", "minitaur", "minitaur_revolute", "talos_reduced", "ur5_robot"]
+BENCH_ROBOTS = ["solo12", "minitaur", "minitaur_angles", "minitaur_revolute", "talos_reduced", "ur5_robot"]
 # Pinocchio parametrises a continuous joint by (cos θ, sin θ) (nq 2), so its algorithms
-# skip the sin/cos that Centaur, whose q holds angles, evaluates for every revolute joint.
-# "minitaur_revolute" is the Minitaur with its 8 continuous joints declared revolute
-# (limits ±π): both tools then take angles, a like-for-like comparison. It is written into
-# the build directory at run time.
+# skip the sin/cos that an angle parametrisation evaluates. The Minitaur's 8 motor joints
+# are continuous, hence three Minitaur rows:
+# - "minitaur": both tools take (cos θ, sin θ) for them (Centaur with --continuous-cos-sin,
+#   nq 31 on both sides);
+# - "minitaur_angles": the same URDF, Centaur with its default angles (nq 23) against
+#   Pinocchio's (cos θ, sin θ) (nq 31): not like for like, Centaur evaluates 8 more sin/cos;
+# - "minitaur_revolute": the continuous joints declared revolute (limits ±π), both tools
+#   take angles (nq 23). Written into the build directory at run time.
 DERIVED = {"minitaur_revolute": "minitaur"}
+SAME_URDF = {"minitaur_angles": "minitaur"}
+CENTAUR_FLAGS = {"minitaur": ["--continuous-cos-sin"]}
 
 # Compile definitions exported by Pinocchio's CMake targets (pinocchio_headers,
 # pinocchio_parsers), minus PINOCCHIO_ENABLE_TEMPLATE_INSTANTIATION (we want the
@@ -163,6 +169,8 @@ def verify(binary: Path, robots: list[str]) -> None:
 
 def robot_urdf(name: str, build_dir: Path) -> tuple[str, bool]:
     """(URDF path, floating base) of a bench robot, writing the derived ones first."""
+    if name in SAME_URDF:
+        return pinref.ROBOTS[SAME_URDF[name]]
     if name not in DERIVED:
         return pinref.ROBOTS[name]
     urdf, floating = pinref.ROBOTS[DERIVED[name]]
@@ -225,7 +233,7 @@ def main() -> int:
     binary, fresh = build(prefix, args.cxx, args.build_dir,
                           shlex.split(args.extra_cxxflags), args.rebuild)
     if fresh or args.verify:
-        verify(binary, [r for r in robots if r not in DERIVED])
+        verify(binary, [r for r in robots if r not in DERIVED and r not in SAME_URDF])
 
     results = []
     for name in robots:
@@ -239,12 +247,14 @@ def main() -> int:
             print(f"{name} round {r + 1}: pinocchio "
                   + " ".join(f"{k}={runs['pinocchio'][-1][k]:.0f}" for k in KEYS), file=sys.stderr)
             if not args.pinocchio_only:
-                runs["centaur"].append(run_json(shlex.split(args.centaur_cmd) + tail))
+                runs["centaur"].append(run_json(shlex.split(args.centaur_cmd) + tail
+                                                + CENTAUR_FLAGS.get(name, [])))
                 print(f"{name} round {r + 1}: centaur   "
                       + " ".join(f"{k}={runs['centaur'][-1].get(k, float('nan')):.0f}"
                                  for k in KEYS), file=sys.stderr)
         entry = {"robot": name, "urdf": urdf, "floating_base": floating,
-                 "nq": runs["pinocchio"][0].get("nq"), "nv": runs["pinocchio"][0].get("nv")}
+                 "nq": runs["pinocchio"][0].get("nq"), "nv": runs["pinocchio"][0].get("nv"),
+                 "centaur_nq": runs["centaur"][0].get("nq") if runs["centaur"] else None}
         for tool, rs in runs.items():
             if not rs:
                 continue
@@ -272,15 +282,18 @@ def main() -> int:
             c = e.get("centaur", {}).get(k, {})
             ratio = f"{c['best_ns'] / p['best_ns']:.2f}" if p and c else "–"
             cs = f"{c['best_ns']:,.0f} / {c['median_ns']:,.0f}" if c else "–"
-            print(f"| {e['robot']} | {e['nq']}/{e['nv']} | {k} | "
+            nq = e["nq"] if e["centaur_nq"] in (None, e["nq"]) else f"{e['nq']} (C: {e['centaur_nq']})"
+            print(f"| {e['robot']} | {nq}/{e['nv']} | {k} | "
                   f"{p['best_ns']:,.0f} / {p['median_ns']:,.0f} | {cs} | {ratio} |")
     print()
     print(f"Best and median over {args.rounds} alternating runs per tool; each run reports the "
           "median ns per call over a pool of random states. The ratio compares the best runs: "
           "on this shared machine a tool's run can be 2-5x slower than its others (Pinocchio's "
           "RNEA/ABA are bimodal across processes), and the best run is the closest to the "
-          "code's own speed. nq/nv are Pinocchio's (a continuous joint counts 2 in nq; "
-          "minitaur_revolute declares the Minitaur's continuous joints revolute). "
+          "code's own speed. nq/nv are Pinocchio's, with Centaur's nq after C: where it "
+          "differs (a continuous joint counts 2 in nq as (cos, sin); minitaur: both take "
+          "(cos, sin); minitaur_angles: Centaur takes angles; minitaur_revolute declares the "
+          "Minitaur's continuous joints revolute, both take angles). "
           "Ratio < 1: Centaur faster.")
     return 0
 

@@ -7,8 +7,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use centaur_dynamics::{
-    BaseKind, Data, Model, aba, center_of_mass, crba, forward_kinematics, frame_placement, nonlinear_effects,
-    rnea,
+    BaseKind, Data, Model, UrdfOptions, aba, center_of_mass, crba, forward_kinematics, frame_placement,
+    nonlinear_effects, rnea,
 };
 use serde::{Deserialize, Serialize};
 
@@ -20,6 +20,10 @@ pub struct Input {
     #[serde(default)]
     pub frames: Vec<String>,
     pub cases: Vec<CaseIn>,
+    /// Optional (default false): load continuous joints as (cos θ, sin θ) joints, as
+    /// Pinocchio does. Inputs and outputs keep one angle per joint either way.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub continuous_as_cos_sin: bool,
 }
 
 #[derive(Deserialize, Serialize, Clone, Debug)]
@@ -61,8 +65,8 @@ pub fn resolve(urdf: &str, base_dir: &Path) -> PathBuf {
 
 /// Maps the caller's vectors to the model's layout and back.
 struct Layout {
-    /// For each caller joint: (model idx_q, model idx_v).
-    joints: Vec<(usize, usize)>,
+    /// For each caller joint: (model idx_q, model idx_v, whether q holds (cos θ, sin θ)).
+    joints: Vec<(usize, usize, bool)>,
     base: usize,
 }
 
@@ -86,7 +90,7 @@ impl Layout {
             if j.nv() != 1 {
                 return Err(format!("joint '{name}' is not a one-dof joint"));
             }
-            joints.push((j.idx_q, j.idx_v));
+            joints.push((j.idx_q, j.idx_v, j.nq() == 2));
         }
         Ok(Layout { joints, base })
     }
@@ -98,8 +102,13 @@ impl Layout {
         }
         let mut out = vec![0.0; model.nq];
         out[..nb].copy_from_slice(&q[..nb]);
-        for (k, &(iq, _)) in self.joints.iter().enumerate() {
-            out[iq] = q[nb + k];
+        for (k, &(iq, _, cos_sin)) in self.joints.iter().enumerate() {
+            if cos_sin {
+                let (s, c) = q[nb + k].sin_cos();
+                (out[iq], out[iq + 1]) = (c, s);
+            } else {
+                out[iq] = q[nb + k];
+            }
         }
         Ok(out)
     }
@@ -111,7 +120,7 @@ impl Layout {
         }
         let mut out = vec![0.0; model.nv];
         out[..nb].copy_from_slice(&v[..nb]);
-        for (k, &(_, iv)) in self.joints.iter().enumerate() {
+        for (k, &(_, iv, _)) in self.joints.iter().enumerate() {
             out[iv] = v[nb + k];
         }
         Ok(out)
@@ -120,14 +129,15 @@ impl Layout {
     /// Caller order → model v index, for every entry of a v-sized vector.
     fn v_order(&self) -> Vec<usize> {
         let nb = 6 * self.base;
-        (0..nb).chain(self.joints.iter().map(|&(_, iv)| iv)).collect()
+        (0..nb).chain(self.joints.iter().map(|&(_, iv, _)| iv)).collect()
     }
 }
 
 pub fn run(input: &Input, base_dir: &Path) -> Result<Output, String> {
     let path = resolve(&input.urdf, base_dir);
     let base = if input.floating_base { BaseKind::Floating } else { BaseKind::Fixed };
-    let model = Model::from_urdf_file(&path, base).map_err(|e| e.to_string())?;
+    let options = UrdfOptions { continuous_as_cos_sin: input.continuous_as_cos_sin };
+    let model = Model::from_urdf_file_with(&path, base, options).map_err(|e| e.to_string())?;
     let mut data = Data::new(&model);
     let layout = Layout::new(&model, input)?;
     let order = layout.v_order();

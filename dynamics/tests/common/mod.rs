@@ -1,7 +1,7 @@
 //! Shared helpers for the dynamics tests: a seeded RNG, random states, the test models.
 #![allow(dead_code)]
 
-use centaur_dynamics::{BaseKind, JointKind, Model};
+use centaur_dynamics::{BaseKind, JointKind, Model, UrdfOptions};
 use nalgebra::DVector;
 
 /// SplitMix64: small, seeded, good enough for test inputs.
@@ -53,6 +53,10 @@ pub fn random_q(model: &Model, rng: &mut Rng) -> DVector<f64> {
                     rng.range(-std::f64::consts::PI, std::f64::consts::PI)
                 };
             }
+            JointKind::RevoluteUnbounded { .. } => {
+                let (s, c) = rng.range(-std::f64::consts::PI, std::f64::consts::PI).sin_cos();
+                (q[j.idx_q], q[j.idx_q + 1]) = (c, s);
+            }
             JointKind::Universe => {}
         }
     }
@@ -79,7 +83,20 @@ pub fn test_models() -> Vec<Model> {
         ("mujoco/walker2d.urdf", BaseKind::Fixed),
         ("mujoco/ant.urdf", BaseKind::Floating),
     ];
-    spec.iter().map(|(p, b)| Model::from_urdf_file(asset(p), *b).unwrap_or_else(|e| panic!("{e}"))).collect()
+    let mut models: Vec<Model> = spec
+        .iter()
+        .map(|(p, b)| Model::from_urdf_file(asset(p), *b).unwrap_or_else(|e| panic!("{e}")))
+        .collect();
+    models.push(minitaur_cos_sin());
+    models
+}
+
+/// The Minitaur with its continuous joints parametrised by `(cos θ, sin θ)`, as Pinocchio
+/// loads it (nq 31, nv 22).
+pub fn minitaur_cos_sin() -> Model {
+    let options = UrdfOptions { continuous_as_cos_sin: true };
+    Model::from_urdf_file_with(asset("minitaur/minitaur.urdf"), BaseKind::Floating, options)
+        .unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// ‖a − b‖∞ / max(‖b‖∞, 1).
