@@ -108,6 +108,9 @@ impl CommandTorques {
         let mut map = Vec::with_capacity(actuated.len());
         for &j in actuated {
             let name = &model.joints[j].name;
+            if model.joints[j].nq() != 1 || model.joints[j].nv() != 1 {
+                return Err(format!("joint `{name}` is not a one-coordinate joint (a (cos θ, sin θ) pair?)"));
+            }
             let k = names
                 .iter()
                 .position(|n| n == name)

@@ -150,7 +150,9 @@ fn express_local_motion(o_m_f: &Se3, local: &Motion, rf: ReferenceFrame) -> Moti
 }
 
 /// `q ⊕ v`: the configuration reached from `q` after moving with velocity `v` for unit time.
-/// Free-flyers move along the body twist (`M · exp6(v)`), other joints add.
+/// Free-flyers move along the body twist (`M · exp6(v)`), `(cos θ, sin θ)` pairs
+/// ([`JointKind::RevoluteUnbounded`]) turn by their rate and are renormalised, other joints
+/// add.
 #[track_caller]
 pub fn integrate(model: &Model, q: &[f64], v: &[f64], out: &mut [f64]) {
     check_len("q", q.len(), model.nq);
@@ -182,7 +184,8 @@ pub fn integrate(model: &Model, q: &[f64], v: &[f64], out: &mut [f64]) {
     }
 }
 
-/// `q1 ⊖ q0`: the velocity `v` with `q0 ⊕ v = q1`.
+/// `q1 ⊖ q0`: the velocity `v` with `q0 ⊕ v = q1` (for a `(cos θ, sin θ)` pair, the angle
+/// from `q0` to `q1` wrapped into (−π, π]).
 #[track_caller]
 pub fn difference(model: &Model, q0: &[f64], q1: &[f64], out: &mut [f64]) {
     check_len("q0", q0.len(), model.nq);

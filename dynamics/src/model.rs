@@ -19,7 +19,8 @@ pub enum JointKind {
         axis: Vector3<f64>,
     },
     /// Rotation by the angle `θ` about the unit `axis`, parametrised as Pinocchio
-    /// parametrises unbounded (continuous) joints: `q = (cos θ, sin θ)`, a unit vector, so
+    /// parametrises unbounded (continuous) joints: `q = (cos θ, sin θ)`, a unit vector
+    /// (the algorithms assume it without checking; [`crate::normalize`] restores it), so
     /// the joint has no angle to wrap and no sine or cosine to evaluate; `v = θ̇`;
     /// `S = (0, axis)`. Two `q` entries, one degree of freedom. The URDF loader makes
     /// continuous joints this kind when asked ([`crate::UrdfOptions`]); by default they are
@@ -225,7 +226,8 @@ pub struct Joint {
     pub kind: JointKind,
     /// Index of the parent joint (`0` for joints attached to the world; `parent < index`).
     pub parent: usize,
-    /// Placement of the joint frame in the parent joint's frame at `q = 0`.
+    /// Placement of the joint frame in the parent joint's frame at the neutral
+    /// configuration (joint angle or displacement 0).
     pub placement: Se3,
     /// First index of this joint in `q`.
     pub idx_q: usize,
@@ -565,13 +567,35 @@ impl Model {
 
     /// Recomputes the derived tree structure (supports, dof parents, subtree sizes) and the
     /// per-joint axis planes the transforms use. Call it after editing `joints` (their
-    /// parents, kinds or axes); inertias, placements and limits need no call.
+    /// parents, kinds or axes); inertias, placements and limits need no call. A kind may
+    /// only be replaced by one with the same `nq` and `nv` (the `q`/`v` layout is fixed
+    /// when joints are added).
     ///
     /// # Panics
-    /// If the joints are not in depth-first order (a programming error of the caller).
+    /// If the joints are not in depth-first order, or their `idx_q`/`idx_v` no longer
+    /// follow from their kinds (programming errors of the caller).
     #[track_caller]
     pub fn finalize(&mut self) {
         let n = self.joints.len();
+        let (mut nq, mut nv) = (0, 0);
+        for j in &self.joints {
+            assert!(
+                j.idx_q == nq && j.idx_v == nv,
+                "joint '{}' starts at q[{}]/v[{}] but the kinds before it end at q[{nq}]/v[{nv}]: \
+                 a kind was replaced by one of another size",
+                j.name,
+                j.idx_q,
+                j.idx_v
+            );
+            nq += j.nq();
+            nv += j.nv();
+        }
+        assert!(
+            nq == self.nq && nv == self.nv,
+            "the joints' kinds no longer add up to nq {}, nv {}",
+            self.nq,
+            self.nv
+        );
         self.supports = Vec::with_capacity(n);
         self.supports.push(vec![0]);
         for i in 1..n {
@@ -659,6 +683,17 @@ mod tests {
         m.joints[2].kind = JointKind::Revolute { axis: Vector3::y() };
         m.finalize();
         assert_eq!(m.axis_planes[2], AxisPlane::Y(1.0));
+    }
+
+    #[test]
+    #[should_panic(expected = "a kind was replaced by one of another size")]
+    fn finalize_refuses_a_kind_of_another_size() {
+        let mut m = Model::new("sizes");
+        let a = m.add_joint("a", JointKind::Revolute { axis: Vector3::z() }, 0, Se3::identity());
+        m.add_joint("b", JointKind::Revolute { axis: Vector3::x() }, a, Se3::identity());
+        // Two q entries instead of one: joint b's idx_q is now wrong.
+        m.joints[a].kind = JointKind::RevoluteUnbounded { axis: Vector3::z() };
+        m.finalize();
     }
 
     #[test]

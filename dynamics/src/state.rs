@@ -102,7 +102,9 @@ impl RobotState {
         }
     }
 
-    /// Joint positions (everything after the base).
+    /// Joint positions (everything after the base). With
+    /// [`crate::JointKind::RevoluteUnbounded`] joints this holds their `(cos θ, sin θ)`
+    /// pairs and is longer than [`RobotState::joint_velocities`].
     pub fn joint_positions(&self) -> &[f64] {
         &self.q.as_slice()[self.base_dims().0..]
     }

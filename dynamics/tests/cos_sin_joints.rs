@@ -4,10 +4,10 @@
 
 mod common;
 
-use centaur_dynamics::nalgebra::DVector;
+use centaur_dynamics::nalgebra::{DVector, Matrix3, Vector3};
 use centaur_dynamics::{
-    BaseKind, Data, JointKind, Model, aba, centroidal_map, compute_joint_jacobians, crba, difference,
-    forward_kinematics, integrate, normalize, rnea,
+    BaseKind, Data, Inertia, JointKind, Model, Se3, aba, centroidal_map, compute_joint_jacobians, crba,
+    difference, forward_kinematics, integrate, normalize, rnea,
 };
 use common::{Rng, asset, minitaur_cos_sin, random_q, random_v, rel_err};
 
@@ -150,4 +150,54 @@ fn normalize_puts_the_pairs_back_on_the_unit_circle() {
     assert!((q[iq[0]] - 0.6).abs() < 1e-15 && (q[iq[0] + 1] - 0.8).abs() < 1e-15);
     assert_eq!((q[iq[1]], q[iq[1] + 1]), (1.0, 0.0), "a zero pair becomes θ = 0");
     assert_eq!((q[iq[2]], q[iq[2] + 1]), (1.0, 0.0), "a NaN pair becomes θ = 0");
+}
+
+/// A fixed-base chain turning about x, −y and an oblique axis, with each joint either
+/// [`JointKind::Revolute`] or [`JointKind::RevoluteUnbounded`].
+fn chain(cos_sin: bool) -> Model {
+    let axes = [Vector3::x(), -Vector3::y(), Vector3::new(0.6, 0.0, 0.8), Vector3::z()];
+    let mut m = Model::new("chain");
+    let mut parent = 0;
+    for (k, axis) in axes.into_iter().enumerate() {
+        let kind = if cos_sin { JointKind::RevoluteUnbounded { axis } } else { JointKind::Revolute { axis } };
+        let placement = Se3::new(Matrix3::identity(), Vector3::new(0.1, 0.05 * k as f64, 0.3));
+        parent = m.add_joint(format!("j{k}"), kind, parent, placement);
+        let rot = Matrix3::new(0.02, 0.001, 0.0, 0.001, 0.03, 0.002, 0.0, 0.002, 0.025);
+        m.inertias[parent] = Inertia::new(1.0 + k as f64, Vector3::new(0.05, -0.02, 0.1), rot);
+    }
+    m
+}
+
+#[test]
+fn every_axis_plane_agrees_with_the_angle_joint() {
+    let (angles, cos_sin) = (chain(false), chain(true));
+    assert_eq!((cos_sin.nq, cos_sin.nv), (8, 4));
+    let (mut da, mut dc) = (Data::new(&angles), Data::new(&cos_sin));
+    let mut rng = Rng(11);
+    for _ in 0..10 {
+        let qa = DVector::from_fn(4, |_, _| rng.range(-3.1, 3.1));
+        let qc = to_cos_sin(&angles, &cos_sin, &qa);
+        for (ja, jc) in angles.joints[1..].iter().zip(&cos_sin.joints[1..]) {
+            // The joint's own transform, `M_J(q)`.
+            let (ta, tc) = (
+                ja.kind.transform(&qa.as_slice()[ja.idx_q..]),
+                jc.kind.transform(&qc.as_slice()[jc.idx_q..]),
+            );
+            assert!(rel_err(tc.rotation.as_slice(), ta.rotation.as_slice()) < 1e-15, "{}", jc.name);
+        }
+        let (v, acc) = (random_v(&angles, &mut rng), random_v(&angles, &mut rng));
+        let t_a = rnea(&angles, &mut da, qa.as_slice(), v.as_slice(), acc.as_slice()).clone();
+        let t_c = rnea(&cos_sin, &mut dc, qc.as_slice(), v.as_slice(), acc.as_slice()).clone();
+        assert!(rel_err(t_c.as_slice(), t_a.as_slice()) < 1e-13, "rnea");
+        let m_a = crba(&angles, &mut da, qa.as_slice()).clone();
+        let m_c = crba(&cos_sin, &mut dc, qc.as_slice()).clone();
+        assert!(rel_err(m_c.as_slice(), m_a.as_slice()) < 1e-13, "crba");
+        let dd_a = aba(&angles, &mut da, qa.as_slice(), v.as_slice(), t_a.as_slice()).clone();
+        let dd_c = aba(&cos_sin, &mut dc, qc.as_slice(), v.as_slice(), t_c.as_slice()).clone();
+        assert!(rel_err(dd_c.as_slice(), dd_a.as_slice()) < 1e-12, "aba");
+        assert!(rel_err(dd_c.as_slice(), acc.as_slice()) < 1e-10, "aba undoes rnea");
+        compute_joint_jacobians(&angles, &mut da, qa.as_slice());
+        compute_joint_jacobians(&cos_sin, &mut dc, qc.as_slice());
+        assert!(rel_err(dc.jacobians.as_slice(), da.jacobians.as_slice()) < 1e-13, "jacobians");
+    }
 }

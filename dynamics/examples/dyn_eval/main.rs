@@ -12,6 +12,8 @@
 //! Output: `{"cases": [{"tau": rnea(q,v,a), "nle": rnea(q,v,0), "M": rows, "ddq":
 //! aba(q,v,tau), "com", "total_mass", "frames": {link: {"translation", "rotation"}}}]}`.
 //! The URDF path is taken relative to the working directory, else to the cases file.
+//! Optional input field `"continuous_as_cos_sin": true` loads continuous joints as
+//! `(cos θ, sin θ)` joints, as Pinocchio does; `q` still gives one angle per joint.
 
 mod eval;
 
