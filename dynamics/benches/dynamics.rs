@@ -1,5 +1,6 @@
-//! Criterion benches of every algorithm on a 12-dof quadruped (Solo12), the Minitaur, a
-//! 38-dof humanoid (Talos, reduced) and an arm (UR5). Run with
+//! Criterion benches of every algorithm on a 12-dof quadruped (Solo12), the Minitaur (with
+//! its continuous joints as angles, and as `(cos θ, sin θ)` like Pinocchio), a 38-dof
+//! humanoid (Talos, reduced) and an arm (UR5). Run with
 //! `cargo bench -p centaur-dynamics`; `examples/dyn_bench.rs` prints the same figures as
 //! JSON for the side-by-side comparison with Pinocchio.
 
@@ -13,7 +14,11 @@ use nalgebra::Matrix6xX;
 use std::hint::black_box;
 
 fn bench_robot(c: &mut Criterion, label: &str, path: &str, base: BaseKind) {
-    let model = Model::from_urdf_file(asset(path), base).expect("bench model loads");
+    bench_robot_with(c, label, path, base, UrdfOptions::default());
+}
+
+fn bench_robot_with(c: &mut Criterion, label: &str, path: &str, base: BaseKind, options: UrdfOptions) {
+    let model = Model::from_urdf_file_with(asset(path), base, options).expect("bench model loads");
     let mut data = Data::new(&model);
     let mut rng = Rng(11);
     let q = random_q(&model, &mut rng);
@@ -75,6 +80,8 @@ fn bench_robot(c: &mut Criterion, label: &str, path: &str, base: BaseKind) {
 fn benches(c: &mut Criterion) {
     bench_robot(c, "solo12", "solo12/solo12.urdf", BaseKind::Floating);
     bench_robot(c, "minitaur", "minitaur/minitaur.urdf", BaseKind::Floating);
+    let cos_sin = UrdfOptions { continuous_as_cos_sin: true };
+    bench_robot_with(c, "minitaur_cos_sin", "minitaur/minitaur.urdf", BaseKind::Floating, cos_sin);
     bench_robot(c, "talos_reduced", "talos/talos_reduced.urdf", BaseKind::Floating);
     bench_robot(c, "ur5", "ur5/ur5_robot.urdf", BaseKind::Fixed);
 }
