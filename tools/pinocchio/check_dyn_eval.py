@@ -23,6 +23,7 @@ exceeds --tol (default 1e-9) or the tool fails / prints malformed output.
 Examples (from the repository root):
     python tools/pinocchio/check_dyn_eval.py dynamics/tests/fixtures/pinocchio/*.json
     python tools/pinocchio/check_dyn_eval.py --random assets/solo12/solo12.urdf --floating-base --n 20
+    python tools/pinocchio/check_dyn_eval.py --cos-sin --random assets/minitaur/minitaur.urdf --floating-base
     # self-test, Pinocchio against Pinocchio:
     python tools/pinocchio/check_dyn_eval.py --cmd "python tools/pinocchio/gen_fixtures.py --eval" \\
         dynamics/tests/fixtures/pinocchio/*.json
@@ -106,6 +107,9 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=1, help="seed for --random")
     ap.add_argument("--save", type=Path, help="write the --random input(s) here (dir)")
     ap.add_argument("--tol", type=float, default=DEFAULT_TOL)
+    ap.add_argument("--cos-sin", action="store_true",
+                    help='set "continuous_as_cos_sin" in every input: the tool loads continuous '
+                         "joints as (cos, sin) joints, as Pinocchio does (q keeps angles)")
     ap.add_argument("--timeout", type=float, default=3600.0,
                     help="seconds per tool run (the first cargo run may compile)")
     args = ap.parse_args()
@@ -136,6 +140,9 @@ def main() -> int:
             ref = stored
         else:
             ref = pinref.evaluate_input(inp)
+        if args.cos_sin:
+            inp = {**inp, "continuous_as_cos_sin": True}
+            label = f"{label} (cos, sin)"
         try:
             got = run_tool(args.cmd, inp, args.timeout)
         except (RuntimeError, subprocess.TimeoutExpired, OSError) as err:
