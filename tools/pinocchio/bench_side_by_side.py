@@ -233,7 +233,7 @@ def main() -> int:
     binary, fresh = build(prefix, args.cxx, args.build_dir,
                           shlex.split(args.extra_cxxflags), args.rebuild)
     if fresh or args.verify:
-        verify(binary, [r for r in robots if r not in DERIVED and r not in SAME_URDF])
+        verify(binary, sorted({SAME_URDF.get(r, DERIVED.get(r, r)) for r in robots}))
 
     results = []
     for name in robots:
@@ -254,7 +254,8 @@ def main() -> int:
                                  for k in KEYS), file=sys.stderr)
         entry = {"robot": name, "urdf": urdf, "floating_base": floating,
                  "nq": runs["pinocchio"][0].get("nq"), "nv": runs["pinocchio"][0].get("nv"),
-                 "centaur_nq": runs["centaur"][0].get("nq") if runs["centaur"] else None}
+                 "centaur_nq": runs["centaur"][0].get("nq") if runs["centaur"] else None,
+                 "centaur_flags": CENTAUR_FLAGS.get(name, [])}
         for tool, rs in runs.items():
             if not rs:
                 continue
