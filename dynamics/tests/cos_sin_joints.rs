@@ -64,42 +64,49 @@ fn continuous_joints_load_as_cos_sin_pairs_on_request() {
     }
 }
 
+/// Draws a random state of `angles` and checks that `cos_sin` gives the same joint
+/// transforms, RNEA, CRBA, ABA, joint Jacobians, centroidal map and joint placements.
+fn assert_agree(angles: &Model, cos_sin: &Model, rng: &mut Rng) {
+    let (mut da, mut dc) = (Data::new(angles), Data::new(cos_sin));
+    let qa = random_q(angles, rng);
+    let qc = to_cos_sin(angles, cos_sin, &qa);
+    let (qa, qc) = (qa.as_slice(), qc.as_slice());
+    let (v, a, tau) = (random_v(angles, rng), random_v(angles, rng), random_v(angles, rng));
+    let (v, a, tau) = (v.as_slice(), a.as_slice(), tau.as_slice());
+    let close = |x: &[f64], y: &[f64], what: &str| {
+        let e = rel_err(x, y);
+        assert!(e < 1e-13, "{}: {what} differs by {e:e}", cos_sin.name);
+    };
+    for (ja, jc) in angles.joints[1..].iter().zip(&cos_sin.joints[1..]) {
+        // The joint's own transform, `M_J(q)`.
+        let (ta, tc) = (ja.kind.transform(&qa[ja.idx_q..]), jc.kind.transform(&qc[jc.idx_q..]));
+        close(tc.rotation.as_slice(), ta.rotation.as_slice(), &jc.name);
+    }
+    close(rnea(cos_sin, &mut dc, qc, v, a).as_slice(), rnea(angles, &mut da, qa, v, a).as_slice(), "rnea");
+    close(crba(cos_sin, &mut dc, qc).as_slice(), crba(angles, &mut da, qa).as_slice(), "crba");
+    close(aba(cos_sin, &mut dc, qc, v, tau).as_slice(), aba(angles, &mut da, qa, v, tau).as_slice(), "aba");
+    compute_joint_jacobians(angles, &mut da, qa);
+    compute_joint_jacobians(cos_sin, &mut dc, qc);
+    close(dc.jacobians.as_slice(), da.jacobians.as_slice(), "joint jacobians");
+    close(
+        centroidal_map(cos_sin, &mut dc, qc).as_slice(),
+        centroidal_map(angles, &mut da, qa).as_slice(),
+        "centroidal map",
+    );
+    forward_kinematics(angles, &mut da, qa);
+    forward_kinematics(cos_sin, &mut dc, qc);
+    for (pa, pc) in da.o_m_i.iter().zip(&dc.o_m_i) {
+        close(pc.rotation.as_slice(), pa.rotation.as_slice(), "joint rotation");
+        close(pc.translation.as_slice(), pa.translation.as_slice(), "joint translation");
+    }
+}
+
 #[test]
 fn cos_sin_and_angle_models_agree_on_every_algorithm() {
-    let angles = minitaur_angles();
-    let cos_sin = minitaur_cos_sin();
-    let (mut da, mut dc) = (Data::new(&angles), Data::new(&cos_sin));
+    let (angles, cos_sin) = (minitaur_angles(), minitaur_cos_sin());
     let mut rng = Rng(7);
     for _ in 0..20 {
-        let qa = random_q(&angles, &mut rng);
-        let qc = to_cos_sin(&angles, &cos_sin, &qa);
-        let (v, a, tau) =
-            (random_v(&angles, &mut rng), random_v(&angles, &mut rng), random_v(&angles, &mut rng));
-        let close = |x: &[f64], y: &[f64], what: &str| {
-            let e = rel_err(x, y);
-            assert!(e < 1e-13, "{what} differs by {e:e}");
-        };
-        let t_a = rnea(&angles, &mut da, qa.as_slice(), v.as_slice(), a.as_slice()).clone();
-        let t_c = rnea(&cos_sin, &mut dc, qc.as_slice(), v.as_slice(), a.as_slice()).clone();
-        close(t_c.as_slice(), t_a.as_slice(), "rnea");
-        let m_a = crba(&angles, &mut da, qa.as_slice()).clone();
-        let m_c = crba(&cos_sin, &mut dc, qc.as_slice()).clone();
-        close(m_c.as_slice(), m_a.as_slice(), "crba");
-        let dd_a = aba(&angles, &mut da, qa.as_slice(), v.as_slice(), tau.as_slice()).clone();
-        let dd_c = aba(&cos_sin, &mut dc, qc.as_slice(), v.as_slice(), tau.as_slice()).clone();
-        close(dd_c.as_slice(), dd_a.as_slice(), "aba");
-        compute_joint_jacobians(&angles, &mut da, qa.as_slice());
-        compute_joint_jacobians(&cos_sin, &mut dc, qc.as_slice());
-        close(dc.jacobians.as_slice(), da.jacobians.as_slice(), "joint jacobians");
-        let ag_a = centroidal_map(&angles, &mut da, qa.as_slice()).clone();
-        let ag_c = centroidal_map(&cos_sin, &mut dc, qc.as_slice()).clone();
-        close(ag_c.as_slice(), ag_a.as_slice(), "centroidal map");
-        forward_kinematics(&angles, &mut da, qa.as_slice());
-        forward_kinematics(&cos_sin, &mut dc, qc.as_slice());
-        for (pa, pc) in da.o_m_i.iter().zip(&dc.o_m_i) {
-            close(pc.rotation.as_slice(), pa.rotation.as_slice(), "joint rotation");
-            close(pc.translation.as_slice(), pa.translation.as_slice(), "joint translation");
-        }
+        assert_agree(&angles, &cos_sin, &mut rng);
     }
 }
 
@@ -172,32 +179,8 @@ fn chain(cos_sin: bool) -> Model {
 fn every_axis_plane_agrees_with_the_angle_joint() {
     let (angles, cos_sin) = (chain(false), chain(true));
     assert_eq!((cos_sin.nq, cos_sin.nv), (8, 4));
-    let (mut da, mut dc) = (Data::new(&angles), Data::new(&cos_sin));
     let mut rng = Rng(11);
     for _ in 0..10 {
-        let qa = DVector::from_fn(4, |_, _| rng.range(-3.1, 3.1));
-        let qc = to_cos_sin(&angles, &cos_sin, &qa);
-        for (ja, jc) in angles.joints[1..].iter().zip(&cos_sin.joints[1..]) {
-            // The joint's own transform, `M_J(q)`.
-            let (ta, tc) = (
-                ja.kind.transform(&qa.as_slice()[ja.idx_q..]),
-                jc.kind.transform(&qc.as_slice()[jc.idx_q..]),
-            );
-            assert!(rel_err(tc.rotation.as_slice(), ta.rotation.as_slice()) < 1e-15, "{}", jc.name);
-        }
-        let (v, acc) = (random_v(&angles, &mut rng), random_v(&angles, &mut rng));
-        let t_a = rnea(&angles, &mut da, qa.as_slice(), v.as_slice(), acc.as_slice()).clone();
-        let t_c = rnea(&cos_sin, &mut dc, qc.as_slice(), v.as_slice(), acc.as_slice()).clone();
-        assert!(rel_err(t_c.as_slice(), t_a.as_slice()) < 1e-13, "rnea");
-        let m_a = crba(&angles, &mut da, qa.as_slice()).clone();
-        let m_c = crba(&cos_sin, &mut dc, qc.as_slice()).clone();
-        assert!(rel_err(m_c.as_slice(), m_a.as_slice()) < 1e-13, "crba");
-        let dd_a = aba(&angles, &mut da, qa.as_slice(), v.as_slice(), t_a.as_slice()).clone();
-        let dd_c = aba(&cos_sin, &mut dc, qc.as_slice(), v.as_slice(), t_c.as_slice()).clone();
-        assert!(rel_err(dd_c.as_slice(), dd_a.as_slice()) < 1e-12, "aba");
-        assert!(rel_err(dd_c.as_slice(), acc.as_slice()) < 1e-10, "aba undoes rnea");
-        compute_joint_jacobians(&angles, &mut da, qa.as_slice());
-        compute_joint_jacobians(&cos_sin, &mut dc, qc.as_slice());
-        assert!(rel_err(dc.jacobians.as_slice(), da.jacobians.as_slice()) < 1e-13, "jacobians");
+        assert_agree(&angles, &cos_sin, &mut rng);
     }
 }

@@ -48,6 +48,15 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
+/// Allocations this thread makes inside `f`.
+fn counted(f: impl FnOnce()) -> usize {
+    COUNT.with(|c| c.set(0));
+    ON.with(|on| on.set(true));
+    f();
+    ON.with(|on| on.set(false));
+    COUNT.with(Cell::get)
+}
+
 /// Returns (allocations on ticks without a Clarabel solve, allocations on ticks with one,
 /// number of Clarabel solves).
 fn count_ticks(name: &str, backend: QpBackend, exec: MpcExecution) -> (usize, usize, usize) {
@@ -62,12 +71,11 @@ fn count_ticks(name: &str, backend: QpBackend, exec: MpcExecution) -> (usize, us
     bad.q[0] = f64::NAN;
     let (mut quiet, mut loud, mut solves) = (0, 0, 0);
     let mut t = 0.0;
+    // Ticks, counting allocations; returns whether the tick ran (or adopted) an MPC plan.
     let mut run = |c: &mut LocomotionController, state, cmd: &Command, t: f64| {
-        COUNT.with(|c| c.set(0));
-        ON.with(|on| on.set(true));
-        c.tick(state, cmd, t);
-        ON.with(|on| on.set(false));
-        let n = COUNT.with(Cell::get);
+        let n = counted(|| {
+            c.tick(state, cmd, t);
+        });
         let st = c.status();
         let clarabel = usize::from(st.mpc_ran)
             + usize::from(backend == QpBackend::Clarabel && st.wbc_status != centaur_mpc::QpStatus::NotRun);
@@ -77,6 +85,7 @@ fn count_ticks(name: &str, backend: QpBackend, exec: MpcExecution) -> (usize, us
             loud += n;
             solves += clarabel;
         }
+        st.mpc_ran
     };
     // On the worker thread a plan arrives after a solve's wall time, not after a number of
     // ticks: pace the ticks a little, and keep ticking (bounded) until one has been adopted,
@@ -91,16 +100,14 @@ fn count_ticks(name: &str, backend: QpBackend, exec: MpcExecution) -> (usize, us
     for (k, gait) in [Gait::Stand, Gait::Trot, Gait::Walk, Gait::Trot].iter().enumerate() {
         for _ in 0..150 {
             t += 0.002;
-            run(&mut c, &s, &Command::forward(0.3 * k as f64, *gait), t);
-            adopted |= c.status().mpc_ran;
+            adopted |= run(&mut c, &s, &Command::forward(0.3 * k as f64, *gait), t);
             pace();
         }
     }
     let start = Instant::now();
     while background && !adopted && start.elapsed() < Duration::from_secs(30) {
         t += 0.002;
-        run(&mut c, &s, &Command::stand(), t);
-        adopted |= c.status().mpc_ran;
+        adopted |= run(&mut c, &s, &Command::stand(), t);
         std::thread::sleep(Duration::from_millis(1));
     }
     run(&mut c, &bad, &Command::stand(), t + 0.001);
@@ -127,12 +134,11 @@ fn with_the_mpc_on_its_worker_thread_tick_never_allocates() {
     cfg.mpc_execution = MpcExecution::Background;
     let mut c = LocomotionController::new(&model, cfg).unwrap();
     let s = c.nominal_state();
-    COUNT.with(|c| c.set(0));
-    ON.with(|on| on.set(true));
-    c.tick(&s, &Command::stand(), 0.0);
-    ON.with(|on| on.set(false));
+    let n = counted(|| {
+        c.tick(&s, &Command::stand(), 0.0);
+    });
     assert!(c.status().mpc_blocked && c.status().mpc_status.is_ok());
-    assert_eq!(COUNT.with(Cell::get), 0, "the first (waiting) tick allocated");
+    assert_eq!(n, 0, "the first (waiting) tick allocated");
     for name in ["solo12", "minitaur", "walker2d"] {
         let (quiet, loud, solves) = count_ticks(name, QpBackend::Dense, MpcExecution::Background);
         assert_eq!((quiet, loud), (0, 0), "{name}: allocations on the ticking thread");
