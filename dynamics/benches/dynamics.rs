@@ -80,7 +80,7 @@ fn bench_robot_with(c: &mut Criterion, label: &str, path: &str, base: BaseKind, 
 fn benches(c: &mut Criterion) {
     bench_robot(c, "solo12", "solo12/solo12.urdf", BaseKind::Floating);
     bench_robot(c, "minitaur", "minitaur/minitaur.urdf", BaseKind::Floating);
-    let cos_sin = UrdfOptions { continuous_as_cos_sin: true };
+    let cos_sin = UrdfOptions { continuous_as_cos_sin: true, ..UrdfOptions::default() };
     bench_robot_with(c, "minitaur_cos_sin", "minitaur/minitaur.urdf", BaseKind::Floating, cos_sin);
     bench_robot(c, "talos_reduced", "talos/talos_reduced.urdf", BaseKind::Floating);
     bench_robot(c, "ur5", "ur5/ur5_robot.urdf", BaseKind::Fixed);

@@ -60,7 +60,10 @@ fn main() -> ExitCode {
         .and_then(|i| args.get(i + 1))
         .and_then(|s| s.parse().ok())
         .unwrap_or(400);
-    let options = UrdfOptions { continuous_as_cos_sin: args.iter().any(|a| a == "--continuous-cos-sin") };
+    let options = UrdfOptions {
+        continuous_as_cos_sin: args.iter().any(|a| a == "--continuous-cos-sin"),
+        ..UrdfOptions::default()
+    };
     let model = match Model::from_urdf_file_with(path, base, options) {
         Ok(m) => m,
         Err(e) => {

@@ -47,19 +47,42 @@
 //! * [`RobotState`] is `(q, v)` in this layout, with accessors for the base pose and twist
 //!   in base or world axes.
 //!
-//! ## What the URDF loader reads and ignores
+//! ## What the URDF loader reads, accepts and refuses
 //!
 //! Read: links (inertial, visual and collision geometry: box, cylinder, capsule, sphere,
 //! mesh file names), joints of type revolute, continuous, prismatic and fixed (origin,
 //! axis, `<limit>` position/effort/velocity, `<dynamics>` damping/friction), material
-//! colours. Ignored: `<mimic>`, `<calibration>`, `<safety_controller>`, `<transmission>`,
-//! `<gazebo>`, sensors, and mesh contents (a mesh that cannot be found is not an error).
-//! Rejected with a typed [`UrdfError`] naming the file and element: unreadable or non-URDF
-//! files, missing parent/child links, duplicate names, cycles, several roots, negative mass
-//! (or zero mass with non-zero inertia), non-physical inertia (negative principal moment or
-//! triangle inequality violated), revolute/prismatic joints without `<limit>`, NaN or
-//! infinite numbers, zero-length axes, floating/planar/spherical joints. A `<limit>` that
-//! gives neither `lower` nor `upper` leaves the joint position-unlimited (PyBullet's reading).
+//! colours. A `<limit>` that gives neither `lower` nor `upper` leaves the joint
+//! position-unlimited (PyBullet's reading). Mesh contents are never read (a mesh that
+//! cannot be found is not an error).
+//!
+//! The policy matches the published robots (Pinocchio loads them; the corpus of 44 in
+//! `assets/corpus/` loads and agrees with it): refuse only what makes the dynamics wrong or
+//! undefined, and report everything repaired, ignored or dropped as a [`UrdfWarning`] in
+//! [`Model::load_warnings`] (which link or joint, what, what was done).
+//!
+//! * **Refused** with a typed [`UrdfError`] naming the file and element: unreadable or
+//!   non-URDF files, missing parent/child links, duplicate names, cycles, several roots,
+//!   revolute/prismatic joints without `<limit>`, inverted limits, NaN or infinite numbers,
+//!   zero-length axes, floating/planar/spherical joints, negative masses, and a body (links
+//!   merged across fixed joints) that carries at least `1e−3` of the robot's mass and whose
+//!   rotational inertia clearly violates a rigid body's conditions (a principal moment
+//!   below zero, or `λ₁ + λ₂ < λ₃`, by more than `1e−6` of its moments plus `1e−9` of the
+//!   largest body's: [`UrdfError::NonPhysicalBody`]).
+//! * **Accepted with a warning**: a link whose own inertia is non-physical inside a body
+//!   that is not (the dummy `base` links of Go1, B1, ANYmal, HyQ); a non-physical body of
+//!   negligible mass; a link with zero mass and non-zero inertia (kept as given); shapes
+//!   that are degenerate or that urdf-rs cannot read (dropped: when urdf-rs cannot read the
+//!   file as written, the loader reads it again keeping only the elements the dynamics
+//!   uses); `<mimic>` (the joint stays independent); `<gazebo>`, `<transmission>`,
+//!   `<sensor>`, `<calibration>`, `<safety_controller>`, `ros2_control` and vendor tags
+//!   (counted); a degree of freedom that moves no inertia (a massless moving leaf, as in
+//!   Pinocchio a zero-inertia body: the mass matrix is singular and ABA undefined).
+//! * [`UrdfOptions::accept_nonphysical_inertia`] keeps even clearly non-physical bodies as
+//!   given, as Pinocchio does (needed for example-robot-data's `romeo_small` and
+//!   `romeo_laas_small`, pybullet's `mini_cheetah` and `xarm6_robot`);
+//!   [`UrdfOptions::strict`] restores the earlier, stricter behaviour (every link checked on
+//!   its own, zero mass with inertia and degenerate shapes refused, no second reading).
 //!
 //! ## Not supported
 //!
@@ -126,4 +149,4 @@ pub use rnea::{gravity_torques, nonlinear_effects, rnea};
 pub use robot::Robot;
 pub use spatial::{Force, Inertia, Motion, OriginInertia, Se3};
 pub use state::RobotState;
-pub use urdf::{BaseKind, UrdfError, UrdfOptions};
+pub use urdf::{BaseKind, UrdfError, UrdfOptions, UrdfWarning};

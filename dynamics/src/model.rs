@@ -368,6 +368,9 @@ pub struct Model {
     pub friction: DVector<f64>,
     /// Rotor inertia reflected to each `v` entry (armature; 0 unless set by the user).
     pub armature: DVector<f64>,
+    /// What the URDF loader repaired, ignored or dropped, and properties of the model a
+    /// user should know about (a singular mass matrix); empty for a model built by hand.
+    pub load_warnings: Vec<crate::UrdfWarning>,
     // Derived tree structure, filled by `finalize`.
     pub(crate) parent_v: Vec<Option<usize>>,
     pub(crate) nv_subtree_from_row: Vec<usize>,
@@ -407,6 +410,7 @@ impl Model {
             damping: DVector::zeros(0),
             friction: DVector::zeros(0),
             armature: DVector::zeros(0),
+            load_warnings: Vec::new(),
             parent_v: Vec::new(),
             nv_subtree_from_row: Vec::new(),
             supports: vec![vec![0]],

@@ -3,11 +3,25 @@
 
 mod common;
 
-use centaur_dynamics::{BaseKind, JointKind, Model, UrdfError};
+use centaur_dynamics::{BaseKind, JointKind, Model, UrdfError, UrdfOptions};
 use proptest::prelude::*;
 
 fn load(text: &str) -> Result<Model, UrdfError> {
     Model::from_urdf_str(text, "test.urdf", BaseKind::Floating)
+}
+
+fn load_with(text: &str, options: UrdfOptions) -> Result<Model, UrdfError> {
+    Model::from_urdf_str_with(text, "test.urdf", BaseKind::Floating, options)
+}
+
+/// Centaur's behaviour before the loading policy.
+fn strict() -> UrdfOptions {
+    UrdfOptions { strict: true, ..UrdfOptions::default() }
+}
+
+/// Pinocchio's reading of non-physical inertias: as given.
+fn accept() -> UrdfOptions {
+    UrdfOptions { accept_nonphysical_inertia: true, ..UrdfOptions::default() }
 }
 
 const INERTIAL: &str = r#"<inertial><mass value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>"#;
@@ -213,24 +227,29 @@ fn non_physical_mass_and_inertia_are_rejected() {
     let neg = robot(
         r#"<link name="a"><inertial><mass value="-1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>"#,
     );
-    let err = load(&neg).unwrap_err();
-    assert!(matches!(err, UrdfError::NonPositiveMass { .. }), "{err}");
-    assert_message(&err, &["link 'a'", "-1"]);
-    let zero_with_inertia = robot(
-        r#"<link name="a"><inertial><mass value="0"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>"#,
-    );
-    assert!(matches!(load(&zero_with_inertia).unwrap_err(), UrdfError::NonPositiveMass { .. }));
-    // 1 + 1 < 3: no rigid body has these principal moments.
+    for options in [UrdfOptions::default(), strict(), accept()] {
+        let err = load_with(&neg, options).unwrap_err();
+        assert!(matches!(err, UrdfError::NonPositiveMass { .. }), "{err}");
+        assert_message(&err, &["link 'a'", "-1"]);
+    }
+    // 1 + 1 < 3: no rigid body has these principal moments, and this one carries all the mass.
     let triangle = robot(
         r#"<link name="a"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="3" ixy="0" ixz="0" iyz="0"/></inertial></link>"#,
     );
     let err = load(&triangle).unwrap_err();
+    assert!(matches!(err, UrdfError::NonPhysicalBody { .. }), "{err}");
+    assert_message(&err, &["root_joint", "[\"a\"]", "triangle", "accept_nonphysical_inertia"]);
+    let err = load_with(&triangle, strict()).unwrap_err();
     assert!(matches!(err, UrdfError::NonPhysicalInertia { .. }), "{err}");
     assert_message(&err, &["triangle"]);
+    // A negative principal moment (eigenvalues of [[1, 2], [2, 1]] are 3 and −1).
     let negative = robot(
         r#"<link name="a"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="2" ixz="0" iyz="0"/></inertial></link>"#,
     );
-    assert!(matches!(load(&negative).unwrap_err(), UrdfError::NonPhysicalInertia { .. }));
+    let err = load(&negative).unwrap_err();
+    assert!(matches!(err, UrdfError::NonPhysicalBody { .. }), "{err}");
+    assert_message(&err, &["negative"]);
+    assert!(matches!(load_with(&negative, strict()).unwrap_err(), UrdfError::NonPhysicalInertia { .. }));
 }
 
 #[test]
@@ -293,10 +312,14 @@ fn zero_axes_and_unsupported_joints_are_rejected() {
 }
 
 #[test]
-fn bad_geometry_sizes_are_rejected() {
+fn bad_geometry_sizes_are_rejected_in_strict_mode() {
     let text =
         robot(r#"<link name="a"><collision><geometry><sphere radius="-1"/></geometry></collision></link>"#);
-    assert!(load(&text).is_err());
+    let err = load_with(&text, strict()).unwrap_err();
+    assert!(matches!(err, UrdfError::BadGeometry { .. }), "{err}");
+    // A NaN size is an error in every mode.
+    let nan = robot(r#"<link name="a"><visual><geometry><sphere radius="NaN"/></geometry></visual></link>"#);
+    assert!(matches!(load(&nan).unwrap_err(), UrdfError::NonFinite { .. }));
 }
 
 /// Text mutations a fuzzer would try: delete, duplicate or replace a span, swap in tokens
@@ -377,7 +400,9 @@ proptest! {
     fn mutated_urdf_text_never_panics(muts in prop::collection::vec(mutation(), 1..6)) {
         let original = std::fs::read_to_string(common::asset("minitaur/minitaur.urdf")).unwrap();
         let text = apply(&original, &muts);
-        let _ = Model::from_urdf_str(&text, "mutated.urdf", BaseKind::Floating);
-        let _ = Model::from_urdf_str(&text, "mutated.urdf", BaseKind::Fixed);
+        for options in [UrdfOptions::default(), strict(), accept()] {
+            let _ = Model::from_urdf_str_with(&text, "mutated.urdf", BaseKind::Floating, options);
+            let _ = Model::from_urdf_str_with(&text, "mutated.urdf", BaseKind::Fixed, options);
+        }
     }
 }

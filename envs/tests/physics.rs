@@ -330,7 +330,10 @@ fn regression_full_point_to_point_closure_made_motor_speeds_spike() {
 fn the_simulator_refuses_cos_sin_joints() {
     // Rapier's joint coordinates are angles; a (cos θ, sin θ) model gets a typed error.
     let path = format!("{}/../assets/minitaur/minitaur.urdf", env!("CARGO_MANIFEST_DIR"));
-    let options = centaur_dynamics::UrdfOptions { continuous_as_cos_sin: true };
+    let options = centaur_dynamics::UrdfOptions {
+        continuous_as_cos_sin: true,
+        ..centaur_dynamics::UrdfOptions::default()
+    };
     let model = Model::from_urdf_file_with(&path, BaseKind::Floating, options).unwrap();
     let Err(err) = Sim::new(&model, &SimConfig::default(), &ColliderSpec::default(), &[]) else {
         panic!("a (cos, sin) model was accepted")

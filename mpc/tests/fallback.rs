@@ -115,7 +115,10 @@ fn a_model_with_cos_sin_joints_is_refused_with_a_typed_error() {
     // The controller reads joint angles from q; a (cos θ, sin θ) joint would be misread.
     let (_, cfg) = common::load("minitaur");
     let path = format!("{}/../assets/minitaur/minitaur.urdf", env!("CARGO_MANIFEST_DIR"));
-    let options = centaur_dynamics::UrdfOptions { continuous_as_cos_sin: true };
+    let options = centaur_dynamics::UrdfOptions {
+        continuous_as_cos_sin: true,
+        ..centaur_dynamics::UrdfOptions::default()
+    };
     let model =
         centaur_dynamics::Model::from_urdf_file_with(&path, centaur_dynamics::BaseKind::Floating, options)
             .expect("URDF loads");

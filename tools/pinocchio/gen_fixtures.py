@@ -61,6 +61,20 @@ def self_check(rm: pinref.RobotModel, inp: dict, out: dict) -> None:
             assert np.allclose(f["rotation"], R, rtol=0, atol=1e-14)
 
 
+def provenance(generator: str, urdf: Path, seed: int, **extra) -> dict:
+    """The provenance block every fixture starts with; `extra` keys follow the common ones."""
+    pin = pinref._pin()
+    return {
+        "generator": generator,
+        "pinocchio": pin.__version__,
+        "numpy": np.__version__,
+        "date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        **extra,
+        "urdf_sha256": pinref.sha256_of(urdf),
+        "seed": seed,
+    }
+
+
 def generate(robot: str, n_cases: int, base_seed: int, out_dir: Path) -> Path:
     pin = pinref._pin()
     urdf_rel, floating = pinref.ROBOTS[robot]
@@ -73,12 +87,7 @@ def generate(robot: str, n_cases: int, base_seed: int, out_dir: Path) -> Path:
 
     doc = {
         "provenance": {
-            "generator": "tools/pinocchio/gen_fixtures.py",
-            "pinocchio": pin.__version__,
-            "numpy": np.__version__,
-            "date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
-            "urdf_sha256": pinref.sha256_of(rm.urdf),
-            "seed": seed,
+            **provenance("tools/pinocchio/gen_fixtures.py", rm.urdf, seed),
             "notes": (f"Pinocchio model: nq={rm.model.nq} (continuous joints as cos/sin), "
                       f"nv={rm.model.nv}, {len(rm.joints)} 1-dof joints, "
                       f"{len(rm.links)} links. q uses one angle per continuous joint. "

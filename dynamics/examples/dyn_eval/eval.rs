@@ -7,8 +7,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use centaur_dynamics::{
-    BaseKind, Data, Model, UrdfOptions, aba, center_of_mass, crba, forward_kinematics, frame_placement,
-    nonlinear_effects, rnea,
+    BaseKind, Data, Model, UrdfOptions, UrdfWarning, aba, center_of_mass, crba, forward_kinematics,
+    frame_placement, nonlinear_effects, rnea,
 };
 use serde::{Deserialize, Serialize};
 
@@ -24,6 +24,10 @@ pub struct Input {
     /// Pinocchio does. Inputs and outputs keep one angle per joint either way.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub continuous_as_cos_sin: bool,
+    /// Optional (default false): keep bodies with non-physical inertia as given
+    /// (`UrdfOptions::accept_nonphysical_inertia`), as Pinocchio does.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub accept_nonphysical_inertia: bool,
 }
 
 #[derive(Deserialize, Serialize, Clone, Debug)]
@@ -46,7 +50,9 @@ pub struct CaseOut {
     pub nle: Vec<f64>,
     #[serde(rename = "M")]
     pub m: Vec<Vec<f64>>,
-    pub ddq: Vec<f64>,
+    /// `null` where forward dynamics is undefined (a singular mass matrix: ABA's result
+    /// is not finite).
+    pub ddq: Option<Vec<f64>>,
     pub com: [f64; 3],
     pub total_mass: f64,
     pub frames: BTreeMap<String, Placement>,
@@ -133,10 +139,15 @@ impl Layout {
     }
 }
 
-pub fn run(input: &Input, base_dir: &Path) -> Result<Output, String> {
+/// Evaluates every case; also returns what the loader reported about the URDF.
+pub fn run(input: &Input, base_dir: &Path) -> Result<(Output, Vec<UrdfWarning>), String> {
     let path = resolve(&input.urdf, base_dir);
     let base = if input.floating_base { BaseKind::Floating } else { BaseKind::Fixed };
-    let options = UrdfOptions { continuous_as_cos_sin: input.continuous_as_cos_sin };
+    let options = UrdfOptions {
+        continuous_as_cos_sin: input.continuous_as_cos_sin,
+        accept_nonphysical_inertia: input.accept_nonphysical_inertia,
+        ..UrdfOptions::default()
+    };
     let model = Model::from_urdf_file_with(&path, base, options).map_err(|e| e.to_string())?;
     let mut data = Data::new(&model);
     let layout = Layout::new(&model, input)?;
@@ -159,6 +170,7 @@ pub fn run(input: &Input, base_dir: &Path) -> Result<Output, String> {
         let mm = crba(&model, &mut data, &q).clone();
         let m = order.iter().map(|&r| order.iter().map(|&c| mm[(r, c)]).collect()).collect();
         let ddq = pick(aba(&model, &mut data, &q, &v, &tau_in).as_slice());
+        let ddq = ddq.iter().all(|x| x.is_finite()).then_some(ddq);
         let com = center_of_mass(&model, &mut data, &q);
         forward_kinematics(&model, &mut data, &q);
         let mut frames = BTreeMap::new();
@@ -187,5 +199,5 @@ pub fn run(input: &Input, base_dir: &Path) -> Result<Output, String> {
             frames,
         });
     }
-    Ok(Output { cases })
+    Ok((Output { cases }, model.load_warnings))
 }

@@ -14,6 +14,10 @@
 //! The URDF path is taken relative to the working directory, else to the cases file.
 //! Optional input field `"continuous_as_cos_sin": true` loads continuous joints as
 //! `(cos θ, sin θ)` joints, as Pinocchio does; `q` still gives one angle per joint.
+//! Optional `"accept_nonphysical_inertia": true` keeps bodies whose inertia no rigid body can
+//! have, as Pinocchio does (the loader refuses them by default). `"ddq"` is `null` where the
+//! mass matrix is singular. What the loader repaired, ignored or dropped is printed on
+//! stderr, one `dyn_eval: warning: …` line each.
 
 mod eval;
 
@@ -41,8 +45,11 @@ fn main() -> ExitCode {
     };
     let base_dir = Path::new(&path).parent().unwrap_or(Path::new("."));
     match eval::run(&input, base_dir) {
-        Ok(out) => match serde_json::to_string(&out) {
+        Ok((out, warnings)) => match serde_json::to_string(&out) {
             Ok(s) => {
+                for w in &warnings {
+                    eprintln!("dyn_eval: warning: {}: {w}", input.urdf);
+                }
                 println!("{s}");
                 ExitCode::SUCCESS
             }

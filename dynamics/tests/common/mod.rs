@@ -94,7 +94,7 @@ pub fn test_models() -> Vec<Model> {
 /// The Minitaur with its continuous joints parametrised by `(cos θ, sin θ)`, as Pinocchio
 /// loads it (nq 31, nv 22).
 pub fn minitaur_cos_sin() -> Model {
-    let options = UrdfOptions { continuous_as_cos_sin: true };
+    let options = UrdfOptions { continuous_as_cos_sin: true, ..UrdfOptions::default() };
     Model::from_urdf_file_with(asset("minitaur/minitaur.urdf"), BaseKind::Floating, options)
         .unwrap_or_else(|e| panic!("{e}"))
 }

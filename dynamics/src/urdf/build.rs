@@ -1,294 +1,16 @@
-//! URDF → [`Model`], with a validation pass of our own.
-//!
-//! urdf-rs parses the XML structure but accepts files that are not robots (a missing parent
-//! link, duplicate names, cycles, non-URDF XML); every check below is ours, and every error
-//! names the file and the element at fault.
+//! Building the [`Model`]: the tree's structure checks, joints and frames in depth-first
+//! order, the inertia policy on the merged bodies, and the mass matrix's pivots.
 
 use std::collections::HashMap;
-use std::path::Path;
 
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
+use super::document::Document;
+use super::inertia;
+use super::{BaseKind, UrdfError, UrdfOptions, UrdfWarning};
+use crate::data::Data;
 use crate::model::{Frame, Geometry, GeometryRole, JointKind, Model, Shape};
 use crate::spatial::{Inertia, Se3};
-
-/// How the root link is attached to the world.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum BaseKind {
-    /// The root link is welded to the world (arms, and planar robots whose URDF already
-    /// contains their root joints).
-    Fixed,
-    /// A 6-dof free-flyer joint (`root_joint`) connects the world to the root link.
-    Floating,
-}
-
-/// A URDF file that cannot become a [`Model`]: each variant names the file (`file`), the
-/// element at fault and what is wrong.
-#[derive(Debug, thiserror::Error)]
-pub enum UrdfError {
-    /// The file could not be read.
-    #[error("{file}: cannot read the file: {source}")]
-    Io {
-        /// File path.
-        file: String,
-        /// The I/O error.
-        source: std::io::Error,
-    },
-    /// The text is not well-formed XML, or urdf-rs rejected its structure.
-    #[error("{file}: not a readable URDF: {message}")]
-    Parse {
-        /// File path or label.
-        file: String,
-        /// What the parser said.
-        message: String,
-    },
-    /// Well-formed XML whose root element is not `<robot>`.
-    #[error("{file}: not a URDF: the root element is <{root}>, expected <robot>")]
-    NotUrdf {
-        /// File path or label.
-        file: String,
-        /// The root element found.
-        root: String,
-    },
-    /// No `<link>` at all.
-    #[error("{file}: the robot has no links")]
-    NoLinks {
-        /// File path or label.
-        file: String,
-    },
-    /// Two links share a name.
-    #[error("{file}: duplicate link name '{link}'")]
-    DuplicateLink {
-        /// File path or label.
-        file: String,
-        /// The repeated name.
-        link: String,
-    },
-    /// Two joints share a name.
-    #[error("{file}: duplicate joint name '{joint}'")]
-    DuplicateJoint {
-        /// File path or label.
-        file: String,
-        /// The repeated name.
-        joint: String,
-    },
-    /// A joint refers to a link that does not exist.
-    #[error("{file}: joint '{joint}': its {role} link '{link}' does not exist")]
-    MissingLink {
-        /// File path or label.
-        file: String,
-        /// The joint.
-        joint: String,
-        /// `"parent"` or `"child"`.
-        role: &'static str,
-        /// The missing link name.
-        link: String,
-    },
-    /// A link is the child of two joints.
-    #[error("{file}: link '{link}' is the child of two joints, '{first}' and '{second}'")]
-    SeveralParents {
-        /// File path or label.
-        file: String,
-        /// The link.
-        link: String,
-        /// First joint.
-        first: String,
-        /// Second joint.
-        second: String,
-    },
-    /// More than one link is nobody's child.
-    #[error("{file}: several root links (links that are no joint's child): {roots:?}")]
-    SeveralRoots {
-        /// File path or label.
-        file: String,
-        /// The root links.
-        roots: Vec<String>,
-    },
-    /// The joints form a cycle.
-    #[error("{file}: the joints form a cycle through links {links:?}")]
-    Cycle {
-        /// File path or label.
-        file: String,
-        /// Links on the cycle.
-        links: Vec<String>,
-    },
-    /// A link's mass is negative, or zero while its rotational inertia is not.
-    #[error("{file}: link '{link}': <mass value=\"{mass}\"> is not positive")]
-    NonPositiveMass {
-        /// File path or label.
-        file: String,
-        /// The link.
-        link: String,
-        /// The mass read.
-        mass: f64,
-    },
-    /// A rotational inertia that no rigid body can have.
-    #[error("{file}: link '{link}': non-physical <inertia>: {reason}")]
-    NonPhysicalInertia {
-        /// File path or label.
-        file: String,
-        /// The link.
-        link: String,
-        /// Which condition fails, with the numbers.
-        reason: String,
-    },
-    /// A revolute or prismatic joint without `<limit>` (required by the URDF spec).
-    #[error("{file}: joint '{joint}': a {kind} joint needs a <limit> element")]
-    MissingLimit {
-        /// File path or label.
-        file: String,
-        /// The joint.
-        joint: String,
-        /// `"revolute"` or `"prismatic"`.
-        kind: &'static str,
-    },
-    /// A joint's lower position limit is above its upper limit.
-    #[error("{file}: joint '{joint}': lower limit {lower} is above upper limit {upper}")]
-    InvertedLimits {
-        /// File path or label.
-        file: String,
-        /// The joint.
-        joint: String,
-        /// Lower limit.
-        lower: f64,
-        /// Upper limit.
-        upper: f64,
-    },
-    /// A NaN or infinite number where a finite one is required.
-    #[error("{file}: {element}: {field} is {value}, expected a finite number")]
-    NonFinite {
-        /// File path or label.
-        file: String,
-        /// The element, e.g. `link 'foot' <inertial>`.
-        element: String,
-        /// The attribute.
-        field: String,
-        /// The value read.
-        value: f64,
-    },
-    /// A negative number where only non-negative ones make sense.
-    #[error("{file}: {element}: {field} is {value}, expected a non-negative number")]
-    Negative {
-        /// File path or label.
-        file: String,
-        /// The element.
-        element: String,
-        /// The attribute.
-        field: String,
-        /// The value read.
-        value: f64,
-    },
-    /// A joint axis of zero length.
-    #[error("{file}: joint '{joint}': <axis xyz> has zero length")]
-    ZeroAxis {
-        /// File path or label.
-        file: String,
-        /// The joint.
-        joint: String,
-    },
-    /// A joint type Centaur does not support.
-    #[error(
-        "{file}: joint '{joint}': unsupported joint type '{kind}' (supported: revolute, continuous, prismatic, fixed)"
-    )]
-    UnsupportedJoint {
-        /// File path or label.
-        file: String,
-        /// The joint.
-        joint: String,
-        /// The type found.
-        kind: String,
-    },
-    /// A geometry with a non-positive size.
-    #[error("{file}: link '{link}': {what} has a non-positive size")]
-    BadGeometry {
-        /// File path or label.
-        file: String,
-        /// The link.
-        link: String,
-        /// Which geometry.
-        what: String,
-    },
-}
-
-/// Choices the URDF loader leaves to the caller; the default is what
-/// [`Model::from_urdf_file`] and [`Model::from_urdf_str`] use.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct UrdfOptions {
-    /// Load `continuous` joints as [`JointKind::RevoluteUnbounded`] (`q = (cos θ, sin θ)`,
-    /// two entries per joint, as Pinocchio loads them) instead of as
-    /// [`JointKind::Revolute`] with an unlimited angle (one entry, the default, and what
-    /// the simulator and the controller expect).
-    pub continuous_as_cos_sin: bool,
-}
-
-impl Model {
-    /// Loads a URDF file. See [`Model::from_urdf_str`] for what is read.
-    pub fn from_urdf_file(path: impl AsRef<Path>, base: BaseKind) -> Result<Model, UrdfError> {
-        Model::from_urdf_file_with(path, base, UrdfOptions::default())
-    }
-
-    /// [`Model::from_urdf_file`] with loader options.
-    pub fn from_urdf_file_with(
-        path: impl AsRef<Path>,
-        base: BaseKind,
-        options: UrdfOptions,
-    ) -> Result<Model, UrdfError> {
-        let path = path.as_ref();
-        let file = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| UrdfError::Io { file: file.clone(), source })?;
-        let text = String::from_utf8(bytes)
-            .map_err(|e| UrdfError::Parse { file: file.clone(), message: format!("not UTF-8 text ({e})") })?;
-        Model::from_urdf_str_with(&text, &file, base, options)
-    }
-
-    /// Builds a model from URDF text; `source` names it in errors (a path or a label).
-    ///
-    /// Reads links (inertials, visual and collision geometry), and revolute, continuous,
-    /// prismatic and fixed joints with their origin, axis, `<limit>` (position, effort,
-    /// velocity) and `<dynamics>` (damping, friction). Links behind fixed joints are merged
-    /// into their moving parent's body but keep their frames. Ignored: `<mimic>`,
-    /// `<calibration>`, `<safety_controller>`, `<transmission>`, `<gazebo>` and mesh contents.
-    /// A revolute joint whose `<limit>` gives neither `lower` nor `upper` (both read as 0) is
-    /// treated as position-unlimited, as PyBullet does.
-    pub fn from_urdf_str(text: &str, source: &str, base: BaseKind) -> Result<Model, UrdfError> {
-        Model::from_urdf_str_with(text, source, base, UrdfOptions::default())
-    }
-
-    /// [`Model::from_urdf_str`] with loader options.
-    pub fn from_urdf_str_with(
-        text: &str,
-        source: &str,
-        base: BaseKind,
-        options: UrdfOptions,
-    ) -> Result<Model, UrdfError> {
-        let file = source.to_string();
-        let scan = prescan(text, &file)?;
-        let robot = urdf_rs::read_from_string(text)
-            .map_err(|e| UrdfError::Parse { file: file.clone(), message: e.to_string() })?;
-        build(&robot, &scan, &file, base, options)
-    }
-}
-
-/// What the XML pre-scan learns that urdf-rs's structs cannot tell.
-struct Prescan {
-    /// Joints (by name) that have a `<limit>` child.
-    joints_with_limit: Vec<String>,
-}
-
-fn prescan(text: &str, file: &str) -> Result<Prescan, UrdfError> {
-    let root: xml::Element =
-        text.parse().map_err(|e| UrdfError::Parse { file: file.to_string(), message: format!("{e:?}") })?;
-    if root.name != "robot" {
-        return Err(UrdfError::NotUrdf { file: file.to_string(), root: root.name.clone() });
-    }
-    let mut joints_with_limit = Vec::new();
-    for joint in root.get_children("joint", None) {
-        if joint.get_child("limit", None).is_some() {
-            joints_with_limit.push(joint.get_attribute("name", None).unwrap_or("").to_string());
-        }
-    }
-    Ok(Prescan { joints_with_limit })
-}
 
 fn check_finite(file: &str, element: &str, field: &str, values: &[f64]) -> Result<(), UrdfError> {
     for &value in values {
@@ -310,8 +32,10 @@ fn pose_to_se3(file: &str, element: &str, pose: &urdf_rs::Pose) -> Result<Se3, U
     Ok(Se3::from_xyz_rpy(pose.xyz.0, pose.rpy.0))
 }
 
-/// Checks a link's inertial and converts it to an [`Inertia`] in the link frame.
-fn link_inertia(file: &str, link: &urdf_rs::Link) -> Result<Inertia, UrdfError> {
+/// A link's `<inertial>`, read and checked for non-finite numbers and a negative mass (errors
+/// in every mode): `(mass, inertia about the centre of mass in the inertial frame, the
+/// inertial frame in the link frame)`.
+fn read_inertial(file: &str, link: &urdf_rs::Link) -> Result<(f64, Matrix3<f64>, Se3), UrdfError> {
     let element = format!("link '{}' <inertial>", link.name);
     let inertial = &link.inertial;
     let mass = inertial.mass.value;
@@ -319,9 +43,24 @@ fn link_inertia(file: &str, link: &urdf_rs::Link) -> Result<Inertia, UrdfError> 
     check_finite(file, &element, "mass", &[mass])?;
     check_finite(file, &element, "inertia", &[i.ixx, i.ixy, i.ixz, i.iyy, i.iyz, i.izz])?;
     let origin = pose_to_se3(file, &element, &inertial.origin)?;
-    let inertia = Matrix3::new(i.ixx, i.ixy, i.ixz, i.ixy, i.iyy, i.iyz, i.ixz, i.iyz, i.izz);
+    if mass < 0.0 {
+        return Err(UrdfError::NonPositiveMass { file: file.into(), link: link.name.clone(), mass });
+    }
+    Ok((mass, Matrix3::new(i.ixx, i.ixy, i.ixz, i.ixy, i.iyy, i.iyz, i.ixz, i.iyz, i.izz), origin))
+}
+
+/// The inertia of the link in its own frame: `<inertial><origin>` places the centre of mass
+/// and the inertia axes in the link frame.
+fn in_link_frame(mass: f64, inertia: &Matrix3<f64>, origin: &Se3) -> Inertia {
+    let rot = origin.rotation * inertia * origin.rotation.transpose();
+    Inertia::new(mass, origin.translation, rot)
+}
+
+/// The per-link check of [`UrdfOptions::strict`] (the loader's behaviour before the policy).
+fn link_inertia_strict(file: &str, link: &urdf_rs::Link) -> Result<Inertia, UrdfError> {
+    let (mass, inertia, origin) = read_inertial(file, link)?;
     let scale = inertia.abs().max();
-    if mass < 0.0 || (mass == 0.0 && scale > 0.0) {
+    if mass == 0.0 && scale > 0.0 {
         return Err(UrdfError::NonPositiveMass { file: file.into(), link: link.name.clone(), mass });
     }
     if scale > 0.0 {
@@ -345,9 +84,21 @@ fn link_inertia(file: &str, link: &urdf_rs::Link) -> Result<Inertia, UrdfError> 
             });
         }
     }
-    // <inertial><origin> places the centre of mass and the inertia axes in the link frame.
-    let rot = origin.rotation * inertia * origin.rotation.transpose();
-    Ok(Inertia::new(mass, origin.translation, rot))
+    Ok(in_link_frame(mass, &inertia, &origin))
+}
+
+/// A link's inertia in its frame, refusing only what is undefined (non-finite numbers, a
+/// negative mass); physicality is judged on the merged bodies ([`check_bodies`]).
+fn link_inertia(
+    file: &str,
+    link: &urdf_rs::Link,
+    warnings: &mut Vec<UrdfWarning>,
+) -> Result<Inertia, UrdfError> {
+    let (mass, inertia, origin) = read_inertial(file, link)?;
+    if mass == 0.0 && inertia.abs().max() > 0.0 {
+        warnings.push(UrdfWarning::ZeroMassWithInertia { link: link.name.clone() });
+    }
+    Ok(in_link_frame(mass, &inertia, &origin))
 }
 
 fn convert_shape(file: &str, link: &str, what: &str, g: &urdf_rs::Geometry) -> Result<Shape, UrdfError> {
@@ -391,12 +142,13 @@ fn convert_shape(file: &str, link: &str, what: &str, g: &urdf_rs::Geometry) -> R
     Ok(shape)
 }
 
-fn build(
+pub(super) fn build(
     robot: &urdf_rs::Robot,
-    scan: &Prescan,
+    scan: &Document,
     file: &str,
     base: BaseKind,
     options: UrdfOptions,
+    mut warnings: Vec<UrdfWarning>,
 ) -> Result<Model, UrdfError> {
     if robot.links.is_empty() {
         return Err(UrdfError::NoLinks { file: file.into() });
@@ -474,7 +226,11 @@ fn build(
     // Per-joint checks before building.
     let mut link_inertias = Vec::with_capacity(robot.links.len());
     for link in &robot.links {
-        link_inertias.push(link_inertia(file, link)?);
+        link_inertias.push(if options.strict {
+            link_inertia_strict(file, link)?
+        } else {
+            link_inertia(file, link, &mut warnings)?
+        });
     }
 
     let mut model = Model::new(robot.name.clone());
@@ -487,6 +243,7 @@ fn build(
     };
     // Depth-first traversal: (link, joint it hangs from, placement of the link in that joint).
     let mut link_frame = vec![usize::MAX; robot.links.len()];
+    let mut shapes = ShapePolicy { strict: options.strict, warnings: &mut warnings };
     add_link_frame(
         &mut model,
         robot,
@@ -496,6 +253,7 @@ fn build(
         &link_inertias,
         file,
         &mut link_frame,
+        &mut shapes,
     )?;
     let mut stack: Vec<usize> = children[root].iter().rev().copied().collect();
     while let Some(k) = stack.pop() {
@@ -526,7 +284,7 @@ fn build(
                     _ => (JointKind::Revolute { axis }, "revolute"),
                 };
                 let limited = kind_name != "continuous";
-                if limited && !scan.joints_with_limit.iter().any(|n| n == &joint.name) {
+                if limited && !scan.has_limit(&joint.name) {
                     return Err(UrdfError::MissingLimit {
                         file: file.into(),
                         joint: joint.name.clone(),
@@ -537,7 +295,7 @@ fn build(
                 let iv = model.joints[j].idx_v;
                 let iq = model.joints[j].idx_q;
                 let lim = &joint.limit;
-                let has_limit = scan.joints_with_limit.iter().any(|n| n == &joint.name);
+                let has_limit = scan.has_limit(&joint.name);
                 if has_limit {
                     for (field, v) in [("limit effort", lim.effort), ("limit velocity", lim.velocity)] {
                         if v.is_nan() {
@@ -612,6 +370,7 @@ fn build(
             &link_inertias,
             file,
             &mut link_frame,
+            &mut shapes,
         )?;
         for &c in children[child_link].iter().rev() {
             stack.push(c);
@@ -619,6 +378,11 @@ fn build(
     }
     model.recompute_body_inertias();
     model.finalize();
+    if !options.strict {
+        check_bodies(&model, file, options, &link_inertias, &link_frame, &mut warnings)?;
+    }
+    warnings.extend(singular_pivots(&model));
+    model.load_warnings = warnings;
     Ok(model)
 }
 
@@ -631,6 +395,7 @@ fn add_link_frame(
     link_inertias: &[Inertia],
     file: &str,
     link_frame: &mut [usize],
+    shapes: &mut ShapePolicy<'_>,
 ) -> Result<(), UrdfError> {
     let l = &robot.links[link];
     model.frames.push(Frame {
@@ -642,22 +407,33 @@ fn add_link_frame(
     });
     let frame = model.frames.len() - 1;
     link_frame[link] = frame;
+    let mut push = |role: GeometryRole,
+                    k: usize,
+                    name: &Option<String>,
+                    origin: &urdf_rs::Pose,
+                    geometry: &urdf_rs::Geometry,
+                    rgba: Option<[f64; 4]>|
+     -> Result<(), UrdfError> {
+        let tag = if role == GeometryRole::Collision { "collision" } else { "visual" };
+        let what = format!("<{tag}> {k}");
+        let origin = pose_to_se3(file, &format!("link '{}' {what}", l.name), origin)?;
+        if let Some(shape) = shapes.convert(file, &l.name, &what, geometry)? {
+            model.geometries.push(Geometry {
+                name: name.clone().unwrap_or_else(|| format!("{}_{tag}_{k}", l.name)),
+                frame,
+                parent_joint: joint,
+                placement: placement.mul(&origin),
+                shape,
+                role,
+                rgba,
+            });
+        }
+        Ok(())
+    };
     for (k, c) in l.collision.iter().enumerate() {
-        let what = format!("<collision> {k}");
-        let origin = pose_to_se3(file, &format!("link '{}' {what}", l.name), &c.origin)?;
-        model.geometries.push(Geometry {
-            name: c.name.clone().unwrap_or_else(|| format!("{}_collision_{k}", l.name)),
-            frame,
-            parent_joint: joint,
-            placement: placement.mul(&origin),
-            shape: convert_shape(file, &l.name, &what, &c.geometry)?,
-            role: GeometryRole::Collision,
-            rgba: None,
-        });
+        push(GeometryRole::Collision, k, &c.name, &c.origin, &c.geometry, None)?;
     }
     for (k, v) in l.visual.iter().enumerate() {
-        let what = format!("<visual> {k}");
-        let origin = pose_to_se3(file, &format!("link '{}' {what}", l.name), &v.origin)?;
         let rgba = v.material.as_ref().and_then(|m| {
             m.color.as_ref().map(|c| c.rgba.0).or_else(|| {
                 robot
@@ -668,15 +444,7 @@ fn add_link_frame(
             })
         });
         let rgba = rgba.filter(|c| c.iter().all(|x| x.is_finite()));
-        model.geometries.push(Geometry {
-            name: v.name.clone().unwrap_or_else(|| format!("{}_visual_{k}", l.name)),
-            frame,
-            parent_joint: joint,
-            placement: placement.mul(&origin),
-            shape: convert_shape(file, &l.name, &what, &v.geometry)?,
-            role: GeometryRole::Visual,
-            rgba,
-        });
+        push(GeometryRole::Visual, k, &v.name, &v.origin, &v.geometry, rgba)?;
     }
     Ok(())
 }
@@ -749,4 +517,157 @@ fn find_cycle(
         }
     }
     Vec::new()
+}
+
+/// What becomes of a shape [`convert_shape`] refuses for its size: an error in strict mode,
+/// otherwise the shape is dropped with a warning (the dynamics never reads shapes; the
+/// simulator cannot use a degenerate one). Non-finite numbers stay errors in both modes.
+struct ShapePolicy<'a> {
+    strict: bool,
+    warnings: &'a mut Vec<UrdfWarning>,
+}
+
+impl ShapePolicy<'_> {
+    fn convert(
+        &mut self,
+        file: &str,
+        link: &str,
+        what: &str,
+        g: &urdf_rs::Geometry,
+    ) -> Result<Option<Shape>, UrdfError> {
+        match convert_shape(file, link, what, g) {
+            Ok(shape) => Ok(Some(shape)),
+            Err(UrdfError::BadGeometry { .. }) if !self.strict => {
+                self.warnings.push(UrdfWarning::Dropped {
+                    element: format!("link '{link}' {what}"),
+                    reason: "a non-positive size".into(),
+                });
+                Ok(None)
+            }
+            Err(e) => Err(e),
+        }
+    }
+}
+
+/// The inertia policy on the bodies the dynamics uses (links merged across fixed joints):
+/// a violation within rounding passes; beyond it, a body of negligible mass (or any body,
+/// with [`UrdfOptions::accept_nonphysical_inertia`]) is kept with a warning and any other
+/// body is refused. Links that violate on their own but sit in a physical body are reported.
+fn check_bodies(
+    model: &Model,
+    file: &str,
+    options: UrdfOptions,
+    link_inertias: &[Inertia],
+    link_frame: &[usize],
+    warnings: &mut Vec<UrdfWarning>,
+) -> Result<(), UrdfError> {
+    let scale = inertia::robot_scale(model.inertias[1..].iter().map(|y| &y.rotational));
+    let total_mass = model.total_mass();
+    let links_of = |j: usize| -> Vec<String> {
+        model.frames.iter().filter(|f| f.is_link && f.parent_joint == j).map(|f| f.name.clone()).collect()
+    };
+    let mut body_ok = vec![true; model.njoints()];
+    for j in 1..model.njoints() {
+        let y = &model.inertias[j];
+        let p = inertia::principal_moments(&y.rotational);
+        let v = inertia::violation(p);
+        if inertia::is_rounding(p, v, scale) {
+            continue;
+        }
+        body_ok[j] = false;
+        let joint = model.joints[j].name.clone();
+        let kept_because = if y.mass <= inertia::NEGLIGIBLE_MASS * total_mass {
+            format!(
+                "its mass {} kg is negligible (below {} of the robot's {total_mass} kg)",
+                y.mass,
+                inertia::NEGLIGIBLE_MASS
+            )
+        } else if options.accept_nonphysical_inertia {
+            "UrdfOptions::accept_nonphysical_inertia".to_string()
+        } else {
+            return Err(UrdfError::NonPhysicalBody {
+                file: file.into(),
+                joint,
+                links: links_of(j),
+                mass: y.mass,
+                reason: inertia::describe(p),
+            });
+        };
+        warnings.push(UrdfWarning::NonPhysicalBodyKept {
+            joint,
+            links: links_of(j),
+            reason: inertia::describe(p),
+            kept_because,
+        });
+    }
+    // Links that break the conditions on their own, inside a body that does not.
+    for (l, y) in link_inertias.iter().enumerate() {
+        let frame = &model.frames[link_frame[l]];
+        let j = frame.parent_joint;
+        if j == 0 || !body_ok[j] {
+            continue;
+        }
+        let p = inertia::principal_moments(&y.rotational);
+        let v = inertia::violation(p);
+        if !inertia::is_rounding(p, v, scale) {
+            warnings.push(UrdfWarning::NonPhysicalLinkMerged {
+                link: frame.name.clone(),
+                joint: model.joints[j].name.clone(),
+                reason: inertia::describe(p),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Degrees of freedom whose pivot in `M = U D Uᵀ` at the neutral configuration is zero
+/// (not above [`inertia::SINGULAR_PIVOT`] of `M`'s largest diagonal entry). The sparse
+/// factorisation of [`crate::cholesky_decompose`], except that a zero pivot removes its
+/// row and column (the factor of the principal submatrix without them) instead of
+/// dividing by zero, so that one massless leaf does not spoil its ancestors' pivots.
+fn singular_pivots(model: &Model) -> Vec<UrdfWarning> {
+    let nv = model.nv;
+    if nv == 0 {
+        return Vec::new();
+    }
+    let mut data = Data::new(model);
+    let q = model.neutral_configuration();
+    let m = crate::crba(model, &mut data, q.as_slice());
+    let scale = (0..nv).map(|k| m[(k, k)]).fold(0.0, f64::max);
+    let mut u = nalgebra::DMatrix::<f64>::zeros(nv, nv);
+    let mut d = vec![0.0; nv];
+    let mut dead = vec![false; nv];
+    let mut out: Vec<UrdfWarning> = Vec::new();
+    for j in (0..nv).rev() {
+        let sub = (j + 1)..(j + model.nv_subtree(j));
+        let mut dj = m[(j, j)];
+        for k in sub.clone().filter(|&k| !dead[k]) {
+            dj -= u[(j, k)] * u[(j, k)] * d[k];
+        }
+        // A NaN pivot counts as zero too.
+        if dj.is_nan() || dj <= inertia::SINGULAR_PIVOT * scale {
+            dead[j] = true;
+            let joint = model.joints[model.joint_of_dof(j)].name.clone();
+            if !out
+                .iter()
+                .any(|w| matches!(w, UrdfWarning::SingularMassMatrix { joint: n, .. } if *n == joint))
+            {
+                out.push(UrdfWarning::SingularMassMatrix { joint, pivot: dj, scale });
+            }
+            continue;
+        }
+        d[j] = dj;
+        let mut ancestor = model.parent_dof(j);
+        while let Some(r) = ancestor {
+            let mut s = m[(r, j)];
+            for k in sub.clone().filter(|&k| !dead[k]) {
+                s -= u[(r, k)] * u[(j, k)] * d[k];
+            }
+            u[(r, j)] = s / dj;
+            ancestor = model.parent_dof(r);
+        }
+    }
+    // Reported root first, as the joints are listed.
+    out.reverse();
+    out
 }
