@@ -1,4 +1,4 @@
-//! The convex MPC on a worker thread ([`MpcExecution::Background`]), the arrangement of the
+//! The convex MPC on a worker thread ([`crate::MpcExecution::Background`]), the arrangement of the
 //! MIT Cheetah controller: the control loop hands the MPC its inputs and returns at once,
 //! and adopts each plan when it is ready.
 //!
@@ -15,37 +15,9 @@ use std::time::Instant;
 
 use nalgebra::Vector3;
 
-use crate::config::ConfigError;
 use crate::convex_mpc::{ConvexMpc, MpcInput};
+use crate::error::ConfigError;
 use crate::qp::QpStatus;
-
-/// Where the convex MPC runs ([`crate::ControllerConfig::mpc_execution`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum MpcExecution {
-    /// Inside [`crate::LocomotionController::tick`], every `mpc_period`: deterministic (the
-    /// same states give the same commands bit for bit), as simulation and training need.
-    /// A tick that solves takes the solve's time (≈ 2 ms), the others the whole-body QP's.
-    #[default]
-    Inline,
-    /// On a worker thread the controller starts in `new` and joins when dropped. A tick
-    /// that is due for a plan only copies the MPC's inputs to the worker; every tick adopts
-    /// the newest finished plan and follows it from the time its state was measured, so a
-    /// plan arrives one solve late. A tick waits for the worker only while the controller
-    /// has never had a feasible plan (its first ticks, and the first after a reset — which
-    /// may also wait out a solve for the old state that was already running); failed
-    /// solves later do not block: the last feasible plan is followed, decayed, as inline.
-    /// [`crate::ControllerStatus::mpc_blocked`] flags the ticks that waited.
-    ///
-    /// In the status, `mpc_ran`, the MPC status, time, iterations and failure count describe
-    /// plans as they are adopted (a result replaced before any tick took it is not
-    /// counted), while `contact_schedule` is that of the problem last submitted. A plan
-    /// whose state is later than the tick's time (time went back without a reset) is
-    /// dropped. If a solve panics the worker is gone: from then on every tick due for an MPC
-    /// reports [`QpStatus::SolverGone`] and counts an MPC failure, and the controller falls
-    /// back as for failed solves.
-    /// Timing-dependent, so not reproducible bit for bit: meant for robots, not training.
-    Background,
-}
 
 /// One solved (or failed) MPC problem, as the controller uses it.
 #[derive(Clone, Debug)]
@@ -225,7 +197,7 @@ impl BackgroundMpc {
                     theirs.changed.notify_all();
                 }
             })
-            .map_err(|e| ConfigError::Solver(format!("could not start the MPC thread: {e}")))?;
+            .map_err(ConfigError::Thread)?;
         Ok(BackgroundMpc {
             staging,
             latest: MpcPlan::new(horizon, nc),

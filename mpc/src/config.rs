@@ -1,39 +1,38 @@
 //! Controller configuration: typed structs with documented defaults, presets as named
-//! constructors, and `validate()` returning a typed [`ConfigError`].
+//! constructors, and `validate()` returning a typed [`ConfigError`](crate::ConfigError).
 
-use crate::background::MpcExecution;
 use crate::convex_mpc::MpcConfig;
+use crate::error::ConfigError;
 use crate::gait::Gait;
 use crate::robot::{BaseSpec, ContactSpec, LoopClosureSpec, RobotSpec};
 use crate::wbc::WbcConfig;
 
-/// A configuration that cannot be used.
-#[derive(Debug, thiserror::Error, Clone, PartialEq)]
-pub enum ConfigError {
-    /// A number outside its documented range.
-    #[error("{field} = {value} is out of range ({range})")]
-    OutOfRange {
-        /// The field.
-        field: &'static str,
-        /// Its value.
-        value: f64,
-        /// The allowed range.
-        range: &'static str,
-    },
-    /// A frame or joint name that the model does not have.
-    #[error("the model has no {kind} named '{name}'")]
-    UnknownName {
-        /// "frame" or "joint".
-        kind: &'static str,
-        /// The name.
-        name: String,
-    },
-    /// Fields that do not fit together.
-    #[error("inconsistent configuration: {0}")]
-    Inconsistent(String),
-    /// Clarabel rejected the problem set-up.
-    #[error("solver setup failed: {0}")]
-    Solver(String),
+/// Where the convex MPC runs ([`crate::ControllerConfig::mpc_execution`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum MpcExecution {
+    /// Inside [`crate::LocomotionController::tick`], every `mpc_period`: deterministic (the
+    /// same states give the same commands bit for bit), as simulation and training need.
+    /// A tick that solves takes the solve's time (≈ 2 ms), the others the whole-body QP's.
+    #[default]
+    Inline,
+    /// On a worker thread the controller starts in `new` and joins when dropped. A tick
+    /// that is due for a plan only copies the MPC's inputs to the worker; every tick adopts
+    /// the newest finished plan and follows it from the time its state was measured, so a
+    /// plan arrives one solve late. A tick waits for the worker only while the controller
+    /// has never had a feasible plan (its first ticks, and the first after a reset — which
+    /// may also wait out a solve for the old state that was already running); failed
+    /// solves later do not block: the last feasible plan is followed, decayed, as inline.
+    /// [`crate::ControllerStatus::mpc_blocked`] flags the ticks that waited.
+    ///
+    /// In the status, `mpc_ran`, the MPC status, time, iterations and failure count describe
+    /// plans as they are adopted (a result replaced before any tick took it is not
+    /// counted), while `contact_schedule` is that of the problem last submitted. A plan
+    /// whose state is later than the tick's time (time went back without a reset) is
+    /// dropped. If a solve panics the worker is gone: from then on every tick due for an MPC
+    /// reports [`QpStatus::SolverGone`] and counts an MPC failure, and the controller falls
+    /// back as for failed solves.
+    /// Timing-dependent, so not reproducible bit for bit: meant for robots, not training.
+    Background,
 }
 
 /// How joint torques are computed from the MPC forces.

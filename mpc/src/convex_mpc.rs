@@ -39,12 +39,15 @@
 //! removed and the inertia reduced to its diagonal, so lateral, roll and yaw motion are
 //! neither produced nor required.
 
+use centaur_dynamics::spatial::skew;
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SupportedConeT};
 use nalgebra::{Matrix3, Vector3};
 
+use crate::error::ConfigError;
 use crate::friction::FrictionModel;
 use crate::qp::QpStatus;
+use crate::robot::MAX_CONTACTS;
 
 /// Dimension of the MPC state.
 pub const NX: usize = 13;
@@ -164,8 +167,8 @@ impl MpcConfig {
     }
 
     /// Checks ranges.
-    pub fn validate(&self) -> Result<(), crate::ConfigError> {
-        use crate::ConfigError as E;
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        use ConfigError as E;
         if self.horizon < 1 || self.horizon > 100 {
             return Err(E::OutOfRange { field: "mpc.horizon", value: self.horizon as f64, range: "1..=100" });
         }
@@ -223,8 +226,6 @@ pub struct ConvexMpc {
     q: Vec<f64>,
     b: Vec<f64>,
     n_var: usize,
-    rows_fmax: usize,
-    rows_hard: usize,
     status: QpStatus,
     forces: Vec<Vector3<f64>>,
     states: Vec<[f64; NX]>,
@@ -250,14 +251,10 @@ impl ConvexMpc {
         nc: usize,
         mass: f64,
         inertia_body: Matrix3<f64>,
-    ) -> Result<Self, crate::ConfigError> {
+    ) -> Result<Self, ConfigError> {
         cfg.validate()?;
-        if nc == 0 || nc > crate::MAX_CONTACTS {
-            return Err(crate::ConfigError::OutOfRange {
-                field: "contacts",
-                value: nc as f64,
-                range: "1..=8",
-            });
+        if nc == 0 || nc > MAX_CONTACTS {
+            return Err(ConfigError::OutOfRange { field: "contacts", value: nc as f64, range: "1..=8" });
         }
         let n = cfg.horizon;
         let mut inertia = inertia_body;
@@ -291,8 +288,6 @@ impl ConvexMpc {
             q: vec![0.0; n_var],
             b: vec![0.0; m],
             n_var,
-            rows_fmax,
-            rows_hard,
             status: QpStatus::NotRun,
             forces: vec![Vector3::zeros(); n * nc],
             states: vec![[0.0; NX]; n],
@@ -343,7 +338,7 @@ impl ConvexMpc {
             ..Default::default()
         };
         mpc.solver = DefaultSolver::new(&p, &mpc.q, &a, &mpc.b, &cones, settings)
-            .map_err(|e| crate::ConfigError::Solver(format!("{e}")))?;
+            .map_err(|source| ConfigError::Solver { problem: "convex MPC", source })?;
         Ok(mpc)
     }
 
@@ -539,7 +534,6 @@ impl ConvexMpc {
                 row += 1;
             }
         }
-        let _ = (self.rows_fmax, self.rows_hard);
     }
 
     /// Updates the solver with `self.input` and solves. Returns the status; forces and
@@ -620,12 +614,6 @@ impl ConvexMpc {
     pub fn predicted_state(&self, k: usize) -> &[f64; NX] {
         &self.states[k]
     }
-}
-
-/// `[a]ₓ`, the cross-product matrix.
-#[inline]
-pub fn skew(a: &Vector3<f64>) -> Matrix3<f64> {
-    Matrix3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0)
 }
 
 /// A trivially small solver used as a placeholder during construction.

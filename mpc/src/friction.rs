@@ -32,6 +32,29 @@ impl FrictionModel {
     pub fn is_pyramid(&self) -> bool {
         !matches!(self, FrictionModel::Cone)
     }
+
+    /// Whether the force `f` (world axes, ground reaction) satisfies this model for
+    /// friction coefficient `mu`, with absolute slack `tol`.
+    #[inline]
+    pub fn contains(&self, f: &[f64; 3], mu: f64, tol: f64) -> bool {
+        match self {
+            FrictionModel::Cone => in_cone(f, mu, tol),
+            _ => in_pyramid(f, self.pyramid_mu(mu), tol),
+        }
+    }
+
+    /// The largest tangential force the model allows along the unit ground direction
+    /// `(cos θ, sin θ)` for normal force `fz`: `μ f_z` for the cone; for a pyramid
+    /// `μ' f_z / max(|cos θ|, |sin θ|)`.
+    pub fn max_tangential(&self, mu: f64, fz: f64, theta: f64) -> f64 {
+        match self {
+            FrictionModel::Cone => mu * fz,
+            _ => {
+                let mp = self.pyramid_mu(mu);
+                mp * fz / theta.cos().abs().max(theta.sin().abs())
+            }
+        }
+    }
 }
 
 /// The four pyramid rows `aₖ · f ≤ 0` for coefficient `mu_p`:
@@ -43,27 +66,14 @@ pub fn pyramid_rows(mu_p: f64) -> [[f64; 3]; 4] {
 
 /// Whether `f` lies in the cone `‖(f_x, f_y)‖ ≤ μ f_z` (with absolute slack `tol`).
 #[inline]
-pub fn in_cone(f: &[f64; 3], mu: f64, tol: f64) -> bool {
+fn in_cone(f: &[f64; 3], mu: f64, tol: f64) -> bool {
     f[0].hypot(f[1]) <= mu * f[2] + tol
 }
 
 /// Whether `f` satisfies the pyramid rows for `mu_p` (with slack `tol`).
 #[inline]
-pub fn in_pyramid(f: &[f64; 3], mu_p: f64, tol: f64) -> bool {
+fn in_pyramid(f: &[f64; 3], mu_p: f64, tol: f64) -> bool {
     pyramid_rows(mu_p).iter().all(|a| a[0] * f[0] + a[1] * f[1] + a[2] * f[2] <= tol)
-}
-
-/// The largest tangential force the model allows along the unit ground direction
-/// `(cos θ, sin θ)` for normal force `fz`: `μ f_z` for the cone; for a pyramid
-/// `μ' f_z / max(|cos θ|, |sin θ|)`.
-pub fn max_tangential(model: FrictionModel, mu: f64, fz: f64, theta: f64) -> f64 {
-    match model {
-        FrictionModel::Cone => mu * fz,
-        _ => {
-            let mp = model.pyramid_mu(mu);
-            mp * fz / theta.cos().abs().max(theta.sin().abs())
-        }
-    }
 }
 
 #[cfg(test)]
@@ -77,7 +87,7 @@ mod tests {
         assert!(in_cone(&[50.0, 0.0, 100.0], 0.5, 1e-12));
         assert!(in_cone(&[30.0, 40.0, 100.0], 0.5, 1e-12)); // ‖(30, 40)‖ = 50
         assert!(!in_cone(&[30.0, 40.1, 100.0], 0.5, 1e-12));
-        assert_eq!(max_tangential(FrictionModel::Cone, 0.5, 100.0, 0.3), 50.0);
+        assert_eq!(FrictionModel::Cone.max_tangential(0.5, 100.0, 0.3), 50.0);
     }
 
     #[test]
@@ -85,8 +95,8 @@ mod tests {
         // Along an axis the outer pyramid equals the cone (50 N); on the diagonal it allows
         // |f_x| = |f_y| = 50 N, i.e. 50√2 ≈ 70.7 N, outside the cone.
         let m = FrictionModel::CircumscribedPyramid;
-        assert!((max_tangential(m, 0.5, 100.0, 0.0) - 50.0).abs() < 1e-12);
-        assert!((max_tangential(m, 0.5, 100.0, FRAC_PI_4) - 50.0 * SQRT_2).abs() < 1e-9);
+        assert!((m.max_tangential(0.5, 100.0, 0.0) - 50.0).abs() < 1e-12);
+        assert!((m.max_tangential(0.5, 100.0, FRAC_PI_4) - 50.0 * SQRT_2).abs() < 1e-9);
         assert!(in_pyramid(&[50.0, 50.0, 100.0], 0.5, 1e-12));
         assert!(!in_cone(&[50.0, 50.0, 100.0], 0.5, 1e-12));
     }
@@ -96,15 +106,15 @@ mod tests {
         // μ' = 0.5/√2 ≈ 0.3536: along an axis 35.36 N; on the diagonal |f_x| = |f_y| = 35.36,
         // norm exactly 50 N, touching the cone.
         let m = FrictionModel::InscribedPyramid;
-        assert!((max_tangential(m, 0.5, 100.0, 0.0) - 50.0 / SQRT_2).abs() < 1e-9);
-        assert!((max_tangential(m, 0.5, 100.0, FRAC_PI_4) - 50.0).abs() < 1e-9);
+        assert!((m.max_tangential(0.5, 100.0, 0.0) - 50.0 / SQRT_2).abs() < 1e-9);
+        assert!((m.max_tangential(0.5, 100.0, FRAC_PI_4) - 50.0).abs() < 1e-9);
         let mp = m.pyramid_mu(0.5);
         let d = [mp * 100.0, mp * 100.0, 100.0];
         assert!(in_pyramid(&d, mp, 1e-9) && in_cone(&d, 0.5, 1e-9));
         // Every inscribed-pyramid force is inside the cone.
         for i in 0..36 {
             let th = i as f64 * 10f64.to_radians();
-            let t = max_tangential(m, 0.5, 100.0, th);
+            let t = m.max_tangential(0.5, 100.0, th);
             assert!(in_cone(&[t * th.cos(), t * th.sin(), 100.0], 0.5, 1e-9));
         }
     }

@@ -9,17 +9,18 @@
 //!        └──────────────> whole-body QP (or cheap τ = −Jᵀf) ──> JointCommand
 //! ```
 //!
-//! | part | module | maths |
-//! |---|---|---|
-//! | gait schedule (stand, walk, trot, pace, bound, pronk, gallop; biped walk) | [`gait`] | offsets `oᵢ`, duty `dᵢ`, `ψᵢ = (φ − oᵢ) mod 1`, stance iff `ψᵢ < dᵢ` |
-//! | friction | [`friction`] | `‖(f_x, f_y)‖ ≤ μ f_z` (SOC) or a 4-sided pyramid |
-//! | convex MPC | [`convex_mpc`] | Di Carlo et al. 2018, single rigid body, yaw-linearised, sparse, Clarabel |
-//! | whole-body QP | [`wbc`] | `[q̈, f, λ]`, floating-base rows as equalities, torque limits, weighted tasks |
-//! | dense QP solver | [`qp`] | Goldfarb–Idnani dual active set (the WBC default) |
-//! | footholds, swing curves | [`swing`] | Raibert + capture point `√(h/g)(v − v_cmd)`; Bézier swing |
-//! | robot description | [`robot`], [`config`] | contacts, actuated/passive joints, loop closures, presets |
-//! | controller | [`controller`] | [`LocomotionController::tick`], status, fallbacks |
-//! | MPC on a worker thread | [`background`] | [`MpcExecution::Background`]: ticks adopt plans as they finish |
+//! | part | file | types | maths |
+//! |---|---|---|---|
+//! | gait schedule (stand, walk, trot, pace, bound, pronk, gallop; biped walk) | `gait.rs` | [`Gait`], [`GaitPattern`], [`GaitScheduler`] | offsets `oᵢ`, duty `dᵢ`, `ψᵢ = (φ − oᵢ) mod 1`, stance iff `ψᵢ < dᵢ` |
+//! | friction | `friction.rs` | [`FrictionModel`] | `‖(f_x, f_y)‖ ≤ μ f_z` (SOC) or a 4-sided pyramid |
+//! | convex MPC | `convex_mpc.rs` | [`ConvexMpc`], [`MpcConfig`] | Di Carlo et al. 2018, single rigid body, yaw-linearised, sparse, Clarabel |
+//! | whole-body QP | `wbc.rs` | [`WholeBodyQp`], [`WbcConfig`] | `[q̈, f, λ]`, floating-base rows as equalities, torque limits, weighted tasks |
+//! | dense QP solver | `qp.rs` | [`DenseQp`] | Goldfarb–Idnani dual active set (the WBC default) |
+//! | footholds, swing curves | `swing.rs` | (internal) | Raibert + capture point `√(h/g)(v − v_cmd)`; Bézier swing |
+//! | robot description | `robot.rs`, `config.rs` | [`RobotSpec`], [`LeggedRobot`], [`ControllerConfig`] | contacts, actuated/passive joints, loop closures, presets |
+//! | controller | `controller/` (one file per stage) | [`LocomotionController`], [`ControllerStatus`], [`Fallback`] | [`LocomotionController::tick`]: estimate → reference → contacts and swing → plan → torques → status |
+//! | MPC on a worker thread | `background.rs` | [`MpcExecution::Background`] | ticks adopt plans as they finish |
+//! | errors | `error.rs` | [`ConfigError`] | |
 //! | Minitaur action mapping | `centaur_envs::minitaur` | PD targets → motor angles → PyBullet leg model |
 //!
 //! ## Conventions
@@ -55,7 +56,7 @@
 //! its last feasible forces decayed by `fallback_decay` per failure (or the weight split
 //! over the stance feet); a failed whole-body QP falls back to the cheap path; a
 //! non-finite state or command gives posture PD to the nominal pose with zero feed-forward.
-//! The whole-body QP is feasible for every finite state by construction (see [`wbc`]).
+//! The whole-body QP is feasible for every finite state by construction (see [`WholeBodyQp`]).
 //!
 //! ## Timing: where the MPC runs
 //!
@@ -92,26 +93,24 @@
 //! assert!(ctrl.status().mpc_status.is_ok() && ctrl.status().wbc_status.is_ok());
 //! ```
 
-pub mod background;
-pub mod config;
-pub mod controller;
-pub mod convex_mpc;
-pub mod friction;
-pub mod gait;
-pub mod qp;
-pub mod robot;
-pub mod swing;
-pub mod wbc;
+mod background;
+mod config;
+mod controller;
+mod convex_mpc;
+mod error;
+mod friction;
+mod gait;
+mod qp;
+mod robot;
+mod swing;
+mod wbc;
 
-pub use background::MpcExecution;
-pub use config::{Command, ConfigError, ControlMode, ControllerConfig};
-pub use controller::{ControllerStatus, Fallback, JointCommand, LocomotionController};
-pub use convex_mpc::{ConvexMpc, HardConstraints, MpcConfig};
+pub use config::{Command, ControlMode, ControllerConfig, MpcExecution};
+pub use controller::{ControllerStatus, Fallback, JointCommand, LANDING_HEIGHT, LocomotionController};
+pub use convex_mpc::{ConvexMpc, HardConstraints, MpcConfig, MpcInput, NX, state_index};
+pub use error::ConfigError;
 pub use friction::FrictionModel;
-pub use gait::{Gait, GaitPattern, GaitScheduler};
+pub use gait::{Gait, GaitPattern, GaitScheduler, MAX_LEGS};
 pub use qp::{DenseQp, DenseQpData, QpStatus};
-pub use robot::{BaseSpec, ContactSpec, LeggedRobot, LoopClosureSpec, RobotSpec};
-pub use wbc::{QpBackend, WbcConfig, WholeBodyQp};
-
-/// Largest number of contact points.
-pub const MAX_CONTACTS: usize = 8;
+pub use robot::{BaseSpec, ContactSpec, LeggedRobot, LoopClosure, LoopClosureSpec, MAX_CONTACTS, RobotSpec};
+pub use wbc::{LimitedJoint, QpBackend, WbcConfig, WbcInput, WbcOutput, WholeBodyQp};

@@ -8,7 +8,10 @@ use centaur_dynamics::{
     Data, JointKind, Model, Se3, center_of_mass, forward_kinematics, frame_placement, update_frame_placements,
 };
 
-use crate::ConfigError;
+use crate::error::ConfigError;
+
+/// Largest number of contact points.
+pub const MAX_CONTACTS: usize = 8;
 
 /// A contact: a point rigidly attached to a model frame, or a sphere (a round foot, a
 /// capsule's end) whose contact point is its lowest point, `c − r e_z`, recomputed from the
@@ -170,7 +173,7 @@ impl LeggedRobot {
                 range: "2 or 4",
             });
         }
-        if spec.contacts.is_empty() || spec.contacts.len() > crate::MAX_CONTACTS {
+        if spec.contacts.is_empty() || spec.contacts.len() > MAX_CONTACTS {
             return Err(ConfigError::OutOfRange {
                 field: "robot.contacts",
                 value: spec.contacts.len() as f64,

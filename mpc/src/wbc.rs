@@ -49,6 +49,7 @@ use centaur_dynamics::nalgebra::{DMatrix, DVector, Matrix3xX, Matrix6xX, Vector3
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SupportedConeT};
 
+use crate::error::ConfigError;
 use crate::friction::FrictionModel;
 use crate::qp::{DenseQp, DenseQpData, QpStatus};
 use crate::robot::LeggedRobot;
@@ -138,8 +139,8 @@ impl Default for WbcConfig {
 
 impl WbcConfig {
     /// Checks ranges and the backend/friction combination.
-    pub fn validate(&self) -> Result<(), crate::ConfigError> {
-        use crate::ConfigError as E;
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        use ConfigError as E;
         let checks = [
             ("wbc.mu", self.mu, self.mu >= 0.0),
             ("wbc.max_normal_force_ratio", self.max_normal_force_ratio, self.max_normal_force_ratio > 0.0),
@@ -262,7 +263,6 @@ struct ClarabelWbc {
     a_val: Vec<f64>,
     b: Vec<f64>,
     q_buf: Vec<f64>,
-    n_soc: usize,
 }
 
 /// The joint-limit bound that stands for "none" when a problem is solved again without
@@ -316,7 +316,7 @@ fn frame_support(model: &Model, frame: usize) -> Vec<bool> {
 
 impl WholeBodyQp {
     /// Buffers and solvers for `robot`.
-    pub fn new(robot: &LeggedRobot, cfg: &WbcConfig) -> Result<Self, crate::ConfigError> {
+    pub fn new(robot: &LeggedRobot, cfg: &WbcConfig) -> Result<Self, ConfigError> {
         cfg.validate()?;
         let model = &robot.model;
         let nv = model.nv;
@@ -455,57 +455,62 @@ impl WholeBodyQp {
         self.nv + 3 * self.stance_index[c]
     }
 
-    /// Builds the dense problem from `self.input`. Returns (n, n_stance).
+    /// Builds the dense problem from `self.input`, in the order of the module docs: the
+    /// tasks (body, stance and swing feet, posture, forces, regularisation), then the
+    /// constraints (unactuated dynamics rows, loop closures, torque limits, normal-force
+    /// limits and friction, joint limits). Returns (n, n_stance).
     fn assemble(&mut self) -> (usize, usize) {
-        let nv = self.nv;
-        let nc = self.nc;
-        let nl = self.nl;
         let mut ns = 0;
-        for c in 0..nc {
+        for c in 0..self.nc {
             self.stance_index[c] = ns;
             if self.input.stance[c] {
                 ns += 1;
             }
         }
-        let n = nv + 3 * ns + nl;
-        let lcol = nv + 3 * ns;
-        let p = self.unactuated_v.len() + nl;
+        let n = self.nv + 3 * ns + self.nl;
+        let p = self.unactuated_v.len() + self.nl;
         let pyr = self.cfg.friction.is_pyramid();
         let m = 2 * self.actuated_v.len() + ns * if pyr { 5 } else { 1 } + 2 * self.limited.len();
         self.qp.reset(n, p, m);
-        let inp = &self.input;
-        let cfg = &self.cfg;
-        let qp = &mut self.qp;
-        // Tasks: H += w aᵀa, g −= w b a for each row a·x ≈ b over the q̈ block.
-        let add_row = |qp: &mut DenseQpData, a: &[f64], b: f64, w: f64| {
-            if w == 0.0 {
-                return;
-            }
-            let n = qp.n;
-            for c in 0..nv {
-                let ac = a[c];
-                if ac == 0.0 {
-                    continue;
-                }
-                qp.g[c] -= w * b * ac;
-                for r in 0..nv {
-                    qp.h[c * n + r] += w * a[r] * ac;
-                }
-            }
-        };
+        self.body_task();
+        self.contact_tasks();
+        self.posture_task();
+        self.force_task();
+        for i in 0..n {
+            self.qp.h[i * n + i] += self.cfg.regularization;
+        }
+        let lcol = self.nv + 3 * ns;
+        self.equality_rows(lcol);
+        let mut ir = self.torque_limit_rows(lcol);
+        ir = self.force_rows(ir);
+        ir = self.joint_limit_rows(ir);
+        debug_assert_eq!(ir, m);
+        (n, ns)
+    }
+
+    /// Body task: `J_com q̈ + J̇_com q̇ = c̈_des` and `J_ω q̈ + J̇_ω q̇ = ω̇_des`, per axis weight.
+    fn body_task(&mut self) {
+        let (inp, cfg) = (&self.input, &self.cfg);
         let mut row = std::mem::take(&mut self.row_buf);
         for d in 0..6 {
-            for c in 0..nv {
+            for c in 0..self.nv {
                 row[c] = inp.j_body[(d, c)];
             }
             let w = if d < 3 { cfg.w_body_linear } else { cfg.w_body_angular } * cfg.body_axis_weights[d];
-            add_row(qp, &row, inp.a_body[d] - inp.jdqd_body[d], w);
+            add_task_row(&mut self.qp, self.nv, &row, inp.a_body[d] - inp.jdqd_body[d], w);
         }
-        for c in 0..nc {
+        self.row_buf = row;
+    }
+
+    /// Stance feet: `J_c q̈ + J̇_c q̇ = 0` (soft, high weight); swing feet:
+    /// `J_c q̈ + J̇_c q̇ = a_c,des` along world x, y, z, or, with a free direction `n`, along
+    /// `(ẑ × n, n, ẑ)` with the `n` row dropped.
+    fn contact_tasks(&mut self) {
+        let (inp, cfg, nv) = (&self.input, &self.cfg, self.nv);
+        let mut row = std::mem::take(&mut self.row_buf);
+        for c in 0..self.nc {
             let (target, w) =
                 if inp.stance[c] { (Vector3::zeros(), cfg.w_stance) } else { (inp.a_swing[c], cfg.w_swing) };
-            // Task directions: world x, y, z; a swing with a free direction `n` uses
-            // (ẑ × n, n, ẑ) and drops the n row.
             let n = inp.swing_free_direction[c];
             let dirs = if inp.stance[c] || n == Vector3::zeros() {
                 [Vector3::x(), Vector3::y(), Vector3::z()]
@@ -521,77 +526,84 @@ impl WholeBodyQp {
                 if !inp.stance[c] && n != Vector3::zeros() && d == 1 {
                     wd = 0.0;
                 }
-                add_row(qp, &row, e.dot(&(target - inp.jdqd_contact[c])), wd);
+                add_task_row(&mut self.qp, nv, &row, e.dot(&(target - inp.jdqd_contact[c])), wd);
             }
         }
         self.row_buf = row;
+    }
+
+    /// Posture: `q̈_j = k_p (q_nom − q) − k_d q̇` for the non-base joints.
+    fn posture_task(&mut self) {
+        let n = self.qp.n;
         for (k, &iv) in self.joint_v.iter().enumerate() {
-            qp.h[iv * n + iv] += cfg.w_posture;
-            qp.g[iv] -= cfg.w_posture * inp.qdd_posture[k];
+            self.qp.h[iv * n + iv] += self.cfg.w_posture;
+            self.qp.g[iv] -= self.cfg.w_posture * self.input.qdd_posture[k];
         }
-        for c in 0..nc {
-            if inp.stance[c] {
+    }
+
+    /// Forces: `f = f_MPC` for the stance contacts.
+    fn force_task(&mut self) {
+        let (n, nv) = (self.qp.n, self.nv);
+        for c in 0..self.nc {
+            if self.input.stance[c] {
                 let col = nv + 3 * self.stance_index[c];
                 for d in 0..3 {
-                    qp.h[(col + d) * n + col + d] += cfg.w_force;
-                    qp.g[col + d] -= cfg.w_force * inp.f_ref[c][d];
+                    self.qp.h[(col + d) * n + col + d] += self.cfg.w_force;
+                    self.qp.g[col + d] -= self.cfg.w_force * self.input.f_ref[c][d];
                 }
             }
         }
-        for i in 0..n {
-            qp.h[i * n + i] += cfg.regularization;
-        }
-        // Dynamics rows: (M q̈ − J_cᵀ f − J_lᵀ λ)_j  with constant h_j.
-        let dyn_row = |qp_row: &mut [f64], j: usize, sign: f64| {
-            for k in 0..nv {
-                qp_row[k] = sign * inp.mass_matrix[(j, k)];
-            }
-            let mut s = 0;
-            for c in 0..nc {
-                if inp.stance[c] {
-                    let col = nv + 3 * s;
-                    for d in 0..3 {
-                        qp_row[col + d] = -sign * inp.j_contact[c][(d, j)];
-                    }
-                    s += 1;
-                }
-            }
-            for l in 0..nl {
-                qp_row[lcol + l] = -sign * inp.j_closure[(l, j)];
-            }
-        };
+    }
+
+    /// Equalities: the unactuated dynamics rows `(M q̈ + h − J_cᵀ f − J_lᵀ λ)_u = 0`, then the
+    /// loop closures `J_l q̈ = −J̇_l q̇ − k_p e − k_d ė` (`lcol`: the first λ column).
+    fn equality_rows(&mut self, lcol: usize) {
+        let (inp, qp) = (&self.input, &mut self.qp);
         for (i, &j) in self.unactuated_v.iter().enumerate() {
-            dyn_row(qp.e_row(i), j, 1.0);
+            dynamics_row(inp, self.nv, self.nl, lcol, qp.e_row(i), j, 1.0);
             qp.e[i] = -inp.nle[j];
         }
         let pu = self.unactuated_v.len();
-        for l in 0..nl {
+        for l in 0..self.nl {
             let r = qp.e_row(pu + l);
-            for k in 0..nv {
+            for k in 0..self.nv {
                 r[k] = inp.j_closure[(l, k)];
             }
             qp.e[pu + l] = inp.closure_rhs[l];
         }
+    }
+
+    /// Torque limits `|(M q̈ + h − J_cᵀ f − J_lᵀ λ)_a| ≤ τ_max`, two rows per actuated joint
+    /// from the first inequality row; returns the next row.
+    fn torque_limit_rows(&mut self, lcol: usize) -> usize {
+        let (inp, qp) = (&self.input, &mut self.qp);
         let mut ir = 0;
         for (a, &j) in self.actuated_v.iter().enumerate() {
             let tmax = self.effort[a];
-            dyn_row(qp.c_row(ir), j, 1.0);
+            dynamics_row(inp, self.nv, self.nl, lcol, qp.c_row(ir), j, 1.0);
             qp.d[ir] = tmax - inp.nle[j];
-            dyn_row(qp.c_row(ir + 1), j, -1.0);
+            dynamics_row(inp, self.nv, self.nl, lcol, qp.c_row(ir + 1), j, -1.0);
             qp.d[ir + 1] = tmax + inp.nle[j];
             ir += 2;
         }
+        ir
+    }
+
+    /// Per stance contact from row `ir`: `f_z ≤ f_max`, and the pyramid's four rows (the
+    /// cone is the Clarabel backend's); returns the next row.
+    fn force_rows(&mut self, mut ir: usize) -> usize {
+        let (inp, cfg, qp) = (&self.input, &self.cfg, &mut self.qp);
         let fmax = cfg.max_normal_force_ratio * inp.weight;
         let mu_p = cfg.friction.pyramid_mu(cfg.mu);
-        for c in 0..nc {
+        for c in 0..self.nc {
             if !inp.stance[c] {
                 continue;
             }
-            let col = nv + 3 * self.stance_index[c];
+            let col = self.nv + 3 * self.stance_index[c];
             qp.c_row(ir)[col + 2] = 1.0;
             qp.d[ir] = fmax;
             ir += 1;
-            if pyr {
+            if cfg.friction.is_pyramid() {
                 for a in crate::friction::pyramid_rows(mu_p) {
                     let r = qp.c_row(ir);
                     r[col..col + 3].copy_from_slice(&a);
@@ -599,15 +611,19 @@ impl WholeBodyQp {
                 }
             }
         }
+        ir
+    }
+
+    /// Joint limits `q̈_lo ≤ q̈_j ≤ q̈_hi` from row `ir`; returns the next row.
+    fn joint_limit_rows(&mut self, mut ir: usize) -> usize {
         for (k, l) in self.limited.iter().enumerate() {
-            qp.c_row(ir)[l.v] = 1.0;
-            qp.d[ir] = inp.qdd_upper[k];
-            qp.c_row(ir + 1)[l.v] = -1.0;
-            qp.d[ir + 1] = -inp.qdd_lower[k];
+            self.qp.c_row(ir)[l.v] = 1.0;
+            self.qp.d[ir] = self.input.qdd_upper[k];
+            self.qp.c_row(ir + 1)[l.v] = -1.0;
+            self.qp.d[ir + 1] = -self.input.qdd_lower[k];
             ir += 2;
         }
-        debug_assert_eq!(ir, m);
-        (n, ns)
+        ir
     }
 
     /// Assembles and solves; on success fills [`WholeBodyQp::output`]. An infeasible problem
@@ -678,11 +694,7 @@ impl WholeBodyQp {
         mask
     }
 
-    fn build_clarabel(
-        &mut self,
-        robot: &LeggedRobot,
-        stance: &[bool],
-    ) -> Result<ClarabelWbc, crate::ConfigError> {
+    fn build_clarabel(&mut self, robot: &LeggedRobot, stance: &[bool]) -> Result<ClarabelWbc, ConfigError> {
         let model = &robot.model;
         let nv = self.nv;
         let nc = self.nc;
@@ -800,7 +812,7 @@ impl WholeBodyQp {
         };
         let b = vec![0.0; m_total];
         let solver = DefaultSolver::new(&p, &qp.g[..n], &a, &b, &cones, settings)
-            .map_err(|e| crate::ConfigError::Solver(format!("{e}")))?;
+            .map_err(|source| ConfigError::Solver { problem: "whole-body QP", source })?;
         let soc_vals: Vec<f64> = soc.iter().map(|s| s.2).collect();
         let mut a_val = a.nzval.clone();
         for (k, e) in a_sorted.iter().enumerate() {
@@ -816,7 +828,6 @@ impl WholeBodyQp {
             a_val,
             b,
             q_buf: vec![0.0; n],
-            n_soc,
         })
     }
 
@@ -840,7 +851,6 @@ impl WholeBodyQp {
         cw.b[..qp.p].copy_from_slice(&qp.e[..qp.p]);
         cw.b[qp.p..qp.p + qp.m].copy_from_slice(&qp.d[..qp.m]);
         cw.q_buf.copy_from_slice(&qp.g[..n]);
-        let _ = cw.n_soc;
         let ok = cw.solver.update_P(&cw.p_val).is_ok()
             && cw.solver.update_q(&cw.q_buf).is_ok()
             && cw.solver.update_A(&cw.a_val).is_ok()
@@ -851,5 +861,44 @@ impl WholeBodyQp {
         cw.solver.solve();
         self.iterations = cw.solver.solution.iterations;
         QpStatus::from_clarabel(cw.solver.solution.status)
+    }
+}
+/// Adds the task row `a·x ≈ b` with weight `w` over the `q̈` block (`nv` columns):
+/// `H += w aᵀa`, `g −= w b a`.
+fn add_task_row(qp: &mut DenseQpData, nv: usize, a: &[f64], b: f64, w: f64) {
+    if w == 0.0 {
+        return;
+    }
+    let n = qp.n;
+    for c in 0..nv {
+        let ac = a[c];
+        if ac == 0.0 {
+            continue;
+        }
+        qp.g[c] -= w * b * ac;
+        for r in 0..nv {
+            qp.h[c * n + r] += w * a[r] * ac;
+        }
+    }
+}
+
+/// Row `j` of `sign · (M q̈ − J_cᵀ f − J_lᵀ λ)` over `[q̈, f (stance contacts), λ]` into
+/// `qp_row` (`lcol`: the first λ column; `h_j` goes to the right-hand side).
+fn dynamics_row(inp: &WbcInput, nv: usize, nl: usize, lcol: usize, qp_row: &mut [f64], j: usize, sign: f64) {
+    for k in 0..nv {
+        qp_row[k] = sign * inp.mass_matrix[(j, k)];
+    }
+    let mut s = 0;
+    for c in 0..inp.stance.len() {
+        if inp.stance[c] {
+            let col = nv + 3 * s;
+            for d in 0..3 {
+                qp_row[col + d] = -sign * inp.j_contact[c][(d, j)];
+            }
+            s += 1;
+        }
+    }
+    for l in 0..nl {
+        qp_row[lcol + l] = -sign * inp.j_closure[(l, j)];
     }
 }

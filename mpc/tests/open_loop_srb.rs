@@ -3,7 +3,7 @@
 //! commanded velocity.
 
 use centaur_dynamics::nalgebra::{Matrix3, Rotation3, Vector3};
-use centaur_mpc::convex_mpc::NX;
+use centaur_mpc::NX;
 use centaur_mpc::{ConvexMpc, MpcConfig};
 
 const M: f64 = 2.5;

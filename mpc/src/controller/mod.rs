@@ -1,0 +1,324 @@
+//! [`LocomotionController`]: the locomotion pipeline as a list of stages, each a file that
+//! owns its state, allocation-free after construction:
+//!
+//! | stage | file | reads | writes |
+//! |---|---|---|---|
+//! | estimate | `estimate.rs` | the state | kinematics, dynamics and task Jacobians of the robot as measured |
+//! | reference | `reference.rs` | the command, the estimate | the shaped command: rate-limited velocity, yaw and position references |
+//! | contacts and swing | `contacts.rs` | gait schedule, measured contacts, estimate, reference | effective stance, footholds, swing and stance targets ([`LocomotionTargets`](targets::LocomotionTargets)) |
+//! | plan | `plan.rs` | estimate, reference, targets | the convex MPC's plan and this tick's contact forces |
+//! | torques | `torques.rs` | estimate, reference, targets | feed-forward torques (whole-body QP or the cheap path), PD targets and gains |
+//! | status | `status.rs` | everything | [`ControllerStatus`] |
+//!
+//! The planning stages hand their output to the torque stage in one typed struct,
+//! `LocomotionTargets`, as the MIT Cheetah controller hands `LocomotionCtrlData` from its
+//! planner to its whole-body controller.
+
+mod contacts;
+mod estimate;
+mod plan;
+mod reference;
+mod status;
+mod targets;
+mod torques;
+
+use centaur_dynamics::nalgebra::DVector;
+use centaur_dynamics::{Data, Model, RobotState};
+
+pub use contacts::LANDING_HEIGHT;
+pub use status::{ControllerStatus, Fallback, JointCommand};
+
+use contacts::Contacts;
+use estimate::Estimate;
+use plan::Planner;
+use reference::Reference;
+use targets::{LocomotionTargets, TickContext};
+use torques::Torques;
+
+use crate::config::{Command, ControllerConfig};
+use crate::error::ConfigError;
+use crate::gait::{Gait, GaitScheduler};
+use crate::robot::LeggedRobot;
+
+/// The locomotion controller. See the crate documentation for the pipeline.
+pub struct LocomotionController {
+    cfg: ControllerConfig,
+    robot: LeggedRobot,
+    data: Data,
+    gait: GaitScheduler,
+    estimate: Estimate,
+    reference: Reference,
+    contacts: Contacts,
+    planner: Planner,
+    torques: Torques,
+    targets: LocomotionTargets,
+    command: JointCommand,
+    status: ControllerStatus,
+    /// Time of the last tick (`None` after construction or a reset).
+    last_t: Option<f64>,
+    contact_frame_names: Vec<String>,
+}
+
+impl std::fmt::Debug for LocomotionController {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LocomotionController").field("robot", &self.robot.model.name).finish()
+    }
+}
+
+impl LocomotionController {
+    /// Resolves the configuration against `model` and allocates everything.
+    pub fn new(model: &Model, config: ControllerConfig) -> Result<Self, ConfigError> {
+        config.validate()?;
+        let robot = LeggedRobot::new(model, &config.robot)?;
+        let nc = robot.n_contacts();
+        let planner = Planner::new(&config, &robot)?;
+        let torques = Torques::new(&config, &robot)?;
+        let mut command = JointCommand::new(robot.n_actuated());
+        for (i, &iq) in robot.actuated_q.iter().enumerate() {
+            command.q_des[i] = robot.q_nominal[iq];
+        }
+        Ok(Self {
+            gait: GaitScheduler::new(robot.n_legs, config.gait_period_scale),
+            data: Data::new(&robot.model),
+            estimate: Estimate::new(&robot),
+            reference: Reference::new(),
+            contacts: Contacts::new(nc),
+            planner,
+            torques,
+            targets: LocomotionTargets::new(nc),
+            command,
+            status: ControllerStatus::new(nc, config.mpc.horizon),
+            last_t: None,
+            contact_frame_names: config.robot.contacts.iter().map(|c| c.frame.clone()).collect(),
+            robot,
+            cfg: config,
+        })
+    }
+
+    /// Names of the actuated joints: the order of every vector in [`JointCommand`].
+    pub fn joint_names(&self) -> &[String] {
+        &self.robot.actuated_names
+    }
+
+    /// The resolved robot (model with contact frames, nominal pose, mass, inertia).
+    pub fn robot(&self) -> &LeggedRobot {
+        &self.robot
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &ControllerConfig {
+        &self.cfg
+    }
+
+    /// The status of the last tick.
+    pub fn status(&self) -> &ControllerStatus {
+        &self.status
+    }
+
+    /// Generalized accelerations `q̈` the whole-body QP planned in the last tick that solved
+    /// it (model `v` layout).
+    pub fn planned_accelerations(&self) -> &DVector<f64> {
+        &self.torques.wbc.output.qdd
+    }
+
+    /// The last command.
+    pub fn command(&self) -> &JointCommand {
+        &self.command
+    }
+
+    /// A state standing still at the nominal pose.
+    pub fn nominal_state(&self) -> RobotState {
+        let mut s = RobotState::new(&self.robot.model);
+        s.q.copy_from(&self.robot.q_nominal);
+        s
+    }
+
+    /// Forgets the gait phase, command ramps and MPC plan (e.g. at an episode reset).
+    pub fn reset(&mut self) {
+        self.gait.reset();
+        self.last_t = None;
+        self.planner.reset();
+        self.reference.reset();
+        self.contacts.reset();
+    }
+
+    /// One control step at time `t` (s). Never panics on a non-finite state (it falls back
+    /// to posture PD and says so in the status).
+    ///
+    /// # Panics
+    /// If `state` does not have the model's `nq`/`nv` (a programming error).
+    #[track_caller]
+    pub fn tick(&mut self, state: &RobotState, command: &Command, t: f64) -> &JointCommand {
+        self.contacts.set_measured(None);
+        self.tick_inner(state, command, t)
+    }
+
+    /// [`LocomotionController::tick`] with measured contact flags, one per contact point in
+    /// [`LocomotionController::contact_frames`] order (e.g. from foot switches or the
+    /// simulator). A scheduled stance starts only when its foot touches the ground (until
+    /// then the foot keeps descending at `touchdown_speed`), and a swing that touches the
+    /// ground in its second half ends early.
+    ///
+    /// # Panics
+    /// If `state` does not have the model's `nq`/`nv` or `contacts` does not have one flag
+    /// per contact point (programming errors).
+    #[track_caller]
+    pub fn tick_with_contacts(
+        &mut self,
+        state: &RobotState,
+        command: &Command,
+        t: f64,
+        contacts: &[bool],
+    ) -> &JointCommand {
+        let nc = self.robot.n_contacts();
+        assert!(contacts.len() == nc, "{} contact flags for {nc} contact points", contacts.len());
+        self.contacts.set_measured(Some(contacts));
+        self.tick_inner(state, command, t)
+    }
+
+    /// Names of the frames the contact points are attached to, in contact order.
+    pub fn contact_frames(&self) -> &[String] {
+        &self.contact_frame_names
+    }
+
+    /// The pipeline: estimate → reference → contacts and swing → plan → torques → status.
+    #[track_caller]
+    fn tick_inner(&mut self, state: &RobotState, command: &Command, t: f64) -> &JointCommand {
+        let (model_nq, model_nv) = (self.robot.model.nq, self.robot.model.nv);
+        assert!(
+            state.q.len() == model_nq && state.v.len() == model_nv,
+            "state has nq = {}, nv = {}, but the model expects {model_nq}, {model_nv}",
+            state.q.len(),
+            state.v.len()
+        );
+        self.status.begin(t);
+        let cmd_ok = command.forward_velocity.is_finite()
+            && command.lateral_velocity.is_finite()
+            && command.yaw_rate.is_finite()
+            && command.body_height.is_none_or(|h| h.is_finite() && h > 0.0);
+        if !state.is_finite()
+            || !t.is_finite()
+            || !cmd_ok
+            || !self.estimate.set_state(&self.robot, &state.q, &state.v)
+        {
+            self.posture_fallback();
+            return &self.command;
+        }
+        let dt = match self.last_t {
+            Some(t0) if t >= t0 && t - t0 <= 0.1 => t - t0,
+            _ => 0.0,
+        };
+        let first = self.last_t.is_none();
+        self.last_t = Some(t);
+        let cfg = &self.cfg;
+
+        self.estimate.update(&mut self.robot, &mut self.data, (cfg.wbc.closure_kp, cfg.wbc.closure_kd));
+        let est = &self.estimate;
+        if first {
+            self.reference.hold_at(est);
+        }
+        let airborne = !self.contacts.update_landing(est);
+        if airborne {
+            // Nothing to hold the body to until it lands: references follow the state.
+            self.reference.hold_at(est);
+        }
+        let shaped = self.reference.shape(cfg, est, command, dt, airborne, self.robot.nominal_com_height);
+        let gait_changed = self.gait.update(t, shaped.gait);
+        let standing = self.gait.pattern().gait == Gait::Stand;
+        self.reference.update_position(cfg, est, dt, &shaped.target_velocity, standing);
+        let cx = TickContext {
+            cfg,
+            robot: &self.robot,
+            est,
+            reference: &self.reference,
+            gait: &self.gait,
+            t,
+            dt,
+            height: shaped.height,
+        };
+        self.contacts.update(&cx, self.status.ticks == 1, &mut self.targets);
+        self.planner.update(&cx, gait_changed, &mut self.targets, &mut self.status);
+        self.torques.update(&cx, &mut self.targets, &mut self.command, &mut self.status);
+        self.status.fill(&self.gait, &self.planner.schedule, est, &self.reference, &self.targets);
+        &self.command
+    }
+
+    fn posture_fallback(&mut self) {
+        self.status.invalid_states += 1;
+        self.status.fallback = Fallback::PosturePd;
+        let (kp, kd) = self.cfg.fallback_joint_gains;
+        for (i, &iq) in self.robot.actuated_q.iter().enumerate() {
+            self.command.tau[i] = 0.0;
+            self.command.q_des[i] = self.robot.q_nominal[iq];
+            self.command.qd_des[i] = 0.0;
+            self.command.kp[i] = kp;
+            self.command.kd[i] = kd;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use centaur_dynamics::{BaseKind, Model};
+
+    use super::*;
+    use crate::qp::QpStatus;
+
+    #[test]
+    fn infeasible_joint_limit_bounds_are_dropped_not_failed() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/mujoco/walker2d.urdf");
+        let model = Model::from_urdf_file(path, BaseKind::Fixed).unwrap();
+        let mut c = LocomotionController::new(&model, ControllerConfig::walker2d()).unwrap();
+        let s = c.nominal_state();
+        c.tick(&s, &Command::stand(), 0.0);
+        assert!(c.status().wbc_status.is_ok());
+        assert_eq!(c.status().wbc_limit_relaxations, 0);
+        // With the input of that tick, demand 10⁶ rad/s² of the first limited joint: no
+        // 100 N·m motor gives that, so the QP is infeasible with the bound and solved without.
+        let first = c.torques.wbc.limited_joints()[0];
+        c.torques.wbc.input.qdd_lower[0] = 1e6;
+        assert_eq!(c.torques.wbc.solve(), QpStatus::Solved);
+        assert!(c.torques.wbc.limits_relaxed());
+        assert!(c.torques.wbc.output.qdd[first.v] < 1e3);
+        // A reachable bound holds as a constraint: bend the joint away from its upper limit.
+        let (q, v) = (c.estimate.q.clone(), c.estimate.v.clone());
+        c.torques.wbc.set_joint_limit_bounds(q.as_slice(), v.as_slice());
+        c.torques.wbc.input.qdd_upper[0] = -5.0;
+        assert_eq!(c.torques.wbc.solve(), QpStatus::Solved);
+        assert!(!c.torques.wbc.limits_relaxed());
+        assert!(c.torques.wbc.output.qdd[first.v] <= -5.0 + 1e-6, "{}", c.torques.wbc.output.qdd[first.v]);
+    }
+
+    /// Feet in swing at some tick of `seconds` of stand commands from the nominal state
+    /// raised by `lift` metres, and the gait run.
+    fn stand_for(config: ControllerConfig, seconds: f64, lift: f64) -> ([bool; 2], Gait) {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/mujoco/humanoid.urdf");
+        let model = Model::from_urdf_file(path, BaseKind::Floating).unwrap();
+        let mut c = LocomotionController::new(&model, config).unwrap();
+        let mut s = c.nominal_state();
+        s.q[2] += lift;
+        let mut swung = [false; 2];
+        for k in 0..(seconds / 0.015) as usize {
+            c.tick(&s, &Command::stand(), k as f64 * 0.015);
+            for (leg, sw) in swung.iter_mut().enumerate() {
+                *sw |= !c.status().contact[leg];
+            }
+        }
+        (swung, c.status().gait)
+    }
+
+    #[test]
+    fn a_humanoid_told_to_stand_steps_in_place_with_both_feet() {
+        let (swung, gait) = stand_for(ControllerConfig::humanoid(), 1.2, 0.0);
+        assert_eq!(gait, Gait::Walk);
+        assert_eq!(swung, [true, true]);
+        let still = ControllerConfig { step_in_place: false, ..ControllerConfig::humanoid() };
+        let (swung, gait) = stand_for(still, 1.2, 0.0);
+        assert_eq!(gait, Gait::Stand);
+        assert_eq!(swung, [false, false]);
+        // In the air (dropped from 10 cm, not landed yet) it waits on both feet.
+        let (swung, gait) = stand_for(ControllerConfig::humanoid(), 0.3, 0.1);
+        assert_eq!(gait, Gait::Stand);
+        assert_eq!(swung, [false, false]);
+    }
+}
