@@ -13,7 +13,7 @@ use std::time::Instant;
 use centaur::envs::{
     LocomotionConfig, LocomotionEnv, LocomotionRobot, MinitaurConfig, MinitaurEnv, ModularConfig, ModularEnv,
 };
-use centaur::rl::{Env, Rng, VecEnv};
+use centaur::gym::{Env, Rng, VecEnv};
 
 fn make(name: &str) -> Box<dyn Env> {
     match name {

@@ -3,9 +3,11 @@
 //! contacts, solver statuses), then the run summary as JSON:
 //! `cargo run --release --example control_probe -- ant trot 0.3 10 --every 10`.
 
-use centaur::control::{ActionMapping, controller_config, make_robot_env, parse_gait};
+use centaur::control::parse_gait;
 use centaur::dynamics::nalgebra::Vector3;
+use centaur::hybrid::ActionMapping;
 use centaur::mpc::{Command, LocomotionController};
+use centaur::registry::{controller_config, make_robot_env};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();

@@ -13,50 +13,18 @@
 //! (`MpcExecution::Background`), so that no tick waits for a solve; with `--realtime` its
 //! plans arrive as late as they would on the robot. Allocations are counted on the loop's
 //! thread only.
-#![allow(unsafe_code)] // a counting global allocator is unsafe by definition
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use centaur::control::{controller_config, make_robot_env};
 use centaur::deploy::{HybridStack, Simulated};
-use centaur::residual::ResidualConfig;
+use centaur::registry::{controller_config, make_robot_env, residual_config};
 use centaur_mpc::MpcExecution;
 use centaur_rl::Policy;
-
-struct Counting;
-
-thread_local! {
-    /// Allocations made by this thread.
-    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
-}
-
-fn count_one() {
-    let _ = ALLOCATIONS.try_with(|n| n.set(n.get() + 1));
-}
-
-fn allocations() -> usize {
-    ALLOCATIONS.with(Cell::get)
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count_one();
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count_one();
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
+use centaur_test_support::{CountingAllocator, thread_allocations};
 
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -95,7 +63,7 @@ fn main() {
         &Simulated { env: env.as_ref(), obs: &obs },
         controller,
         policy,
-        ResidualConfig::for_env("minitaur"),
+        residual_config("minitaur").expect("the Minitaur has a hybrid preset"),
     ) {
         Ok(s) => s,
         Err(e) => {
@@ -113,11 +81,11 @@ fn main() {
     let mut next = Instant::now();
     let mut fell = false;
     while env.episode_time() < seconds {
-        let before = allocations();
+        let before = thread_allocations();
         let start = Instant::now();
         command.copy_from_slice(stack.tick(&Simulated { env: env.as_ref(), obs: &obs }));
         let elapsed = start.elapsed();
-        let n = allocations() - before;
+        let n = thread_allocations() - before;
         if n > 0 {
             alloc_ticks += 1;
             allocs += n;

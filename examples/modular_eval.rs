@@ -14,8 +14,9 @@ use std::path::Path;
 
 use centaur::envs::RobotEnv;
 use centaur::envs::modular::ModularEnv;
+use centaur::gym::Env;
 use centaur::recording::{Frame, Recorder};
-use centaur::rl::{Env, Policy};
+use centaur::rl::Policy;
 
 fn fail(msg: String) -> ! {
     eprintln!("modular_eval: {msg}");
@@ -37,7 +38,7 @@ fn main() {
     let [robot, checkpoint] = args.as_slice() else {
         fail("usage: modular_eval <gecko|modular-ant|spider|modular:FILE.json> <checkpoint> [--record FILE.mcap]".into());
     };
-    let base = match centaur::control::modular_config(robot) {
+    let base = match centaur::registry::modular_config(robot) {
         Ok(Some(c)) => c,
         Ok(None) => fail(format!("unknown robot `{robot}` (gecko, modular-ant, spider, modular:FILE.json)")),
         Err(e) => fail(e.to_string()),

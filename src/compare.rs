@@ -12,30 +12,28 @@
 
 use std::path::PathBuf;
 
-use centaur_rl::{AlgoKind, UpdateMetrics};
+use centaur_rl::{AlgoConfig, UpdateMetrics};
 use serde::Serialize;
 
 use crate::experiment::{
     AgentStats, Curve, ExperimentError, ExperimentOptions, ExperimentSummary, Phase, run_experiment,
 };
+use crate::hybrid::ResidualConfig;
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
-use crate::residual::ResidualConfig;
 
 /// What to compare.
 #[derive(Clone, Debug)]
 pub struct CompareOptions {
     /// Robot environment.
     pub env: String,
-    /// Algorithm.
-    pub algo: AlgoKind,
+    /// Algorithm and hyperparameters of both agents (the seed is each run's).
+    pub algo: AlgoConfig,
     /// Number of seeds (0..seeds).
     pub seeds: u64,
     /// Training steps per agent and seed.
     pub steps: u64,
     /// Output directory.
     pub out: PathBuf,
-    /// TOML hyperparameters for both agents.
-    pub algo_config: Option<String>,
     /// Parallel environments per agent.
     pub n_envs: usize,
     /// Threads stepping each agent's environments; with more than one, a seed's two agents
@@ -174,11 +172,10 @@ pub fn run_compare(
     for seed in 0..opts.seeds.max(1) {
         let exp = ExperimentOptions {
             env: opts.env.clone(),
-            algo: opts.algo,
+            algo: opts.algo.clone(),
             steps: opts.steps,
             seed,
             out: opts.out.join(format!("seed_{seed}")),
-            algo_config: opts.algo_config.clone(),
             n_envs: opts.n_envs,
             threads: opts.threads,
             eval_episodes: opts.eval_episodes,
@@ -192,7 +189,7 @@ pub fn run_compare(
     }
     let summary = CompareSummary {
         env: opts.env.clone(),
-        algo: opts.algo.name().to_string(),
+        algo: opts.algo.kind().name().to_string(),
         seeds: opts.seeds.max(1),
         steps: opts.steps,
         hybrid: aggregate(&runs, |r| &r.hybrid),
@@ -209,7 +206,7 @@ pub fn run_compare(
         band("hybrid (mean ± std over seeds)", &hybrid_curves, opts.steps, 60),
     ];
     let labels = PlotLabels {
-        title: format!("{} on {}: {} seeds", opts.algo.name(), opts.env, summary.seeds),
+        title: format!("{} on {}: {} seeds", opts.algo.kind().name(), opts.env, summary.seeds),
         x: "environment steps".into(),
         y: "training episode return".into(),
     };

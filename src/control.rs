@@ -1,52 +1,24 @@
-//! The model-based controller driving a simulated robot: robot environments by name, the
-//! mapping from the controller's joint command to the environment's actions, and closed-loop
-//! runs with the summary `centaur control` writes.
-//!
-//! Each environment step the controller ticks once on the robot state the simulator reports
-//! (its only view of the robot); its command becomes joint torques at that state,
-//! `τ = τ_ff + k_p (q* − q) + k_d (q̇* − q̇)`, and the environment turns torques into its own
-//! actions ([`RobotEnv::action_for_torques`]: torque/gear for the Gymnasium robots, the
-//! inverted DC motor model and leg model for the Minitaur). The residual environment uses
-//! the same path, so an untrained hybrid acts exactly like the controller.
+//! The model-based controller driving a simulated robot: closed-loop runs and the summary
+//! `centaur control` writes. The robot environments and controller presets come from the
+//! registry ([`crate::registry`]); the controller drives the robot through
+//! [`ActionMapping`], as the hybrid and the deployed stack do.
 
 use std::time::Instant;
 
 use centaur_dynamics::nalgebra::Vector3;
-use centaur_envs::{
-    Body, LocomotionConfig, LocomotionEnv, MinitaurConfig, MinitaurEnv, ModularConfig, ModularEnv, RobotEnv,
-};
-use centaur_mpc::{
-    Command, ConfigError, ControllerConfig, Gait, JointCommand, LocomotionController, MpcExecution,
-};
-use centaur_rl::EnvError;
+use centaur_envs::RobotEnv;
+use centaur_gym::EnvError;
+use centaur_mpc::{Command, ConfigError, Gait, LocomotionController, MpcExecution};
 
-use crate::deploy::{CommandTorques, ContactMap};
-
-/// Robot environments by name (the controllable ones and the pure-RL ones).
-pub const ROBOT_ENV_NAMES: &[&str] = &[
-    "minitaur",
-    "minitaur-fast",
-    "minitaur-deterministic",
-    "ant",
-    "ant27",
-    "walker2d",
-    "hopper",
-    "halfcheetah",
-    "humanoid",
-    "gecko",
-    "modular-ant",
-    "spider",
-];
+use crate::hybrid::{ActionMapping, HybridError};
+use crate::registry::{RegistryError, controller_config, make_robot_env};
 
 /// Why a control run could not happen.
 #[derive(Debug, thiserror::Error)]
 pub enum ControlError {
-    /// No robot environment has this name.
-    #[error("unknown robot environment `{0}` (available: {names}, modular:FILE.json)", names = ROBOT_ENV_NAMES.join(", "))]
-    UnknownEnv(String),
-    /// No controller preset for this robot.
-    #[error("no controller for `{0}` (controllers exist for minitaur, ant, walker2d and humanoid)")]
-    NoController(String),
+    /// The environment or its controller preset.
+    #[error(transparent)]
+    Registry(#[from] RegistryError),
     /// Unknown gait name.
     #[error("unknown gait `{0}` (stand, walk, trot, pace, bound, pronk, gallop)")]
     UnknownGait(String),
@@ -56,17 +28,12 @@ pub enum ControlError {
     /// The controller configuration is invalid.
     #[error("controller: {0}")]
     Config(#[from] ConfigError),
+    /// The controller does not fit the robot.
+    #[error(transparent)]
+    Hybrid(#[from] HybridError),
     /// A bad option.
     #[error("{0}")]
     Invalid(String),
-    /// A modular robot's body file describes no valid body.
-    #[error("{path}: {source}")]
-    Body {
-        /// The file.
-        path: std::path::PathBuf,
-        /// Why.
-        source: centaur_envs::ModularError,
-    },
     /// Writing the summary failed.
     #[error("{path}: {source}")]
     Io {
@@ -75,118 +42,6 @@ pub enum ControlError {
         /// The error.
         source: std::io::Error,
     },
-}
-
-/// A robot environment by name; `max_episode_steps` overrides the default length.
-pub fn make_robot_env(
-    name: &str,
-    max_episode_steps: Option<usize>,
-) -> Result<Box<dyn RobotEnv>, ControlError> {
-    let steps = |default: usize| max_episode_steps.unwrap_or(default);
-    Ok(match name {
-        "minitaur" => {
-            let c = MinitaurConfig::default();
-            Box::new(MinitaurEnv::new(MinitaurConfig { max_episode_steps: steps(c.max_episode_steps), ..c })?)
-        }
-        "minitaur-deterministic" => {
-            // v0 without the per-reset mass, voltage, damping and friction randomisation.
-            let c = MinitaurConfig::deterministic();
-            Box::new(MinitaurEnv::new(MinitaurConfig { max_episode_steps: steps(c.max_episode_steps), ..c })?)
-        }
-        "minitaur-fast" => {
-            let c = MinitaurConfig::fast();
-            Box::new(MinitaurEnv::new(MinitaurConfig { max_episode_steps: steps(c.max_episode_steps), ..c })?)
-        }
-        modular if let Some(c) = modular_config(modular)? => {
-            Box::new(ModularEnv::new(ModularConfig { max_episode_steps: steps(c.max_episode_steps), ..c })?)
-        }
-        other => {
-            let config = match other {
-                "ant" => LocomotionConfig::ant(),
-                "ant27" => LocomotionConfig::ant_27d(),
-                "walker2d" => LocomotionConfig::walker2d(),
-                "hopper" => LocomotionConfig::hopper(),
-                "halfcheetah" => LocomotionConfig::half_cheetah(),
-                "humanoid" => LocomotionConfig::humanoid(),
-                _ => return Err(ControlError::UnknownEnv(name.to_string())),
-            };
-            let max = steps(config.max_episode_steps);
-            Box::new(LocomotionEnv::new(LocomotionConfig { max_episode_steps: max, ..config })?)
-        }
-    })
-}
-
-/// The configuration of a modular robot environment: a preset (`gecko`, `modular-ant`,
-/// `spider`) or `modular:FILE.json`, a body read from a file and named after it; `None` for
-/// other names.
-pub fn modular_config(name: &str) -> Result<Option<ModularConfig>, ControlError> {
-    let Some(file) = name.strip_prefix("modular:") else {
-        return Ok(ModularConfig::preset(name));
-    };
-    let path = std::path::PathBuf::from(file);
-    let text =
-        std::fs::read_to_string(&path).map_err(|source| ControlError::Io { path: path.clone(), source })?;
-    let body = Body::from_json(&text).map_err(|source| ControlError::Body { path: path.clone(), source })?;
-    let stem = path.file_stem().map_or("modular".to_string(), |s| s.to_string_lossy().into_owned());
-    Ok(Some(ModularConfig::new(&stem, body)))
-}
-
-/// The controller preset for a robot environment.
-pub fn controller_config(env_name: &str) -> Result<ControllerConfig, ControlError> {
-    let robot = env_name.trim_end_matches("-fast").trim_end_matches("-deterministic").trim_end_matches("27");
-    let preset = match robot {
-        "minitaur" | "ant" | "walker2d" | "humanoid" => robot,
-        _ => return Err(ControlError::NoController(env_name.to_string())),
-    };
-    ControllerConfig::preset(preset).ok_or_else(|| ControlError::NoController(env_name.to_string()))
-}
-
-/// Maps a controller's joint command to an environment's actions, and ticks the controller
-/// with the environment's measured foot contacts.
-#[derive(Clone, Debug)]
-pub struct ActionMapping {
-    torques: CommandTorques,
-    contacts: ContactMap,
-}
-
-impl ActionMapping {
-    /// Matches the env's actuated joints and feet with the controller's joints and contact
-    /// points by name.
-    pub fn new(env: &dyn RobotEnv, controller: &LocomotionController) -> Result<ActionMapping, ControlError> {
-        let torques = CommandTorques::new(env.model(), env.actuated_joints(), controller)
-            .map_err(ControlError::Invalid)?;
-        Ok(ActionMapping { torques, contacts: ContactMap::new(controller, env.foot_frames()) })
-    }
-
-    /// One controller tick at the env's state and time `t`: with the env's measured foot
-    /// contacts when every contact point of the controller has a foot in the env, else on
-    /// the gait schedule alone ([`ContactMap`]). Every runner — `centaur control`, the
-    /// hybrid env, the experiment's controller baseline and the deployed stack — ticks the
-    /// controller this way, so they all run the same controller.
-    pub fn tick<'c>(
-        &mut self,
-        controller: &'c mut LocomotionController,
-        env: &dyn RobotEnv,
-        command: &Command,
-        t: f64,
-    ) -> &'c JointCommand {
-        self.contacts.tick(controller, env.robot_state(), command, t, |out| {
-            for (o, foot) in out.iter_mut().zip(env.foot_contacts()) {
-                *o = foot.in_contact;
-            }
-        })
-    }
-
-    /// The joint torques of `cmd` at the env's current state (action order).
-    pub fn torques(&mut self, env: &dyn RobotEnv, cmd: &JointCommand) -> &[f64] {
-        self.torques.torques(env.robot_state(), cmd)
-    }
-
-    /// The env action realising `cmd` at the env's current state.
-    pub fn action(&mut self, env: &dyn RobotEnv, cmd: &JointCommand, out: &mut [f32]) {
-        let tau = self.torques.torques(env.robot_state(), cmd);
-        env.action_for_torques(tau, out);
-    }
 }
 
 /// A push during a control run: force (N, world frame) on the base from `at` for `duration` s.
@@ -203,7 +58,7 @@ pub struct Push {
 /// What to run.
 #[derive(Clone, Debug)]
 pub struct ControlOptions {
-    /// Environment name (see [`ROBOT_ENV_NAMES`]) (default: "minitaur").
+    /// Environment name (see [`crate::registry::ROBOTS`]) (default: "minitaur").
     pub env: String,
     /// Gait (default: trot).
     pub gait: Gait,
@@ -454,45 +309,4 @@ fn wrap_angle(a: f64) -> f64 {
     use std::f64::consts::PI;
     let r = (a + PI).rem_euclid(2.0 * PI) - PI;
     if r <= -PI { r + 2.0 * PI } else { r }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn every_robot_env_name_builds() {
-        for name in ROBOT_ENV_NAMES {
-            let env = make_robot_env(name, Some(10)).unwrap();
-            assert_eq!(env.max_episode_steps(), 10, "{name}");
-        }
-        assert!(matches!(make_robot_env("cartpole", None), Err(ControlError::UnknownEnv(_))));
-        assert!(matches!(controller_config("hopper"), Err(ControlError::NoController(_))));
-    }
-
-    #[test]
-    fn modular_robots_load_from_json_files() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/modular/snake.json");
-        let env = make_robot_env(&format!("modular:{path}"), Some(7)).unwrap();
-        assert_eq!(env.name(), "snake");
-        assert_eq!(env.action_space().dim(), 4);
-        assert_eq!(env.max_episode_steps(), 7);
-        assert!(matches!(make_robot_env("modular:/no/such/body.json", None), Err(ControlError::Io { .. })));
-        let dir = std::env::temp_dir().join(format!("centaur-modular-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let bad = dir.join("bad.json");
-        std::fs::write(&bad, r#"{"kind": "core", "back": {"kind": "brick", "back": {"kind": "brick"}}}"#)
-            .unwrap();
-        match make_robot_env(&format!("modular:{}", bad.display()), None) {
-            Err(ControlError::Body { source, .. }) => {
-                assert!(
-                    matches!(source, centaur_envs::ModularError::NoSuchFace { kind: "brick", .. }),
-                    "{source}"
-                )
-            }
-            Err(other) => panic!("{other}"),
-            Ok(_) => panic!("a brick has no back face"),
-        }
-        std::fs::remove_dir_all(&dir).ok();
-    }
 }

@@ -1,17 +1,32 @@
 //! # Centaur
 //!
 //! Legged-robot locomotion that joins model-based control and reinforcement learning.
-//! This facade re-exports the workspace crates.
+//! This facade re-exports the workspace crates and holds what joins them:
+//!
+//! | module | what |
+//! |---|---|
+//! | [`hybrid`] | the one residual core: the law `a = clip(a_ref + scale ⊙ r)`, the policy's observation, the controller → action glue |
+//! | [`registry`] | every environment by name, with its controller and residual presets |
+//! | [`residual`] | [`residual::ResidualEnv`]: the hybrid as an environment, for training |
+//! | [`deploy`] | [`deploy::HybridStack`]: the controller and a trained policy behind a robot interface |
+//! | [`control`] | closed-loop runs of the controller alone (`centaur control`) |
+//! | [`experiment`], [`compare`], [`train`] | pure RL against the hybrid, over seeds; `centaur train` |
+//! | [`recording`], [`plot`] | MCAP recordings for Foxglove; learning-curve plots |
+//! | `cli` (feature `cli`, default) | the examples' and the binary's command line and progress bars |
 
 pub use centaur_dynamics as dynamics;
 pub use centaur_envs as envs;
+pub use centaur_gym as gym;
 pub use centaur_mpc as mpc;
 pub use centaur_rl as rl;
 
+#[cfg(feature = "cli")]
+pub mod cli;
 pub mod compare;
 pub mod control;
 pub mod deploy;
 pub mod experiment;
+pub mod hybrid;
 pub mod plot;
 pub mod recording;
 pub mod registry;

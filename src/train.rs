@@ -6,7 +6,7 @@
 //! | file | content |
 //! |---|---|
 //! | `metrics.csv` | one [`UpdateMetrics`] row per update / log interval |
-//! | `checkpoint` | the learner ([`centaur_rl::Checkpoint`] format, plus the env name under `env`): act with `Policy::load`, resume with `centaur_rl::algorithm::load` |
+//! | `checkpoint` | the learner ([`centaur_rl::Checkpoint`] format, plus the env name under `env`): act with `Policy::load`, resume with `centaur_rl::learners::load` |
 //! | `learning_curve.svg`, `learning_curve.png` | mean training episode return (± std band) against environment steps |
 //! | `summary.json` | `{"env", "algo", "seed", "steps", "wall_seconds", "steps_per_second", "final_return_mean", "final_return_std"}` |
 //!
@@ -19,8 +19,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use centaur_rl::{
-    A2c, A2cConfig, AlgoKind, Algorithm, Ddpg, DdpgConfig, MetricsCsv, Policy, Ppo, PpoConfig, RlError, Sac,
-    SacConfig, SacV1, SacV1Config, Td3, Td3Config, UpdateMetrics, VecEnv, evaluate,
+    A2cConfig, AlgoConfig, AlgoKind, DdpgConfig, MetricsCsv, Policy, PpoConfig, RlError, SacConfig,
+    SacV1Config, Td3Config, UpdateMetrics, evaluate,
 };
 use serde::Serialize;
 
@@ -101,33 +101,20 @@ pub enum TrainError {
     Plot(#[from] PlotError),
 }
 
-fn parse<T: serde::de::DeserializeOwned + Default>(text: Option<&str>, path: &Path) -> Result<T, TrainError> {
-    match text {
-        None => Ok(T::default()),
-        Some(t) => toml::from_str(t)
-            .map_err(|e| TrainError::Config { path: path.to_path_buf(), message: e.to_string() }),
-    }
+fn parse<T: serde::de::DeserializeOwned>(text: &str, path: &Path) -> Result<T, TrainError> {
+    toml::from_str(text).map_err(|e| TrainError::Config { path: path.to_path_buf(), message: e.to_string() })
 }
 
-/// A learner of kind `kind` for `env`, with hyperparameters from the TOML text `config`
-/// (the fields of the algorithm's config struct; unknown keys are an error naming the key)
-/// and `seed` overriding the file's.
-pub fn build_algorithm(
-    kind: AlgoKind,
-    config: Option<&str>,
-    config_path: &Path,
-    seed: u64,
-    env: &VecEnv,
-) -> Result<Box<dyn Algorithm>, TrainError> {
+/// The settings of a learner of kind `kind` from the TOML text of `path` (the fields of the
+/// algorithm's config struct over its defaults; unknown keys are an error naming the key).
+pub fn parse_algo_config(kind: AlgoKind, text: &str, path: &Path) -> Result<AlgoConfig, TrainError> {
     Ok(match kind {
-        AlgoKind::Ppo => Box::new(Ppo::for_env(PpoConfig { seed, ..parse(config, config_path)? }, env)?),
-        AlgoKind::A2c => Box::new(A2c::for_env(A2cConfig { seed, ..parse(config, config_path)? }, env)?),
-        AlgoKind::Sac => Box::new(Sac::for_env(SacConfig { seed, ..parse(config, config_path)? }, env)?),
-        AlgoKind::SacV1 => {
-            Box::new(SacV1::for_env(SacV1Config { seed, ..parse(config, config_path)? }, env)?)
-        }
-        AlgoKind::Td3 => Box::new(Td3::for_env(Td3Config { seed, ..parse(config, config_path)? }, env)?),
-        AlgoKind::Ddpg => Box::new(Ddpg::for_env(DdpgConfig { seed, ..parse(config, config_path)? }, env)?),
+        AlgoKind::Ppo => AlgoConfig::Ppo(parse::<PpoConfig>(text, path)?),
+        AlgoKind::A2c => AlgoConfig::A2c(parse::<A2cConfig>(text, path)?),
+        AlgoKind::Sac => AlgoConfig::Sac(parse::<SacConfig>(text, path)?),
+        AlgoKind::SacV1 => AlgoConfig::SacV1(parse::<SacV1Config>(text, path)?),
+        AlgoKind::Td3 => AlgoConfig::Td3(parse::<Td3Config>(text, path)?),
+        AlgoKind::Ddpg => AlgoConfig::Ddpg(parse::<DdpgConfig>(text, path)?),
     })
 }
 
@@ -138,13 +125,12 @@ pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> R
         let path = path.to_path_buf();
         move |source| TrainError::Io { path, source }
     };
-    let text = match &opts.config {
-        Some(p) => Some(std::fs::read_to_string(p).map_err(io(p))?),
-        None => None,
+    let config = match &opts.config {
+        Some(p) => parse_algo_config(opts.algo, &std::fs::read_to_string(p).map_err(io(p))?, p)?,
+        None => AlgoConfig::default_for(opts.algo),
     };
-    let config_path = opts.config.clone().unwrap_or_default();
     let mut env = make_vec_env(&opts.env, opts.n_envs, opts.threads)?;
-    let mut algo = build_algorithm(opts.algo, text.as_deref(), &config_path, opts.seed, &env)?;
+    let mut algo = config.with_seed(opts.seed).build(&env)?;
     std::fs::create_dir_all(&opts.out).map_err(io(&opts.out))?;
 
     let csv_path = opts.out.join("metrics.csv");
@@ -179,8 +165,7 @@ pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> R
     checkpoint.write(&ckpt).map_err(RlError::from)?;
     let mut policy = Policy::load(&ckpt).map_err(RlError::from)?;
     let mut eval_env = make_env(&opts.env)?;
-    let eval = evaluate(&mut policy, eval_env.as_mut(), opts.eval_episodes.max(10), 1_000_000 + opts.seed)
-        .map_err(RlError::from)?;
+    let eval = evaluate(&mut policy, eval_env.as_mut(), opts.eval_episodes.max(10), 1_000_000 + opts.seed)?;
 
     let curve = Series {
         label: format!("{} seed {}", algo.name(), opts.seed),

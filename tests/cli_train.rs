@@ -64,7 +64,7 @@ fn train_writes_every_artefact() {
     // The checkpoint resumes as a learner and records its environment.
     let ckpt = centaur_rl::Checkpoint::read(&out.join("checkpoint")).unwrap();
     assert_eq!(ckpt.get_meta::<String>("env").unwrap(), "pendulum");
-    let resumed = centaur_rl::algorithm::load(&out.join("checkpoint")).unwrap();
+    let resumed = centaur_rl::learners::load(&out.join("checkpoint")).unwrap();
     assert_eq!((resumed.name(), resumed.steps_done()), ("ppo", 2048));
     std::fs::remove_dir_all(&out).unwrap();
 }

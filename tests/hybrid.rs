@@ -1,10 +1,12 @@
 //! The residual (hybrid) environment and the MCAP recordings.
 
-use centaur::control::{ActionMapping, controller_config, make_robot_env};
+use centaur::hybrid::ActionMapping;
+use centaur::hybrid::ResidualConfig;
 use centaur::recording::{Frame, Recorder, TOPICS};
-use centaur::residual::{RESIDUAL_TERM, ResidualConfig, ResidualEnv};
+use centaur::registry::{controller_config, make_residual_env, make_robot_env, residual_config};
+use centaur::residual::RESIDUAL_TERM;
+use centaur_gym::{Env, EnvError, Rng};
 use centaur_mpc::{Command, Gait, LocomotionController};
-use centaur_rl::{Env, EnvError, Rng};
 
 /// Observations and rewards (as bits) of the controller alone for `steps` steps.
 fn controller_alone(env_name: &str, command: Command, steps: usize) -> Vec<u64> {
@@ -35,7 +37,7 @@ fn a_zero_residual_acts_exactly_like_the_controller() {
         let command = Command::forward(0.3, if env_name == "walker2d" { Gait::Walk } else { Gait::Trot });
         let reference = controller_alone(env_name, command, 80);
         let mut env =
-            ResidualEnv::for_env(env_name, ResidualConfig { command, ..ResidualConfig::default() }).unwrap();
+            make_residual_env(env_name, ResidualConfig { command, ..ResidualConfig::default() }).unwrap();
         let n_env = env.inner().observation_space().dim();
         let mut obs = vec![0.0f32; env.observation_space().dim()];
         env.reset(Some(3), &mut obs).unwrap();
@@ -58,7 +60,7 @@ fn a_zero_residual_acts_exactly_like_the_controller() {
 fn the_residual_is_bounded_by_its_scale_and_the_action_space() {
     let scale = 0.2;
     let mut env =
-        ResidualEnv::for_env("walker2d", ResidualConfig { scale: vec![scale], ..ResidualConfig::default() })
+        make_residual_env("walker2d", ResidualConfig { scale: vec![scale], ..ResidualConfig::default() })
             .unwrap();
     let mut obs = vec![0.0f32; env.observation_space().dim()];
     env.reset(Some(0), &mut obs).unwrap();
@@ -87,7 +89,7 @@ fn the_residual_is_bounded_by_its_scale_and_the_action_space() {
 fn the_observation_carries_phase_command_and_reference() {
     let command = Command::forward(0.4, Gait::Trot);
     let mut env =
-        ResidualEnv::for_env("minitaur", ResidualConfig { command, ..ResidualConfig::default() }).unwrap();
+        make_residual_env("minitaur", ResidualConfig { command, ..ResidualConfig::default() }).unwrap();
     let n_env = env.inner().observation_space().dim();
     let m = env.action_space().dim();
     assert_eq!(env.observation_space().dim(), n_env + 5 + m);
@@ -101,7 +103,7 @@ fn the_observation_carries_phase_command_and_reference() {
         assert_eq!(&obs[n_env + 5..], env.reference());
     }
     // Without the reference in the observation.
-    let env = ResidualEnv::for_env(
+    let env = make_residual_env(
         "minitaur",
         ResidualConfig { include_reference: false, ..ResidualConfig::default() },
     )
@@ -111,7 +113,7 @@ fn the_observation_carries_phase_command_and_reference() {
 
 #[test]
 fn bad_residuals_and_configs_are_refused() {
-    let mut env = ResidualEnv::for_env("walker2d", ResidualConfig::default()).unwrap();
+    let mut env = make_residual_env("walker2d", ResidualConfig::default()).unwrap();
     let mut obs = vec![0.0f32; env.observation_space().dim()];
     env.reset(Some(0), &mut obs).unwrap();
     let m = env.action_space().dim();
@@ -120,20 +122,14 @@ fn bad_residuals_and_configs_are_refused() {
     assert!(matches!(env.step(&bad, &mut obs), Err(EnvError::NonFiniteAction { index: 2, .. })));
     assert!(matches!(env.step(&vec![0.0; m + 1], &mut obs), Err(EnvError::ActionLength { .. })));
     assert!(
-        ResidualEnv::for_env(
-            "walker2d",
-            ResidualConfig { scale: vec![0.1, 0.2], ..ResidualConfig::default() }
-        )
-        .is_err()
-    );
-    assert!(
-        ResidualEnv::for_env("walker2d", ResidualConfig { scale: vec![-1.0], ..ResidualConfig::default() })
+        make_residual_env("walker2d", ResidualConfig { scale: vec![0.1, 0.2], ..ResidualConfig::default() })
             .is_err()
     );
     assert!(
-        ResidualEnv::for_env("hopper", ResidualConfig::default()).is_err(),
-        "no controller for the Hopper"
+        make_residual_env("walker2d", ResidualConfig { scale: vec![-1.0], ..ResidualConfig::default() })
+            .is_err()
     );
+    assert!(make_residual_env("hopper", ResidualConfig::default()).is_err(), "no controller for the Hopper");
 }
 
 #[test]
@@ -141,7 +137,7 @@ fn mcap_recordings_have_foxglove_schemas_and_one_message_per_step() {
     let dir = std::env::temp_dir().join(format!("centaur-mcap-test-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("walk.mcap");
-    let mut env = ResidualEnv::for_env("minitaur", ResidualConfig::default()).unwrap();
+    let mut env = make_residual_env("minitaur", ResidualConfig::default()).unwrap();
     let mut obs = vec![0.0f32; env.observation_space().dim()];
     env.reset(Some(0), &mut obs).unwrap();
     let mut rec = Recorder::create(&path, env.inner().model()).unwrap();
@@ -217,11 +213,12 @@ fn mcap_recordings_have_foxglove_schemas_and_one_message_per_step() {
 #[test]
 fn the_deployed_stack_acts_exactly_like_the_residual_env_it_was_trained_in() {
     use centaur::deploy::{HybridStack, Simulated};
-    use centaur_rl::{Algorithm, Ppo, PpoConfig, VecEnv};
+    use centaur_gym::VecEnv;
+    use centaur_rl::{Algorithm, Ppo, PpoConfig};
     // An untrained PPO policy: non-zero, deterministic outputs.
-    let config = ResidualConfig::for_env("minitaur");
+    let config = residual_config("minitaur").unwrap();
     let venv = VecEnv::new(
-        vec![Box::new(ResidualEnv::for_env("minitaur", config.clone()).unwrap()) as Box<dyn Env>],
+        vec![Box::new(make_residual_env("minitaur", config.clone()).unwrap()) as Box<dyn Env>],
         1,
     )
     .unwrap();
@@ -229,7 +226,7 @@ fn the_deployed_stack_acts_exactly_like_the_residual_env_it_was_trained_in() {
     let mut policy = ppo.policy();
 
     // Training-side: the residual environment with the policy's actions.
-    let mut renv = ResidualEnv::for_env("minitaur", config.clone()).unwrap();
+    let mut renv = make_residual_env("minitaur", config.clone()).unwrap();
     let mut robs = vec![0.0f32; renv.observation_space().dim()];
     let mut act = vec![0.0f32; renv.action_space().dim()];
     renv.reset(Some(9), &mut robs).unwrap();

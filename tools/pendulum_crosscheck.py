@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-"""Records Gymnasium Pendulum-v1 trajectories as a fixture for centaur-rl's Pendulum.
+"""Records Gymnasium Pendulum-v1 trajectories as a fixture for centaur-gym's Pendulum.
 
 Usage: /work/venv/py/bin/python tools/pendulum_crosscheck.py [out.json]
-(default out: rl/tests/fixtures/pendulum_gymnasium.json). Not run in CI; the Rust test
+(default out: gym/tests/fixtures/pendulum_gymnasium.json). Not run in CI; the Rust test
 `pendulum::tests::matches_gymnasium_trajectories` replays the committed fixture: it sets
 each episode's initial state, applies the same actions and compares observations and
 rewards.
@@ -15,7 +15,7 @@ import sys
 import gymnasium as gym
 import numpy as np
 
-out = sys.argv[1] if len(sys.argv) > 1 else "rl/tests/fixtures/pendulum_gymnasium.json"
+out = sys.argv[1] if len(sys.argv) > 1 else "gym/tests/fixtures/pendulum_gymnasium.json"
 env = gym.make("Pendulum-v1")
 rng = np.random.default_rng(0)
 episodes = []

@@ -370,7 +370,7 @@ pub struct Model {
     pub armature: DVector<f64>,
     /// What the URDF loader repaired, ignored or dropped, and properties of the model a
     /// user should know about (a singular mass matrix); empty for a model built by hand.
-    pub load_warnings: Vec<crate::UrdfWarning>,
+    pub load_warnings: Vec<crate::urdf::error::UrdfWarning>,
     // Derived tree structure, filled by `finalize`.
     pub(crate) parent_v: Vec<Option<usize>>,
     pub(crate) nv_subtree_from_row: Vec<usize>,

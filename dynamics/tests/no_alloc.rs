@@ -1,44 +1,15 @@
 //! Every algorithm runs without allocating once `Data::new` has run: a counting global
 //! allocator (counting only this thread's allocations) proves it.
-#![allow(unsafe_code)] // implementing GlobalAlloc is unsafe by definition
 
 mod common;
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
 use centaur_dynamics::*;
+use centaur_test_support::{CountingAllocator, allocations};
 use common::{Rng, random_q, random_v, test_models};
 use nalgebra::{DMatrix, Matrix6xX};
 
-struct Counting;
-
-thread_local! {
-    static COUNT: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        COUNT.with(|c| c.set(c.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        COUNT.with(|c| c.set(c.get() + 1));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-fn allocations<R>(f: impl FnOnce() -> R) -> usize {
-    let before = COUNT.with(|c| c.get());
-    std::hint::black_box(f());
-    COUNT.with(|c| c.get()) - before
-}
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 #[test]
 fn algorithms_allocate_nothing_after_data_new() {

@@ -1,6 +1,6 @@
 //! Quick diagnostics: random actions on the Gymnasium locomotion envs.
 use centaur_envs::{LocomotionConfig, LocomotionEnv, LocomotionRobot};
-use centaur_rl::{Env, Rng};
+use centaur_gym::{Env, Rng};
 fn main() {
     for robot in [
         LocomotionRobot::Ant,

@@ -1,6 +1,6 @@
 //! Quick diagnostics of the Minitaur env against PyBullet's measured numbers.
 use centaur_envs::{MinitaurConfig, MinitaurEnv, RobotEnv};
-use centaur_rl::{Env, Rng};
+use centaur_gym::{Env, Rng};
 use std::time::Instant;
 
 fn main() {

@@ -1,6 +1,6 @@
 //! Profiling aid: N env steps of the deterministic Minitaur with a fixed trot.
 use centaur_envs::{MinitaurConfig, MinitaurEnv};
-use centaur_rl::Env;
+use centaur_gym::Env;
 fn main() {
     let n: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(300);
     let mut env = MinitaurEnv::new(MinitaurConfig::deterministic()).unwrap();

@@ -6,7 +6,7 @@
 use std::time::Instant;
 
 use centaur_envs::modular::{ModularConfig, ModularEnv};
-use centaur_rl::{Env, Rng};
+use centaur_gym::{Env, Rng};
 
 fn main() {
     println!("| robot | modules | hinges | mass (kg) | random actions: return (m) | env steps/s |");

@@ -5,6 +5,7 @@
 //! and modular robots in the style of Revolve2 ([`modular`]: core, bricks, active hinges;
 //! the gecko, ant and spider).
 
+mod error;
 pub mod locomotion;
 pub mod minitaur;
 pub mod modular;
@@ -12,6 +13,7 @@ pub mod mujoco;
 pub mod robot;
 pub mod sim;
 
+pub use error::RobotEnvError;
 pub use locomotion::{LocomotionConfig, LocomotionEnv, LocomotionRobot};
 pub use minitaur::{MinitaurConfig, MinitaurEnv};
 pub use modular::{

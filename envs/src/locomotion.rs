@@ -36,9 +36,10 @@
 
 use centaur_dynamics::nalgebra::Vector3;
 use centaur_dynamics::{BaseKind, Data, Model, RobotState};
-use centaur_rl::env::{check_action, check_observation};
-use centaur_rl::{BoxSpace, Env, EnvError, Rng, Step, StepInfo};
+use centaur_gym::{BoxSpace, Env, EnvError, Rng, Step, StepInfo};
+use centaur_gym::{check_action, check_observation};
 
+use crate::error::RobotEnvError;
 use crate::mujoco::MjRobot;
 use crate::robot::{FootContact, JointHistory, ObsOptions, Push, RobotEnv};
 use crate::sim::{Sim, SimConfig};
@@ -273,10 +274,11 @@ impl LocomotionConfig {
     }
 
     /// Checks the numbers.
-    pub fn validate(&self) -> Result<(), EnvError> {
+    pub fn validate(&self) -> Result<(), RobotEnvError> {
         if self.frame_skip == 0 || self.max_episode_steps == 0 {
-            return Err(EnvError::Other(
-                "LocomotionConfig: frame_skip and max_episode_steps must be positive".into(),
+            return Err(RobotEnvError::config(
+                "LocomotionConfig",
+                "frame_skip and max_episode_steps must be positive",
             ));
         }
         if self.reset_noise_scale.is_nan()
@@ -284,8 +286,9 @@ impl LocomotionConfig {
             || !self.forward_reward_weight.is_finite()
             || !self.ctrl_cost_weight.is_finite()
         {
-            return Err(EnvError::Other(
-                "LocomotionConfig: weights must be finite and noise non-negative".into(),
+            return Err(RobotEnvError::config(
+                "LocomotionConfig",
+                "weights must be finite and noise non-negative",
             ));
         }
         Ok(())
@@ -323,7 +326,7 @@ pub struct LocomotionEnv {
 
 impl LocomotionEnv {
     /// Builds the environment.
-    pub fn new(config: LocomotionConfig) -> Result<LocomotionEnv, EnvError> {
+    pub fn new(config: LocomotionConfig) -> Result<LocomotionEnv, RobotEnvError> {
         config.validate()?;
         let (urdf, sidecar, base) = config.robot.assets();
         let robot = MjRobot::new(urdf, sidecar, config.robot.name(), base)?;

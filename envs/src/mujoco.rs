@@ -1,8 +1,8 @@
 //! Shared machinery of the Gymnasium MuJoCo locomotion environments: the robot (URDF +
 //! sidecar from `assets/mujoco/`), MuJoCo's `qpos`/`qvel` layout, actuators with gears,
 //! joint springs and armature, per-body contact wrenches (`cfrc_ext`), and Gymnasium's reset
-//! noise. The per-robot files (`ant.rs`, `walker2d.rs`, …) define observations, rewards
-//! and terminations on top of it.
+//! noise. [`crate::locomotion`] defines each robot's observations, rewards and
+//! terminations on top of it ([`crate::LocomotionRobot`]).
 //!
 //! Conventions carried over from MuJoCo so that observations match Gymnasium's: a free
 //! joint's `qpos` is `[x, y, z, qw, qx, qy, qz]` and its `qvel` is `[linear velocity in the
@@ -11,9 +11,10 @@
 
 use centaur_dynamics::nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use centaur_dynamics::{BaseKind, Data, Model, RobotState, center_of_mass};
-use centaur_rl::{EnvError, Rng};
+use centaur_gym::Rng;
 use serde::Deserialize;
 
+use crate::error::RobotEnvError;
 use crate::sim::{ColliderSpec, Sim, SimConfig};
 
 /// The parts of an `assets/mujoco/*.mujoco.json` sidecar the environments read.
@@ -111,11 +112,16 @@ pub(crate) struct MjRobot {
 }
 
 impl MjRobot {
-    pub fn new(urdf: &str, sidecar: &str, name: &str, base: BaseKind) -> Result<MjRobot, EnvError> {
-        let err = |e: String| EnvError::Other(format!("{name}: {e}"));
+    pub fn new(urdf: &str, sidecar: &str, name: &str, base: BaseKind) -> Result<MjRobot, RobotEnvError> {
+        let missing = |what: &'static str, item: &str| RobotEnvError::Missing {
+            robot: name.into(),
+            what,
+            name: item.into(),
+        };
         let mut model = Model::from_urdf_str(urdf, &format!("assets/mujoco/{name}.urdf"), base)
-            .map_err(|e| err(e.to_string()))?;
-        let sidecar: Sidecar = serde_json::from_str(sidecar).map_err(|e| err(e.to_string()))?;
+            .map_err(|source| RobotEnvError::Urdf { robot: name.into(), source: Box::new(source) })?;
+        let sidecar: Sidecar = serde_json::from_str(sidecar)
+            .map_err(|source| RobotEnvError::Layout { robot: name.into(), source })?;
         let free = base == BaseKind::Floating;
         let mut joint_of = Vec::new();
         let (mut nq, mut nv) = (0, 0);
@@ -125,8 +131,7 @@ impl MjRobot {
                 nq += 7;
                 nv += 6;
             } else {
-                let idx =
-                    model.joint_index(&j.name).ok_or_else(|| err(format!("no URDF joint {}", j.name)))?;
+                let idx = model.joint_index(&j.name).ok_or_else(|| missing("joint", &j.name))?;
                 let iv = model.joints[idx].idx_v;
                 model.armature[iv] = j.armature;
                 joint_of.push(idx);
@@ -137,15 +142,14 @@ impl MjRobot {
         let mut actuators = Vec::new();
         let (mut ctrl_low, mut ctrl_high) = (Vec::new(), Vec::new());
         for a in &sidecar.actuators {
-            let idx =
-                model.joint_index(&a.joint).ok_or_else(|| err(format!("no actuated joint {}", a.joint)))?;
+            let idx = model.joint_index(&a.joint).ok_or_else(|| missing("joint", &a.joint))?;
             actuators.push((model.joints[idx].idx_v, a.gear));
             ctrl_low.push(a.ctrlrange[0] as f32);
             ctrl_high.push(a.ctrlrange[1] as f32);
         }
         let mut body_frames = Vec::new();
         for b in &sidecar.bodies {
-            body_frames.push(model.frame_index(&b.name).ok_or_else(|| err(format!("no link {}", b.name)))?);
+            body_frames.push(model.frame_index(&b.name).ok_or_else(|| missing("link", &b.name))?);
         }
         Ok(MjRobot { model, sidecar, joint_of, actuators, ctrl_low, ctrl_high, nq, nv, free, body_frames })
     }
@@ -156,7 +160,7 @@ impl MjRobot {
     }
 
     /// Builds the simulator: MuJoCo's time step, geoms' frictions, joint springs.
-    pub fn build_sim(&self, config: &SimConfig) -> Result<Sim, EnvError> {
+    pub fn build_sim(&self, config: &SimConfig) -> Result<Sim, RobotEnvError> {
         let floor = self.sidecar.world_geoms.first().map_or(1.0, |g| g.friction[0]);
         let mut friction: Vec<(String, f64)> = Vec::new();
         for g in &self.sidecar.geoms {
@@ -168,8 +172,8 @@ impl MjRobot {
         let colliders =
             ColliderSpec { links: Vec::new(), friction, default_friction: floor, capsule_boxes: Vec::new() };
         let config = SimConfig { ground_friction: floor, ..config.clone() };
-        let mut sim =
-            Sim::new(&self.model, &config, &colliders, &[]).map_err(|e| EnvError::Other(e.to_string()))?;
+        let mut sim = Sim::new(&self.model, &config, &colliders, &[])
+            .map_err(|source| RobotEnvError::Sim { robot: self.model.name.clone(), source })?;
         for (k, j) in self.sidecar.joints.iter().enumerate() {
             if j.kind != "free" && j.stiffness != 0.0 {
                 sim.set_joint_spring(self.joint_of[k], j.stiffness, j.spring_rest());

@@ -3,7 +3,7 @@
 
 use centaur_dynamics::nalgebra::Vector3;
 use centaur_dynamics::{Model, RobotState};
-use centaur_rl::Env;
+use centaur_gym::Env;
 
 use crate::sim::Sim;
 

@@ -4,7 +4,7 @@
 use centaur_envs::{
     LocomotionConfig, LocomotionEnv, LocomotionRobot, MinitaurConfig, MinitaurEnv, ObsOptions,
 };
-use centaur_rl::{Env, EnvError, Rng, VecEnv};
+use centaur_gym::{Env, EnvError, Rng, VecEnv};
 
 fn all_envs() -> Vec<Box<dyn Env>> {
     let mut v: Vec<Box<dyn Env>> = vec![Box::new(MinitaurEnv::new(MinitaurConfig::default()).unwrap())];
@@ -114,7 +114,7 @@ fn bad_actions_are_refused_or_clipped() {
         let name = env.name().to_string();
         let n = env.action_space().dim();
         let mut obs = vec![0.0f32; env.observation_space().dim()];
-        assert_eq!(env.step(&vec![0.0; n], &mut obs).unwrap_err(), EnvError::NeedsReset, "{name}");
+        assert!(matches!(env.step(&vec![0.0; n], &mut obs), Err(EnvError::NeedsReset)), "{name}");
         env.reset(Some(1), &mut obs).unwrap();
         let mut nan = vec![0.0f32; n];
         nan[0] = f32::NAN;
@@ -158,7 +158,7 @@ fn a_blown_up_simulation_ends_the_episode_with_a_flag() {
     assert!(s.info.unstable && s.terminated, "the blow-up was not flagged");
     assert!(obs.iter().all(|x| x.is_finite()));
     assert_eq!(obs, before, "the observation must stay the last finite one");
-    assert_eq!(env.step(&[0.0; 6], &mut obs).unwrap_err(), EnvError::NeedsReset);
+    assert!(matches!(env.step(&[0.0; 6], &mut obs), Err(EnvError::NeedsReset)));
 }
 
 #[test]

@@ -7,7 +7,7 @@ use centaur_envs::modular::{
     Body, Face, ModularConfig, ModularEnv, ModularError, ModularReward, ModuleKind, ModuleSpecs,
 };
 use centaur_envs::{ObsOptions, RobotEnv};
-use centaur_rl::{Env, EnvError, Rng};
+use centaur_gym::{Env, EnvError, Rng};
 
 fn joint_of(model: &Model, body: &Body, path: &[Face]) -> usize {
     let mut id = body.core();

@@ -8,7 +8,7 @@ use centaur_envs::{
     ColliderSpec, LocomotionConfig, LocomotionEnv, LocomotionRobot, MinitaurConfig, MinitaurEnv, RobotEnv,
     Sim, SimConfig, SimError,
 };
-use centaur_rl::{Env, Rng};
+use centaur_gym::{Env, Rng};
 
 fn asset(rel: &str) -> String {
     format!("{}/../assets/{rel}", env!("CARGO_MANIFEST_DIR"))

@@ -5,7 +5,7 @@
 use centaur_dynamics::nalgebra::DVector;
 use centaur_dynamics::{BaseKind, Data, JointKind, Model, RobotState, aba};
 use centaur_envs::{ColliderSpec, Sim, SimConfig};
-use centaur_rl::Rng;
+use centaur_gym::Rng;
 
 fn asset(rel: &str) -> String {
     format!("{}/../assets/{rel}", env!("CARGO_MANIFEST_DIR"))

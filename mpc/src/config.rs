@@ -29,7 +29,7 @@ pub enum MpcExecution {
     /// counted), while `contact_schedule` is that of the problem last submitted. A plan
     /// whose state is later than the tick's time (time went back without a reset) is
     /// dropped. If a solve panics the worker is gone: from then on every tick due for an MPC
-    /// reports [`QpStatus::SolverGone`] and counts an MPC failure, and the controller falls
+    /// reports [`crate::QpStatus::SolverGone`] and counts an MPC failure, and the controller falls
     /// back as for failed solves.
     /// Timing-dependent, so not reproducible bit for bit: meant for robots, not training.
     Background,
@@ -38,7 +38,7 @@ pub enum MpcExecution {
 /// How joint torques are computed from the MPC forces.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum ControlMode {
-    /// The whole-body QP ([`crate::wbc`]).
+    /// The whole-body QP ([`crate::WholeBodyQp`]).
     #[default]
     WholeBody,
     /// The cheap path: stance legs `τ = −J_cᵀ f_MPC`, swing legs Cartesian PD
@@ -211,7 +211,7 @@ impl ControllerConfig {
     /// with the control period. A two-dof leg with its foot planted locks the body's height,
     /// roll and pitch to its forward motion, so stance legs also get joint PD targets
     /// (200 N·m/rad, 15 N·m·s/rad) that carry the body along its reference over the feet
-    /// ([`crate::controller::stance_target`]); the height task is soft (20/s²) and the WBC
+    /// (the stance target of the contacts stage, `controller/contacts.rs`); the height task is soft (20/s²) and the WBC
     /// follows the MPC forces loosely (weight 1). Touch-down detection is off: a 20 Hz
     /// swing reaches the ground late often enough that waiting for contact costs more than
     /// it saves. A standing Ant is not re-centred: planted two-dof legs cannot move the

@@ -40,7 +40,7 @@
 //! as a residual, not as an infeasible problem. Torques follow as `τ = (M q̈ + h − J_cᵀ f − J_lᵀ λ)_a`.
 //!
 //! Two backends solve the same problem: [`QpBackend::Dense`] (Goldfarb–Idnani on dense
-//! Cholesky, [`crate::qp::DenseQp`]) and [`QpBackend::Clarabel`] (one interior-point solver
+//! Cholesky, [`crate::DenseQp`]) and [`QpBackend::Clarabel`] (one interior-point solver
 //! per stance pattern, built at construction with the structural sparsity of the model and
 //! updated in place).
 

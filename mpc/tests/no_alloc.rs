@@ -6,55 +6,20 @@
 //! one per Clarabel solve. With the MPC on its worker thread (`MpcExecution::Background`)
 //! that solve allocates there: the ticking thread allocates nothing at all. (Allocations are
 //! counted per thread.)
-#![allow(unsafe_code)] // a global allocator cannot be written without it
 
 mod common;
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::time::{Duration, Instant};
 
 use centaur_mpc::{Command, Gait, LocomotionController, MpcExecution, QpBackend};
-
-struct Counting;
-
-thread_local! {
-    /// Counting is on for this thread.
-    static ON: Cell<bool> = const { Cell::new(false) };
-    /// Allocations this thread made while counting.
-    static COUNT: Cell<usize> = const { Cell::new(0) };
-}
-
-fn count_one() {
-    if ON.try_with(Cell::get).unwrap_or(false) {
-        let _ = COUNT.try_with(|c| c.set(c.get() + 1));
-    }
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count_one();
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count_one();
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
+use centaur_test_support::{CountingAllocator, allocations};
 
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 /// Allocations this thread makes inside `f`.
 fn counted(f: impl FnOnce()) -> usize {
-    COUNT.with(|c| c.set(0));
-    ON.with(|on| on.set(true));
-    f();
-    ON.with(|on| on.set(false));
-    COUNT.with(Cell::get)
+    allocations(f)
 }
 
 /// Returns (allocations on ticks without a Clarabel solve, allocations on ticks with one,

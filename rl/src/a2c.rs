@@ -20,17 +20,18 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::algorithm::Algorithm;
-use crate::buffer::{RolloutBuffer, StepEnd, n_step_returns};
+use crate::buffer::{RolloutBuffer, n_step_returns};
 use crate::checkpoint::Checkpoint;
 use crate::distributions::{gaussian_entropy, gaussian_log_prob, gaussian_log_prob_grad};
-use crate::env::{BoxSpace, VecEnv, VecStep};
 use crate::error::{RlError, check};
 use crate::metrics::{EpisodeWindow, UpdateMetrics};
 use crate::nn::{Activation, Init, Mlp, MlpBuffers};
-use crate::normalizer::{RewardScaler, RunningMeanStd, normalize_obs};
+use crate::normalizer::{RewardScaler, RunningMeanStd};
+use crate::on_policy::{Collector, LearnerState, PolicyValue, RolloutSettings};
 use crate::optim::{Adam, OptimizerKind, RmsProp, clip_grad_norm, linear_decay};
 use crate::policy::{ObsNorm, Policy, PolicyHead};
-use crate::rng::Rng;
+use centaur_gym::Rng;
+use centaur_gym::{BoxSpace, VecEnv};
 
 /// A2C hyperparameters (defaults: Stable-Baselines3 2.x `A2C`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -73,6 +74,9 @@ pub struct A2cConfig {
     pub clip_reward: f64,
     /// Bootstrap truncated episodes with `V(final observation)` (default: true).
     pub bootstrap_truncation: bool,
+    /// Step the environments with the sampled actions clipped to the action bounds (the
+    /// unclipped actions are what the loss sees) (default: true).
+    pub clip_actions: bool,
     /// Actor hidden layer sizes (default: [64, 64]).
     pub actor_hidden: Vec<usize>,
     /// Critic hidden layer sizes (default: [64, 64]).
@@ -108,6 +112,7 @@ impl Default for A2cConfig {
             norm_reward: false,
             clip_reward: 10.0,
             bootstrap_truncation: true,
+            clip_actions: true,
             actor_hidden: vec![64, 64],
             critic_hidden: vec![64, 64],
             activation: Activation::Tanh,
@@ -185,17 +190,8 @@ enum Optim {
 
 /// Preallocated buffers of the rollout and update loops.
 struct Work {
-    /// Policy input for the current step (`n × obs_dim`, normalised if enabled).
-    obs: Vec<f32>,
-    /// Sampled actions (`n × act_dim`) and their clipped version for the env.
-    actions: Vec<f32>,
-    env_actions: Vec<f32>,
-    step: VecStep,
-    rewards: Vec<f64>,
-    /// Final observations of truncated environments, compacted, and their indices.
-    final_obs: Vec<f32>,
-    final_idx: Vec<usize>,
-    last_values: Vec<f32>,
+    /// Rollout collection (shared with PPO).
+    collector: Collector,
     mb_adv: Vec<f32>,
     d_mean: Vec<f32>,
     d_value: Vec<f32>,
@@ -204,7 +200,6 @@ struct Work {
     actor_buf: MlpBuffers,
     critic_buf: MlpBuffers,
 }
-
 /// An A2C learner; see the module documentation.
 pub struct A2c {
     config: A2cConfig,
@@ -267,14 +262,7 @@ impl A2c {
         let cap = len;
         let b = len;
         let work = Work {
-            obs: vec![0.0; n_envs * od],
-            actions: vec![0.0; n_envs * ad],
-            env_actions: vec![0.0; n_envs * ad],
-            step: VecStep::new(n_envs, od),
-            rewards: vec![0.0; n_envs],
-            final_obs: vec![0.0; n_envs * od],
-            final_idx: Vec::with_capacity(n_envs),
-            last_values: vec![0.0; n_envs],
+            collector: Collector::new(n_envs, od, ad),
             mb_adv: vec![0.0; b],
             d_mean: vec![0.0; b * ad],
             d_value: vec![0.0; b],
@@ -315,98 +303,45 @@ impl A2c {
         &self.config
     }
 
-    /// Normalises raw observations into the policy input (identity if disabled).
-    fn policy_input(&self, raw: &[f32], out: &mut [f32]) {
-        if self.config.norm_obs {
-            normalize_obs(&self.obs_rms.mean, &self.obs_rms.var, self.config.clip_obs, raw, out);
-        } else {
-            out.copy_from_slice(raw);
+    /// The settings of a rollout.
+    fn rollout_settings(&self) -> RolloutSettings {
+        let c = &self.config;
+        RolloutSettings {
+            n_steps: c.n_steps,
+            clip_actions: c.clip_actions,
+            norm_obs: c.norm_obs,
+            clip_obs: c.clip_obs,
+            norm_reward: c.norm_reward,
+            bootstrap_truncation: c.bootstrap_truncation,
         }
     }
 
-    /// Collects one rollout of `n_steps × n_envs` transitions.
+    /// Collects one rollout of `n_steps × n_envs` transitions ([`Collector::collect`]).
     fn collect_rollout(&mut self, env: &mut VecEnv, episodes: &mut EpisodeWindow) -> Result<(), RlError> {
-        let (n, od, ad) = (self.n_envs, self.obs_space.dim(), self.act_space.dim());
-        let mut w = std::mem::take(&mut self.work.obs);
-        for t in 0..self.config.n_steps {
-            // π(·|s_t) and V(s_t) for all environments at once.
-            let mean = self.actor.forward(&mut self.work.actor_buf, &w, n);
-            for i in 0..n {
-                let (a, m) = (&mut self.work.actions[i * ad..(i + 1) * ad], &mean[i * ad..(i + 1) * ad]);
-                for j in 0..ad {
-                    a[j] = m[j] + self.log_std[j].exp() * self.rng.normal() as f32;
-                }
-                self.rollout.log_probs[t * n + i] = gaussian_log_prob(a, m, &self.log_std);
-            }
-            let values = self.critic.forward(&mut self.work.critic_buf, &w, n);
-            self.rollout.values[t * n..(t + 1) * n].copy_from_slice(values);
-            self.rollout.obs[t * n * od..(t + 1) * n * od].copy_from_slice(&w);
-            self.rollout.actions[t * n * ad..(t + 1) * n * ad].copy_from_slice(&self.work.actions);
-
-            // Step with the clipped action; the unclipped one stays in the buffer.
-            self.work.env_actions.copy_from_slice(&self.work.actions);
-            for a in self.work.env_actions.chunks_exact_mut(ad) {
-                self.act_space.clip(a);
-            }
-            env.step(&self.work.env_actions, &mut self.work.step)?;
-            self.steps_done += n as u64;
-            for e in &self.work.step.episodes {
-                episodes.push(e.ret, e.length);
-            }
-
-            // Observation statistics see every returned observation (auto-reset ones too).
-            if self.config.norm_obs {
-                self.obs_rms.update(&self.work.step.obs);
-            }
-            self.policy_input(&self.work.step.obs, &mut w);
-
-            let s = &self.work.step;
-            if self.config.norm_reward {
-                self.reward_scaler.scale(
-                    &s.rewards,
-                    |i| s.terminated[i] || s.truncated[i],
-                    &mut self.work.rewards,
-                );
-            } else {
-                self.work.rewards.copy_from_slice(&s.rewards);
-            }
-            self.work.final_idx.clear();
-            for i in 0..n {
-                let k = t * n + i;
-                self.rollout.rewards[k] = self.work.rewards[i] as f32;
-                let truncated = s.truncated[i] && !s.terminated[i];
-                self.rollout.ends[k] = if truncated && !self.config.bootstrap_truncation {
-                    StepEnd::Terminated
-                } else {
-                    StepEnd::from_flags(s.terminated[i], s.truncated[i])
-                };
-                self.rollout.final_values[k] = 0.0;
-                if self.rollout.ends[k] == StepEnd::Truncated {
-                    self.work.final_idx.push(i);
-                }
-            }
-            // V(s_final) of truncated episodes, normalised with the current statistics.
-            let m = self.work.final_idx.len();
-            if m > 0 {
-                for (slot, &i) in self.work.final_idx.iter().enumerate() {
-                    let raw = &self.work.step.final_obs[i * od..(i + 1) * od];
-                    let dst = &mut self.work.final_obs[slot * od..(slot + 1) * od];
-                    if self.config.norm_obs {
-                        normalize_obs(&self.obs_rms.mean, &self.obs_rms.var, self.config.clip_obs, raw, dst);
-                    } else {
-                        dst.copy_from_slice(raw);
-                    }
-                }
-                let v = self.critic.forward(&mut self.work.critic_buf, &self.work.final_obs[..m * od], m);
-                for (slot, &i) in self.work.final_idx.iter().enumerate() {
-                    self.rollout.final_values[t * n + i] = v[slot];
-                }
-            }
-        }
-        let last = self.critic.forward(&mut self.work.critic_buf, &w, n);
-        self.work.last_values.copy_from_slice(last);
-        self.work.obs = w;
-        Ok(())
+        let settings = self.rollout_settings();
+        let mut nets = Nets {
+            actor: &self.actor,
+            actor_buf: &mut self.work.actor_buf,
+            critic: &self.critic,
+            critic_buf: &mut self.work.critic_buf,
+        };
+        let state = LearnerState {
+            log_std: &self.log_std,
+            rng: &mut self.rng,
+            obs_rms: &mut self.obs_rms,
+            reward_scaler: &mut self.reward_scaler,
+            rollout: &mut self.rollout,
+            steps_done: &mut self.steps_done,
+        };
+        self.work.collector.collect(
+            &mut nets,
+            &settings,
+            state,
+            &self.obs_space,
+            &self.act_space,
+            env,
+            episodes,
+        )
     }
 
     /// n-step returns and advantages `R − V` of the stored rollout.
@@ -416,7 +351,7 @@ impl A2c {
             &r.rewards,
             &r.ends,
             &r.final_values,
-            &self.work.last_values,
+            &self.work.collector.last_values,
             self.config.gamma as f32,
             &mut r.returns,
         );
@@ -427,7 +362,7 @@ impl A2c {
 
     /// One gradient step on the whole rollout; fills the loss metrics.
     fn update(&mut self, lr: f32, m: &mut UpdateMetrics) -> Result<(), RlError> {
-        let (od, ad) = (self.obs_space.dim(), self.act_space.dim());
+        let ad = self.act_space.dim();
         let b = self.rollout.len();
         let (ent_coef, vf_coef) = (self.config.ent_coef as f32, self.config.vf_coef as f32);
         let w = &mut self.work;
@@ -468,7 +403,6 @@ impl A2c {
             w.d_value[j] = 2.0 * vf_coef * d / b as f32;
         }
         self.critic.backward(&mut w.critic_buf, &r.obs, &w.d_value, b, None);
-        let _ = od;
 
         let (pg, vl) = (pg / b as f64, vl / b as f64);
         let loss = pg + vf_coef as f64 * vl - ent_coef as f64 * entropy as f64;
@@ -582,24 +516,9 @@ impl Algorithm for A2c {
         self.check_env(env)?;
         let horizon = *self.lr_horizon.get_or_insert(total_steps.max(1));
         // Continue a live VecEnv, or reset a fresh one.
-        match env.observations() {
-            Some(obs) => {
-                let raw = obs.to_vec();
-                let mut w = std::mem::take(&mut self.work.obs);
-                self.policy_input(&raw, &mut w);
-                self.work.obs = w;
-            }
-            None => {
-                let mut raw = vec![0.0; self.n_envs * self.obs_space.dim()];
-                env.reset(self.config.seed.wrapping_add(self.steps_done), &mut raw)?;
-                if self.config.norm_obs {
-                    self.obs_rms.update(&raw);
-                }
-                let mut w = std::mem::take(&mut self.work.obs);
-                self.policy_input(&raw, &mut w);
-                self.work.obs = w;
-            }
-        }
+        let settings = self.rollout_settings();
+        let seed = self.config.seed.wrapping_add(self.steps_done);
+        self.work.collector.start(env, &settings, &mut self.obs_rms, seed)?;
         let mut episodes = EpisodeWindow::default();
         let (mut window_start, mut window_time) = (self.steps_done, 0.0);
         while self.steps_done < total_steps {
@@ -683,5 +602,22 @@ impl Algorithm for A2c {
 
     fn steps_done(&self) -> u64 {
         self.steps_done
+    }
+}
+
+/// A2C's networks as the collector sees them.
+struct Nets<'a> {
+    actor: &'a Mlp,
+    actor_buf: &'a mut MlpBuffers,
+    critic: &'a Mlp,
+    critic_buf: &'a mut MlpBuffers,
+}
+
+impl PolicyValue for Nets<'_> {
+    fn mean(&mut self, obs: &[f32], n: usize) -> &[f32] {
+        self.actor.forward(self.actor_buf, obs, n)
+    }
+    fn value(&mut self, obs: &[f32], n: usize) -> &[f32] {
+        self.critic.forward(self.critic_buf, obs, n)
     }
 }

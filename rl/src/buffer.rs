@@ -16,7 +16,7 @@
 //! [`RolloutBuffer`] holds an on-policy rollout; [`ReplayBuffer`] is the circular buffer
 //! of the off-policy algorithms.
 
-use crate::rng::Rng;
+use centaur_gym::Rng;
 
 /// How step `t` of an environment ended, for the return recursions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

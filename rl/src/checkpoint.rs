@@ -27,11 +27,11 @@ use serde::Serialize;
 use serde::de::DeserializeOwned;
 
 use crate::buffer::{ReplayBuffer, ReplayRaw};
-use crate::env::BoxSpace;
 use crate::nn::Mlp;
 use crate::normalizer::RunningMeanStd;
 use crate::optim::Adam;
-use crate::rng::{Rng, RngState};
+use centaur_gym::BoxSpace;
+use centaur_gym::{Rng, RngState};
 
 /// File magic.
 pub const MAGIC: &[u8; 8] = b"CNTRCKPT";

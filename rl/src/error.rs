@@ -2,7 +2,7 @@
 //! failures, unreadable checkpoints, diverged training.
 
 use crate::checkpoint::CheckpointError;
-use crate::env::EnvError;
+use centaur_gym::EnvError;
 
 /// Why a learner refused to start or stopped.
 #[derive(Debug, thiserror::Error)]
@@ -26,6 +26,14 @@ pub enum RlError {
         algo: &'static str,
         /// What differs.
         reason: String,
+    },
+    /// A policy used on an environment of other dimensions.
+    #[error("a policy for {} observations and {} actions used on an environment with {} and {}", policy.0, policy.1, env.0, env.1)]
+    PolicyMismatch {
+        /// The policy's observation and action dimensions.
+        policy: (usize, usize),
+        /// The environment's.
+        env: (usize, usize),
     },
     /// The environment refused a call.
     #[error("environment error: {0}")]

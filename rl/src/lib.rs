@@ -1,8 +1,8 @@
 //! # centaur-rl
 //!
-//! Reinforcement learning for continuous control: the [`Env`] / [`VecEnv`] API shared by
-//! every Centaur environment, small neural networks with analytic gradients, and six
-//! learners — [`Ppo`], [`A2c`], [`Sac`] (v2), [`SacV1`], [`Td3`], [`Ddpg`] — one file per
+//! Reinforcement learning for continuous control on the environment API of `centaur-gym`
+//! ([`centaur_gym::Env`], [`centaur_gym::VecEnv`]): small neural networks with analytic
+//! gradients, and six learners — [`Ppo`], [`A2c`], [`Sac`] (v2), [`SacV1`], [`Td3`], [`Ddpg`] — one file per
 //! algorithm, each readable top to bottom like CleanRL. The four replay-buffer learners
 //! share one collection loop (warm-up, replay, logging; `off_policy.rs`) and differ in
 //! their exploration and gradient step.
@@ -14,24 +14,24 @@
 //! ends either by **termination** (a terminal state: no value after it) or by
 //! **truncation** (a time limit: the state still has a value, and targets bootstrap from
 //! the final observation) — Gymnasium's semantics, kept separate everywhere
-//! ([`Step`], [`VecStep::final_obs`], [`buffer::StepEnd`], [`buffer::ReplayBuffer`]).
+//! ([`centaur_gym::Step`], [`centaur_gym::VecStep::final_obs`], [`buffer::StepEnd`],
+//! [`buffer::ReplayBuffer`]).
 //!
 //! ## Pieces
 //!
 //! | module | content |
 //! |---|---|
-//! | [`env`](mod@env) | [`Env`], [`VecEnv`] (parallel stepping, auto-reset, thread-count-independent results) |
 //! | [`nn`] | [`nn::Mlp`]: batched forward/backward on faer (`Par::Seq`), fast tanh, orthogonal init |
 //! | [`optim`] | Adam, RMSprop, global gradient clipping, linear decay |
 //! | [`distributions`] | diagonal Gaussian, tanh-squashed Gaussian (stable log-det), tanh head |
 //! | [`buffer`] | GAE(λ), n-step returns, rollout buffer, circular replay buffer |
 //! | [`normalizer`] | running mean/variance (Chan et al. merge), observation normalisation, reward scaling |
 //! | [`ppo`], [`a2c`], [`sac`], [`sac_v1`], [`td3`], [`ddpg`] | the learners and their typed configs |
-//! | [`algorithm`] | the [`Algorithm`] trait all learners implement; [`algorithm::load`] by name |
+//! | [`algorithm`] | the [`Algorithm`] trait all learners implement |
+//! | [`learners`] | [`AlgoKind`] by name, [`AlgoConfig`] (typed settings with presets), [`learners::load`] from a checkpoint |
 //! | [`checkpoint`] | versioned, checksummed, atomically written checkpoint files |
 //! | [`policy`] | [`Policy`]: deployment without training code; [`evaluate`] |
 //! | [`metrics`] | [`UpdateMetrics`] per update and its CSV form |
-//! | [`pendulum`] | Gymnasium's Pendulum-v1, for tests and examples |
 //!
 //! ## Conventions
 //!
@@ -56,8 +56,9 @@
 //!
 //! ```
 //! use std::ops::ControlFlow;
-//! use centaur_rl::pendulum::Pendulum;
-//! use centaur_rl::{Algorithm, Env, Policy, Ppo, PpoConfig, VecEnv, evaluate};
+//! use centaur_gym::pendulum::Pendulum;
+//! use centaur_gym::{Env, VecEnv};
+//! use centaur_rl::{Algorithm, Policy, Ppo, PpoConfig, evaluate};
 //!
 //! let envs: Vec<Box<dyn Env>> = (0..2).map(|_| Box::new(Pendulum::new()) as Box<dyn Env>).collect();
 //! let mut venv = VecEnv::new(envs, 1)?;
@@ -83,31 +84,29 @@ pub mod buffer;
 pub mod checkpoint;
 pub mod ddpg;
 pub mod distributions;
-pub mod env;
 pub mod error;
+pub mod learners;
 pub mod metrics;
 pub mod nn;
 pub mod normalizer;
 mod off_policy;
+mod on_policy;
 pub mod optim;
-pub mod pendulum;
 pub mod policy;
 pub mod ppo;
-pub mod rng;
 pub mod sac;
 pub mod sac_v1;
 pub mod td3;
 
 pub use a2c::{A2c, A2cConfig};
-pub use algorithm::{AlgoKind, Algorithm};
+pub use algorithm::Algorithm;
 pub use checkpoint::{Checkpoint, CheckpointError};
 pub use ddpg::{Ddpg, DdpgConfig};
-pub use env::{BoxSpace, Env, EnvError, EpisodeRecord, MAX_REWARD_TERMS, Step, StepInfo, VecEnv, VecStep};
 pub use error::RlError;
+pub use learners::{AlgoConfig, AlgoKind};
 pub use metrics::{MetricsCsv, UpdateMetrics};
 pub use policy::{EvalStats, Policy, PolicyHead, evaluate};
 pub use ppo::{Ppo, PpoConfig};
-pub use rng::{Rng, RngState};
 pub use sac::{Sac, SacConfig};
 pub use sac_v1::{SacV1, SacV1Config};
 pub use td3::{Td3, Td3Config};

@@ -9,7 +9,7 @@
 //! with `σ` = tanh or ReLU on the hidden layers and a linear output (the algorithms add
 //! their own heads: Gaussian mean, tanh squashing, Q value). A batch of `B` inputs is a
 //! column-major `n₀ × B` matrix — sample `j` is the contiguous slice `x[j n₀ .. (j+1) n₀]`,
-//! which is also how [`crate::VecEnv`] lays out observations. The backward pass for a loss
+//! which is also how [`centaur_gym::VecEnv`] lays out observations. The backward pass for a loss
 //! `ℓ(y)` with `δ_L = ∂ℓ/∂y` is
 //!
 //! ```text
@@ -29,7 +29,7 @@ use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
 use serde::{Deserialize, Serialize};
 
-use crate::rng::Rng;
+use centaur_gym::Rng;
 
 /// Hidden-layer nonlinearity.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

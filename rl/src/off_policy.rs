@@ -20,11 +20,11 @@ use std::time::Instant;
 
 use crate::buffer::ReplayBuffer;
 use crate::checkpoint::Checkpoint;
-use crate::env::{BoxSpace, VecEnv, VecStep};
 use crate::error::RlError;
 use crate::metrics::{EpisodeWindow, UpdateMetrics};
 use crate::policy::rescale_action;
-use crate::rng::Rng;
+use centaur_gym::Rng;
+use centaur_gym::{BoxSpace, VecEnv, VecStep};
 
 /// The loop's settings, read from a learner's config.
 #[derive(Clone, Copy, Debug)]

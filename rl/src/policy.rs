@@ -15,7 +15,9 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::checkpoint::{Checkpoint, CheckpointError};
-use crate::env::{BoxSpace, Env, EnvError};
+use centaur_gym::{BoxSpace, Env};
+
+use crate::error::RlError;
 use crate::nn::{Activation, Mlp, MlpBuffers, tanh_fast};
 use crate::normalizer::normalize_obs;
 
@@ -240,17 +242,14 @@ pub fn evaluate(
     env: &mut dyn Env,
     episodes: usize,
     seed: u64,
-) -> Result<EvalStats, EnvError> {
+) -> Result<EvalStats, RlError> {
     let mut obs = vec![0.0; env.observation_space().dim()];
     let mut act = vec![0.0; env.action_space().dim()];
     if obs.len() != policy.obs_dim() || act.len() != policy.act_dim() {
-        return Err(EnvError::Other(format!(
-            "policy for obs {} / action {} used on env with obs {} / action {}",
-            policy.obs_dim(),
-            policy.act_dim(),
-            obs.len(),
-            act.len()
-        )));
+        return Err(RlError::PolicyMismatch {
+            policy: (policy.obs_dim(), policy.act_dim()),
+            env: (obs.len(), act.len()),
+        });
     }
     let (mut returns, mut lengths) = (Vec::with_capacity(episodes), Vec::with_capacity(episodes));
     for k in 0..episodes {

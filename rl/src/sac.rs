@@ -29,14 +29,14 @@ use crate::algorithm::Algorithm;
 use crate::buffer::{ReplayBatch, concat_obs_act};
 use crate::checkpoint::Checkpoint;
 use crate::distributions::{squashed_gaussian_backward, squashed_gaussian_sample};
-use crate::env::{BoxSpace, VecEnv};
 use crate::error::{RlError, check};
 use crate::metrics::UpdateMetrics;
 use crate::nn::{Activation, Init, Mlp, MlpBuffers, polyak};
 use crate::off_policy::{self, Collector, LoopSettings, OffPolicyLearner};
 use crate::optim::Adam;
 use crate::policy::{Policy, PolicyHead};
-use crate::rng::Rng;
+use centaur_gym::Rng;
+use centaur_gym::{BoxSpace, VecEnv};
 
 /// Bounds of the policy's `log σ` (SB3's `LOG_STD_MIN`, `LOG_STD_MAX`).
 pub const LOG_STD_MIN: f32 = -20.0;
@@ -104,6 +104,14 @@ impl Default for SacConfig {
             activation: Activation::Relu,
             log_interval: 1000,
         }
+    }
+}
+
+impl SacConfig {
+    /// For the locomotion robots: learning starts after 5,000 steps of uniformly random
+    /// actions instead of 100 (the other settings are the defaults).
+    pub fn locomotion() -> Self {
+        SacConfig { learning_starts: 5000, ..SacConfig::default() }
     }
 }
 

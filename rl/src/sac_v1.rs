@@ -31,16 +31,16 @@ use crate::algorithm::Algorithm;
 use crate::buffer::{ReplayBatch, concat_obs_act};
 use crate::checkpoint::Checkpoint;
 use crate::distributions::squashed_gaussian_backward;
-use crate::env::{BoxSpace, VecEnv};
 use crate::error::{RlError, check};
 use crate::metrics::UpdateMetrics;
 use crate::nn::{Activation, Init, Mlp, MlpBuffers, polyak};
 use crate::off_policy::{self, Collector, LoopSettings, OffPolicyLearner};
 use crate::optim::Adam;
 use crate::policy::{Policy, PolicyHead};
-use crate::rng::Rng;
 use crate::sac::Sac;
 pub use crate::sac::{LOG_STD_MAX, LOG_STD_MIN};
+use centaur_gym::Rng;
+use centaur_gym::{BoxSpace, VecEnv};
 
 /// SAC v1 hyperparameters (defaults: Haarnoja et al. 2018a, Table 1; learning starts as
 /// Stable-Baselines3).
@@ -98,6 +98,14 @@ impl Default for SacV1Config {
             activation: Activation::Relu,
             log_interval: 1000,
         }
+    }
+}
+
+impl SacV1Config {
+    /// For the locomotion robots: learning starts after 5,000 steps of uniformly random
+    /// actions instead of 100 (the other settings are the defaults).
+    pub fn locomotion() -> Self {
+        SacV1Config { learning_starts: 5000, ..SacV1Config::default() }
     }
 }
 

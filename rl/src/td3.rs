@@ -26,14 +26,14 @@ use serde::{Deserialize, Serialize};
 use crate::algorithm::Algorithm;
 use crate::buffer::{ReplayBatch, concat_obs_act};
 use crate::checkpoint::Checkpoint;
-use crate::env::{BoxSpace, VecEnv};
 use crate::error::{RlError, check};
 use crate::metrics::UpdateMetrics;
 use crate::nn::{Activation, Init, Mlp, MlpBuffers, polyak, tanh_fast};
 use crate::off_policy::{self, Collector, LoopSettings, OffPolicyLearner};
 use crate::optim::Adam;
 use crate::policy::{Policy, PolicyHead};
-use crate::rng::Rng;
+use centaur_gym::Rng;
+use centaur_gym::{BoxSpace, VecEnv};
 
 /// TD3 hyperparameters (defaults: Stable-Baselines3 2.x `TD3`, exploration noise from the
 /// paper).
@@ -97,6 +97,14 @@ impl Default for Td3Config {
             activation: Activation::Relu,
             log_interval: 1000,
         }
+    }
+}
+
+impl Td3Config {
+    /// For the locomotion robots: learning starts after 5,000 steps of uniformly random
+    /// actions instead of 100 (the other settings are the defaults).
+    pub fn locomotion() -> Self {
+        Td3Config { learning_starts: 5000, ..Td3Config::default() }
     }
 }
 

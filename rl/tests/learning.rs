@@ -1,4 +1,4 @@
-//! Learning tests on Gymnasium's Pendulum-v1 (`centaur_rl::pendulum`), fixed seeds,
+//! Learning tests on Gymnasium's Pendulum-v1 (`centaur_gym::pendulum`), fixed seeds,
 //! mean return of 10 deterministic evaluation episodes (seeds 1000–1009).
 //!
 //! Run by `cargo test --release` (about a minute on 2 cores): the thresholds within
@@ -12,7 +12,8 @@
 
 use std::ops::ControlFlow;
 
-use centaur_rl::pendulum::Pendulum;
+use centaur_gym::pendulum::Pendulum;
+use centaur_gym::{Env, VecEnv};
 use centaur_rl::*;
 
 fn pendulums(n: usize) -> VecEnv {

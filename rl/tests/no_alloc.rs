@@ -4,44 +4,17 @@
 //! `learn` may allocate a constant amount when it starts (e.g. a copy of the VecEnv's
 //! current observations); the number of allocations must not grow with the number of
 //! updates.
-#![allow(unsafe_code)] // implementing GlobalAlloc is unsafe by definition
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::ops::ControlFlow;
 
+use centaur_gym::pendulum::Pendulum;
+use centaur_gym::{Env, Rng, VecEnv};
 use centaur_rl::nn::{Activation, Init, Mlp};
-use centaur_rl::pendulum::Pendulum;
 use centaur_rl::*;
-
-struct Counting;
-
-thread_local! {
-    static COUNT: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        COUNT.with(|c| c.set(c.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        COUNT.with(|c| c.set(c.get() + 1));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
+use centaur_test_support::{CountingAllocator, allocations};
 
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-fn allocations<R>(f: impl FnOnce() -> R) -> usize {
-    let before = COUNT.with(|c| c.get());
-    std::hint::black_box(f());
-    COUNT.with(|c| c.get()) - before
-}
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 fn pendulums(n: usize) -> VecEnv {
     VecEnv::new((0..n).map(|_| Box::new(Pendulum::new()) as Box<dyn Env>).collect(), 1).unwrap()

@@ -4,7 +4,8 @@
 use std::ops::ControlFlow;
 use std::path::PathBuf;
 
-use centaur_rl::pendulum::Pendulum;
+use centaur_gym::pendulum::Pendulum;
+use centaur_gym::{Env, Rng, VecEnv};
 use centaur_rl::*;
 
 fn pendulums(n: usize, threads: usize) -> VecEnv {
@@ -114,7 +115,7 @@ fn resume_equals_uninterrupted(
     let path = tmp(&format!("{}-resume.ckpt", b.name()));
     b.save(&path).unwrap();
     drop(b);
-    let mut b = centaur_rl::algorithm::load(&path).unwrap();
+    let mut b = centaur_rl::learners::load(&path).unwrap();
     assert_eq!(b.steps_done(), n);
     curve_b.extend(learn(b.as_mut(), &mut env_b, total));
     if let Some(i) = (0..curve_a.len().min(curve_b.len())).find(|&i| curve_a[i] != curve_b[i]) {
@@ -275,7 +276,7 @@ fn bad_files_and_configs_are_typed_errors() {
     std::fs::write(&path, &bytes).unwrap();
     assert!(matches!(Policy::load(&path), Err(CheckpointError::Checksum { .. })));
     assert!(matches!(
-        centaur_rl::algorithm::load(&path),
+        centaur_rl::learners::load(&path),
         Err(RlError::Checkpoint(CheckpointError::Checksum { .. }))
     ));
     std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();

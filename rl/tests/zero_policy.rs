@@ -1,10 +1,11 @@
 //! `Algorithm::zero_policy_output` makes every learner's deterministic action exactly zero,
 //! whatever the observation — the starting point of a residual policy.
 
-use centaur_rl::pendulum::Pendulum;
+use centaur_gym::pendulum::Pendulum;
+use centaur_gym::{Env, Rng, VecEnv};
 use centaur_rl::{
-    A2c, A2cConfig, Algorithm, Ddpg, DdpgConfig, Env, Ppo, PpoConfig, Rng, Sac, SacConfig, SacV1,
-    SacV1Config, Td3, Td3Config, VecEnv,
+    A2c, A2cConfig, Algorithm, Ddpg, DdpgConfig, Ppo, PpoConfig, Sac, SacConfig, SacV1, SacV1Config, Td3,
+    Td3Config,
 };
 
 #[test]

@@ -5,12 +5,12 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use centaur::cli::{TrainingProgress, progress_style};
 use centaur::compare::{CompareOptions, run_compare};
 use centaur::control::{ControlOptions, Push, parse_gait, run_control, write_summary};
-use centaur::experiment::{Phase, TrainingProgress, progress_style, tuned_config};
-use centaur::registry::ENV_NAMES;
-use centaur::residual::ResidualConfig;
-use centaur::train::{TrainOptions, train};
+use centaur::experiment::{Phase, tuned_config};
+use centaur::registry::{env_names, residual_config};
+use centaur::train::{TrainOptions, parse_algo_config, train};
 use centaur_mpc::Gait;
 use centaur_rl::AlgoKind;
 use clap::{Args, Parser, Subcommand};
@@ -148,28 +148,39 @@ struct CompareArgs {
 
 /// `centaur compare`: pure RL against the hybrid over several seeds.
 fn compare(args: CompareArgs) -> ExitCode {
-    let algo_config = match &args.config {
+    let algo = match &args.config {
         Some(path) => match std::fs::read_to_string(path) {
-            Ok(text) => Some(text),
+            Ok(text) => match parse_algo_config(args.algo, &text, path) {
+                Ok(c) => c,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::FAILURE;
+                }
+            },
             Err(e) => {
                 eprintln!("error: {}: {e}", path.display());
                 return ExitCode::FAILURE;
             }
         },
-        None => tuned_config(&args.env, args.algo).map(str::to_string),
+        None => tuned_config(&args.env, args.algo),
     };
-    let mut residual = ResidualConfig::for_env(&args.env);
+    let mut residual = match residual_config(&args.env) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
     if let Some(s) = args.residual_scale {
         residual.scale = vec![s];
     }
     let on_policy = matches!(args.algo, AlgoKind::Ppo | AlgoKind::A2c);
     let opts = CompareOptions {
         env: args.env,
-        algo: args.algo,
+        algo,
         seeds: args.seeds,
         steps: args.steps,
         out: args.out,
-        algo_config,
         n_envs: args.envs.unwrap_or(if on_policy { 4 } else { 1 }),
         threads: args.threads,
         eval_episodes: args.eval_episodes,
@@ -179,7 +190,7 @@ fn compare(args: CompareArgs) -> ExitCode {
     let bar = ProgressBar::new(seeds * 2 * opts.steps);
     bar.set_style(progress_style());
     let steps = opts.steps;
-    let learner = opts.algo.name().to_uppercase();
+    let learner = opts.algo.kind().name().to_uppercase();
     let mut training = TrainingProgress::default();
     let result = run_compare(&opts, &mut |seed, phase, m| {
         if phase == Phase::Evaluate {
@@ -307,7 +318,7 @@ fn main() -> ExitCode {
                 e,
                 centaur::train::TrainError::Registry(centaur::registry::RegistryError::UnknownEnv { .. })
             ) {
-                eprintln!("available environments: {}, modular:FILE.json", ENV_NAMES.join(", "));
+                eprintln!("available environments: {}", env_names().join(", "));
             }
             ExitCode::FAILURE
         }

@@ -6,8 +6,9 @@ use std::collections::HashMap;
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
 use super::document::Document;
+use super::error::{UrdfError, UrdfWarning};
 use super::inertia;
-use super::{BaseKind, UrdfError, UrdfOptions, UrdfWarning};
+use super::options::{BaseKind, UrdfOptions};
 use crate::data::Data;
 use crate::model::{Frame, Geometry, GeometryRole, JointKind, Model, Shape};
 use crate::spatial::{Inertia, Se3};

@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 
 use ::xml::{Element, Xml};
 
-use super::{UrdfError, UrdfWarning};
+use super::error::{UrdfError, UrdfWarning};
 
 /// Children of `<robot>` the loader reads.
 const ROBOT_READ: &[&str] = &["link", "joint", "material"];

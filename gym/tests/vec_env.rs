@@ -1,8 +1,8 @@
 //! VecEnv semantics on the Pendulum: auto-reset keeps the final observation of truncated
 //! episodes, results do not depend on the thread count, bad actions are refused.
 
-use centaur_rl::pendulum::Pendulum;
-use centaur_rl::{Env, EnvError, Rng, VecEnv};
+use centaur_gym::pendulum::Pendulum;
+use centaur_gym::{Env, EnvError, Rng, VecEnv};
 
 fn pendulums(n: usize, threads: usize) -> VecEnv {
     VecEnv::new((0..n).map(|_| Box::new(Pendulum::new()) as Box<dyn Env>).collect(), threads).unwrap()
@@ -79,7 +79,7 @@ fn bad_actions_are_refused() {
     let mut venv = pendulums(2, 2);
     let mut out = venv.make_step_buffers();
     // Stepping before reset: every env needs a reset.
-    assert_eq!(venv.step(&[0.0, 0.0], &mut out), Err(EnvError::NeedsReset));
+    assert!(matches!(venv.step(&[0.0, 0.0], &mut out), Err(EnvError::NeedsReset)));
     let mut obs = vec![0.0; 6];
     venv.reset(0, &mut obs).unwrap();
     let err = venv.step(&[0.0, f32::NAN], &mut out).unwrap_err();

@@ -1,65 +1,8 @@
-//! Modular robots in the style of Revolve2: a core, bricks and active hinges put together
-//! into a tree, turned into a URDF that `centaur-dynamics` loads and [`Sim`] simulates.
-//!
-//! A [`Body`] starts with its core. [`Body::attach`] adds a module at a free face of a
-//! module already in the body:
-//!
-//! | module | faces children attach to | what it is |
-//! |---|---|---|
-//! | core | front, back, left, right | the central box, 0.089 × 0.089 × 0.0603 m, 250 g |
-//! | brick | front, left, right | a passive box, 0.0629 × 0.0629 × 0.0603 m, 30 g |
-//! | active hinge | attachment | a servo: a frame fixed to the parent, a servo body behind a revolute joint about the hinge's local y axis, ±60°, 0.948 N·m |
-//!
-//! Each module is attached with a rotation about the direction it points in (its local x
-//! axis, Revolve2's `rotation` argument): a hinge at rotation 0 swings in the vertical plane
-//! (a leg lifting), at π/2 in the horizontal plane (a spine bending). The geometry, masses,
-//! servo limits, armature and PD gains are those of Revolve2's V1 modules
-//! (`revolve2.modular_robot.body.v1`, read from its source; only the numbers are used
-//! here) and are all in [`ModuleSpecs`]. [`Body::gecko`], [`Body::ant`]
-//! and [`Body::spider`] build the robots of the same names in `revolve2.standards`.
-//!
-//! **From a body to a robot.** [`Body::to_urdf`] writes one URDF link per module part
-//! (core, brick, hinge frame, servo, servo horn), fixed joints between rigidly connected
-//! parts and a revolute joint per hinge, with the boxes as visual and collision shapes and
-//! solid-box inertias. `centaur-dynamics` merges the fixed joints, so the model has one body
-//! per rigid group and one degree of freedom per hinge, after the free-flyer of the core.
-//! Rotations that are multiples of 90° are composed exactly (no rounding residue in the
-//! URDF's `xyz`; the `rpy` angles are exact multiples of π/2). [`Body::attach`] rejects a
-//! face the module does not have, a face that is taken, a second core, a non-finite
-//! rotation and a module that would overlap another one. The overlap test compares the
-//! modules' main boxes (core, brick, servo body) at zero hinge angles as boxes aligned with
-//! the core's axes, each shrunk by 4 mm per side: exact for quarter turns up to that
-//! tolerance (touching neighbours may interpenetrate by up to 8 mm, as on Revolve2's grid),
-//! conservative for other rotations (a valid body can be refused), and blind to the thin
-//! hinge frames and horn plates.
-//!
-//! **The environment.** [`ModularEnv`] (Gymnasium semantics, `centaur train --env gecko`,
-//! `modular-ant` or `spider`) drives each hinge like Revolve2's MuJoCo servo: the action
-//! `a ∈ [−1, 1]ⁿ` sets the target angle `a · 60°`, and every physics step applies
-//! `τ = kp (q* − q) − kd q̇` with kp 5 and kd 0.05 (Revolve2's position and velocity
-//! actuators), limited to the servo's torque–speed envelope ([`servo_torque`]: 0.948 N·m at
-//! rest, falling to zero at the rated 6.34 rad/s). Revolve2's MuJoCo scenes do not limit the
-//! servos' speed; with only a ±0.948 N·m clip, PPO learned to whip the hinges at 38 rad/s,
-//! six times the servo's rated speed, and bounce the gecko 24 m in 30 s. The control
-//! period is Revolve2's standard 20 Hz; an episode lasts its standard 30 s (600 steps) and
-//! never terminates early (a modular robot cannot fall in a way that ends its run), except
-//! when the simulation blows up: then `terminated` is set with `info.unstable`. The default reward is the change of the core's horizontal distance from its
-//! start, so that an episode's return is Revolve2's `xy_displacement` fitness exactly;
-//! [`ModularReward::ForwardX`] rewards progress along x instead.
-//!
-//! Differences from Revolve2's MuJoCo scenes: Rapier's rigid contacts and PGS solver with
-//! 5 ms steps instead of MuJoCo's soft contacts and 1 ms steps (2 ms steps make the env
-//! about 2.2× slower; the gecko's PPO gait travels 17.2–17.8 m in 30 s at 5, 2 and 1 ms
-//! alike); modules collide with the ground only, not with each other; the servos have a
-//! torque–speed envelope.
+//! The body: modules ([`ModuleKind`], [`ModuleSpecs`]) attached face to face into a tree
+//! ([`Body`]), its checks ([`ModularError`]) and its URDF.
 
 use centaur_dynamics::nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
-use centaur_dynamics::{BaseKind, Data, Model, RobotState, Shape};
-use centaur_rl::env::{check_action, check_observation};
-use centaur_rl::{BoxSpace, Env, EnvError, Rng, Step, StepInfo};
-
-use crate::robot::{FootContact, JointHistory, ObsOptions, Push, RobotEnv};
-use crate::sim::{ColliderSpec, Sim, SimConfig};
+use centaur_dynamics::{BaseKind, Model};
 
 /// The kinds of module.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -82,7 +25,7 @@ impl ModuleKind {
         }
     }
 
-    fn name(&self) -> &'static str {
+    pub(super) fn name(&self) -> &'static str {
         match self {
             ModuleKind::Core => "core",
             ModuleKind::Brick => "brick",
@@ -107,7 +50,7 @@ pub enum Face {
 }
 
 impl Face {
-    fn index(&self) -> usize {
+    pub(super) fn index(&self) -> usize {
         match self {
             Face::Front => 0,
             Face::Back => 1,
@@ -127,7 +70,7 @@ impl Face {
         }
     }
 
-    fn name(&self) -> &'static str {
+    pub(super) fn name(&self) -> &'static str {
         match self {
             Face::Front => "front",
             Face::Back => "back",
@@ -233,7 +176,7 @@ pub struct ModuleSpecs {
     /// Torque limit (N·m).
     pub effort: f64,
     /// Rated no-load speed (rad/s): the servo's torque falls to zero at this speed
-    /// ([`servo_torque`]; `f64::INFINITY` removes the limit).
+    /// ([`servo_torque`](super::servo_torque); `f64::INFINITY` removes the limit).
     pub velocity: f64,
     /// Reflected rotor inertia (kg·m²).
     pub armature: f64,
@@ -347,18 +290,18 @@ impl ModuleSpecs {
 }
 
 #[derive(Clone, Debug, PartialEq)]
-struct Node {
-    kind: ModuleKind,
-    rotation: f64,
+pub(super) struct Node {
+    pub(super) kind: ModuleKind,
+    pub(super) rotation: f64,
     parent: Option<(ModuleId, Face)>,
-    children: [Option<ModuleId>; 5],
+    pub(super) children: [Option<ModuleId>; 5],
 }
 
 /// A modular robot's body: a tree of modules rooted at the core (see the module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Body {
     specs: ModuleSpecs,
-    nodes: Vec<Node>,
+    pub(super) nodes: Vec<Node>,
 }
 
 impl Default for Body {
@@ -454,9 +397,9 @@ impl Body {
         self.nodes.get(id.0).map(|n| n.kind)
     }
 
-    /// The hinges, in the order they were attached: the order of [`ModularEnv`]'s actions.
+    /// The hinges, in the order they were attached: the order of [`ModularEnv`](crate::ModularEnv)'s actions.
     /// Hinge `h` is the model joint named `hinge{h.0}`; the model numbers its joints in
-    /// depth-first order, which can differ ([`RobotEnv::actuated_joints`] maps one to the
+    /// depth-first order, which can differ ([`RobotEnv::actuated_joints`](crate::RobotEnv::actuated_joints) maps one to the
     /// other).
     pub fn hinges(&self) -> Vec<ModuleId> {
         (0..self.nodes.len())
@@ -477,7 +420,7 @@ impl Body {
         Some(self.path_of(id))
     }
 
-    fn path_of(&self, id: ModuleId) -> String {
+    pub(super) fn path_of(&self, id: ModuleId) -> String {
         let mut faces = Vec::new();
         let mut cur = id;
         while let Some((p, f)) = self.nodes.get(cur.0).and_then(|n| n.parent) {
@@ -818,124 +761,6 @@ impl Body {
     }
 }
 
-/// A body as a JSON document (see [`Body::from_json`]): a module, its rotation, and the
-/// module at each of its faces. Nesting is bounded by `serde_json`'s recursion limit (128),
-/// so attaching depth first by recursion cannot overflow the stack.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct ModuleDoc {
-    /// `"core"`, `"brick"` or `"hinge"`.
-    kind: String,
-    #[serde(default, skip_serializing_if = "is_zero")]
-    rotation: f64,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    front: Option<Box<ModuleDoc>>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    back: Option<Box<ModuleDoc>>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    left: Option<Box<ModuleDoc>>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    right: Option<Box<ModuleDoc>>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    attachment: Option<Box<ModuleDoc>>,
-}
-
-fn is_zero(x: &f64) -> bool {
-    *x == 0.0
-}
-
-impl ModuleDoc {
-    /// The children in the order they are attached: left, right, front, back, attachment
-    /// (the order in which the presets are built).
-    fn children(&self) -> [(Face, &Option<Box<ModuleDoc>>); 5] {
-        [
-            (Face::Left, &self.left),
-            (Face::Right, &self.right),
-            (Face::Front, &self.front),
-            (Face::Back, &self.back),
-            (Face::Attachment, &self.attachment),
-        ]
-    }
-
-    /// Attaches this document's children to `id`, depth first.
-    fn attach_children(&self, body: &mut Body, id: ModuleId) -> Result<(), ModularError> {
-        for (face, child) in self.children() {
-            let Some(child) = child else { continue };
-            let kind = match child.kind.as_str() {
-                "brick" => ModuleKind::Brick,
-                "hinge" => ModuleKind::ActiveHinge,
-                "core" => return Err(ModularError::SecondCore),
-                other => {
-                    return Err(ModularError::Parse(format!(
-                        "unknown module kind `{other}` at the {} face of {} (core, brick, hinge)",
-                        face.name(),
-                        body.path_of(id)
-                    )));
-                }
-            };
-            let cid = body.attach(id, face, kind, child.rotation)?;
-            child.attach_children(body, cid)?;
-        }
-        Ok(())
-    }
-}
-
-impl Body {
-    /// A body from a JSON document, modules attached depth first, faces in the order left,
-    /// right, front, back, attachment (which sets the hinge and action order; the presets
-    /// read back from [`Body::to_json`] in their own order). Each module is an
-    /// object with `kind` (`"core"` at the root, then `"brick"` or `"hinge"`), an optional
-    /// `rotation` (rad, default 0) and an object per occupied face:
-    ///
-    /// ```text
-    /// {"kind": "core",
-    ///  "left":  {"kind": "hinge", "attachment": {"kind": "brick"}},
-    ///  "right": {"kind": "hinge", "attachment": {"kind": "brick"}}}
-    /// ```
-    ///
-    /// Malformed JSON, unknown fields or kinds, and every error [`Body::attach`] reports
-    /// come back as a [`ModularError`]. Modules use Revolve2's V1 properties.
-    pub fn from_json(text: &str) -> Result<Body, ModularError> {
-        let doc: ModuleDoc = serde_json::from_str(text).map_err(|e| ModularError::Parse(e.to_string()))?;
-        if doc.kind != "core" || doc.rotation != 0.0 {
-            return Err(ModularError::Parse(
-                "the root must be {\"kind\": \"core\"} without a rotation".into(),
-            ));
-        }
-        let mut body = Body::new();
-        let core = body.core();
-        doc.attach_children(&mut body, core)?;
-        Ok(body)
-    }
-
-    /// The body as a JSON document that [`Body::from_json`] reads back (module properties
-    /// are not included), as long as no chain of modules is deeper than `serde_json`'s
-    /// nesting limit of 128 objects (about 120 modules in a row).
-    pub fn to_json(&self) -> String {
-        let doc = self.doc(self.core());
-        serde_json::to_string_pretty(&doc).unwrap_or_default()
-    }
-
-    fn doc(&self, id: ModuleId) -> ModuleDoc {
-        let node = &self.nodes[id.0];
-        let child = |face: Face| node.children[face.index()].map(|c| Box::new(self.doc(c)));
-        ModuleDoc {
-            kind: match node.kind {
-                ModuleKind::Core => "core",
-                ModuleKind::Brick => "brick",
-                ModuleKind::ActiveHinge => "hinge",
-            }
-            .to_string(),
-            rotation: node.rotation,
-            front: child(Face::Front),
-            back: child(Face::Back),
-            left: child(Face::Left),
-            right: child(Face::Right),
-            attachment: child(Face::Attachment),
-        }
-    }
-}
-
 /// Rounds the entries of a rotation that are within 1e-15 of 0 or ±1 (turns composed of
 /// exact quarter turns stay exact).
 fn snap(r: Rotation3<f64>) -> Rotation3<f64> {
@@ -954,414 +779,4 @@ fn snap(r: Rotation3<f64>) -> Rotation3<f64> {
 /// Writes `x` with negative zero and rounding residue below 1e-15 as 0.
 fn clean(x: f64) -> f64 {
     if x.abs() < 1e-15 { 0.0 } else { x }
-}
-
-/// What the reward measures.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum ModularReward {
-    /// The change of the core's horizontal distance from its start: the return of an
-    /// episode is Revolve2's `xy_displacement` fitness (default).
-    #[default]
-    XyDisplacement,
-    /// The core's displacement along the world x axis.
-    ForwardX,
-}
-
-/// Configuration of a [`ModularEnv`].
-#[derive(Clone, Debug, PartialEq)]
-pub struct ModularConfig {
-    /// The robot's body.
-    pub body: Body,
-    /// Name of the environment and robot (e.g. `"gecko"`).
-    pub name: String,
-    /// Physics steps per control step (default: 10 steps of 5 ms, Revolve2's 20 Hz).
-    pub frame_skip: usize,
-    /// Episode length in control steps (default: 600, Revolve2's standard 30 s).
-    pub max_episode_steps: usize,
-    /// What the reward measures (default: the xy displacement).
-    pub reward: ModularReward,
-    /// Weight of `Σ a²` subtracted from the reward (default: 0).
-    pub ctrl_cost_weight: f64,
-    /// Hinge angles at reset are uniform in ±this (rad) (default: 0.05).
-    pub reset_noise_scale: f64,
-    /// Physics settings (default: 5 ms steps, 8 PGS iterations).
-    pub sim: SimConfig,
-    /// Observation options.
-    pub obs: ObsOptions,
-}
-
-impl ModularConfig {
-    /// An environment for `body`, named `name`, with the defaults above.
-    pub fn new(name: &str, body: Body) -> Self {
-        ModularConfig {
-            body,
-            name: name.to_string(),
-            frame_skip: 10,
-            max_episode_steps: 600,
-            reward: ModularReward::XyDisplacement,
-            ctrl_cost_weight: 0.0,
-            reset_noise_scale: 0.05,
-            sim: SimConfig { dt: 0.005, ..SimConfig::default() },
-            obs: ObsOptions::default(),
-        }
-    }
-
-    /// The gecko ([`Body::gecko`]).
-    pub fn gecko() -> Self {
-        Self::new("gecko", Body::gecko())
-    }
-
-    /// The modular ant ([`Body::ant`]).
-    pub fn ant() -> Self {
-        Self::new("modular-ant", Body::ant())
-    }
-
-    /// The spider ([`Body::spider`]).
-    pub fn spider() -> Self {
-        Self::new("spider", Body::spider())
-    }
-
-    /// The preset of a name: `gecko`, `modular-ant` or `spider`.
-    pub fn preset(name: &str) -> Option<Self> {
-        match name {
-            "gecko" => Some(Self::gecko()),
-            "modular-ant" => Some(Self::ant()),
-            "spider" => Some(Self::spider()),
-            _ => None,
-        }
-    }
-
-    /// Checks the numbers.
-    pub fn validate(&self) -> Result<(), EnvError> {
-        if self.frame_skip == 0 || self.max_episode_steps == 0 {
-            return Err(EnvError::Other(
-                "ModularConfig: frame_skip and max_episode_steps must be positive".into(),
-            ));
-        }
-        let noise_ok = self.reset_noise_scale >= 0.0 && self.reset_noise_scale.is_finite();
-        if !noise_ok || !self.ctrl_cost_weight.is_finite() {
-            return Err(EnvError::Other(
-                "ModularConfig: reset_noise_scale must be finite and non-negative, ctrl_cost_weight finite"
-                    .into(),
-            ));
-        }
-        if self.body.hinges().is_empty() {
-            return Err(EnvError::Other("ModularConfig: the body has no active hinge to drive".into()));
-        }
-        Ok(())
-    }
-}
-
-/// A modular robot learning to move (see the module docs).
-///
-/// Observation (`11 + 2n` entries for `n` hinges, before the shared options): the core's
-/// height, its orientation quaternion `(x, y, z, w)`, the hinge angles, the core's linear
-/// and angular velocity (world axes), the hinge velocities. [`ObsOptions`] drops the
-/// quaternion or appends past hinge angles. Actions outside `[−1, 1]` are clipped.
-pub struct ModularEnv {
-    config: ModularConfig,
-    model: Model,
-    data: Data,
-    sim: Sim,
-    rng: Rng,
-    obs_space: BoxSpace,
-    act_space: BoxSpace,
-    state: RobotState,
-    /// Model joint of each hinge, in action order.
-    actuated: Vec<usize>,
-    targets: Vec<f64>,
-    applied: Vec<f64>,
-    history: JointHistory,
-    joint_scratch: Vec<f32>,
-    start: Vector3<f64>,
-    steps: usize,
-    needs_reset: bool,
-    push: Push,
-    episode_time: f64,
-}
-
-impl ModularEnv {
-    /// Builds the environment.
-    pub fn new(config: ModularConfig) -> Result<ModularEnv, EnvError> {
-        config.validate()?;
-        let model = config.body.to_model(&config.name).map_err(|e| EnvError::Other(e.to_string()))?;
-        // Actions follow the order in which the hinges were attached.
-        let actuated = config
-            .body
-            .hinges()
-            .iter()
-            .map(|h| {
-                model.joint_index(&format!("hinge{}", h.0)).ok_or_else(|| {
-                    EnvError::Other(format!("the model of {} lacks joint hinge{}", config.name, h.0))
-                })
-            })
-            .collect::<Result<Vec<usize>, EnvError>>()?;
-        let n = actuated.len();
-        let obs_dim =
-            11 + 2 * n - if config.obs.drop_base_orientation { 4 } else { 0 } + n * config.obs.joint_history;
-        let sim = build_sim(&model, &config)?;
-        Ok(ModularEnv {
-            obs_space: BoxSpace::unbounded(obs_dim),
-            act_space: BoxSpace::new(vec![-1.0; n], vec![1.0; n]),
-            state: RobotState::new(&model),
-            data: Data::new(&model),
-            targets: vec![0.0; n],
-            applied: vec![0.0; n],
-            history: JointHistory::new(config.obs.joint_history, n),
-            joint_scratch: vec![0.0; n],
-            actuated,
-            start: Vector3::zeros(),
-            steps: 0,
-            needs_reset: true,
-            push: Push::default(),
-            episode_time: 0.0,
-            rng: Rng::seed_from_u64(0),
-            sim,
-            model,
-            config,
-        })
-    }
-
-    /// The configuration.
-    pub fn config(&self) -> &ModularConfig {
-        &self.config
-    }
-
-    /// The simulator.
-    pub fn sim(&self) -> &Sim {
-        &self.sim
-    }
-
-    /// Height of the core's centre that puts the lowest box corner 1 mm above the ground at
-    /// configuration `q` (base at height 0).
-    fn resting_height(&mut self, q: &[f64]) -> f64 {
-        centaur_dynamics::forward_kinematics(&self.model, &mut self.data, q);
-        let mut lowest = f64::INFINITY;
-        for g in &self.model.geometries {
-            let Shape::Box { size } = g.shape else { continue };
-            let pose = self.data.o_m_i[g.parent_joint].mul(&g.placement);
-            for corner in 0..8 {
-                let sign = |bit: usize| if corner & (1 << bit) != 0 { 0.5 } else { -0.5 };
-                let p = Vector3::new(sign(0) * size.x, sign(1) * size.y, sign(2) * size.z);
-                lowest = lowest.min(pose.act_point(&p).z);
-            }
-        }
-        0.001 - lowest
-    }
-
-    fn write_obs(&mut self, obs: &mut [f32]) {
-        let s = &self.state;
-        let mut k = 0;
-        let mut put = |x: f64| {
-            obs[k] = x as f32;
-            k += 1;
-        };
-        put(s.q[2]);
-        if !self.config.obs.drop_base_orientation {
-            for i in 3..7 {
-                put(s.q[i]);
-            }
-        }
-        for &j in &self.actuated {
-            put(s.q[self.model.joints[j].idx_q]);
-        }
-        let (lin, ang) = (s.base_linear_velocity_world(), s.base_angular_velocity_world());
-        for x in lin.iter().chain(ang.iter()) {
-            put(*x);
-        }
-        for &j in &self.actuated {
-            put(s.v[self.model.joints[j].idx_v]);
-        }
-        if self.config.obs.joint_history > 0 {
-            for (h, &j) in self.joint_scratch.iter_mut().zip(&self.actuated) {
-                *h = s.q[self.model.joints[j].idx_q] as f32;
-            }
-            self.history.push(&self.joint_scratch);
-        }
-        self.history.write(&mut obs[k..k + self.history.len()]);
-    }
-
-    fn progress(&self) -> f64 {
-        let d = self.state.base_position() - self.start;
-        match self.config.reward {
-            ModularReward::XyDisplacement => d.x.hypot(d.y),
-            ModularReward::ForwardX => d.x,
-        }
-    }
-}
-
-/// The servo's torque: the PD law `kp (q* − q) − kd q̇`, within the torque–speed envelope
-/// of a DC servo — the full `effort` at rest, falling linearly to zero at the rated
-/// `velocity` in the direction of motion (braking torque stays available).
-/// A state that is not finite gets no torque (the step then reports the blow-up).
-pub fn servo_torque(specs: &ModuleSpecs, target: f64, q: f64, qd: f64) -> f64 {
-    let pd = specs.kp * (target - q) - specs.kd * qd;
-    if !pd.is_finite() {
-        return 0.0;
-    }
-    let fraction = |x: f64| x.clamp(0.0, 1.0);
-    let upper = specs.effort * fraction(1.0 - qd / specs.velocity);
-    let lower = -specs.effort * fraction(1.0 + qd / specs.velocity);
-    pd.max(lower).min(upper)
-}
-
-fn build_sim(model: &Model, config: &ModularConfig) -> Result<Sim, EnvError> {
-    let specs = config.body.specs();
-    let colliders = ColliderSpec { default_friction: specs.friction, ..ColliderSpec::default() };
-    let mut sim =
-        Sim::new(model, &config.sim, &colliders, &[]).map_err(|e| EnvError::Other(e.to_string()))?;
-    for j in 1..model.njoints() {
-        if model.joints[j].nv() == 1 {
-            sim.set_armature(model.joints[j].idx_v, specs.armature);
-            sim.set_damping(model.joints[j].idx_v, 0.0);
-        }
-    }
-    Ok(sim)
-}
-
-impl Env for ModularEnv {
-    fn name(&self) -> &str {
-        &self.config.name
-    }
-
-    fn observation_space(&self) -> &BoxSpace {
-        &self.obs_space
-    }
-
-    fn action_space(&self) -> &BoxSpace {
-        &self.act_space
-    }
-
-    fn max_episode_steps(&self) -> usize {
-        self.config.max_episode_steps
-    }
-
-    fn dt(&self) -> f64 {
-        self.config.sim.dt * self.config.frame_skip as f64
-    }
-
-    fn reward_term_names(&self) -> &'static [&'static str] {
-        &["progress", "ctrl_cost"]
-    }
-
-    fn reset(&mut self, seed: Option<u64>, obs: &mut [f32]) -> Result<(), EnvError> {
-        check_observation(&self.obs_space, obs)?;
-        if let Some(s) = seed {
-            self.rng = Rng::seed_from_u64(s);
-        }
-        self.sim = build_sim(&self.model, &self.config)?;
-        let mut q = self.model.neutral_configuration();
-        let a = self.config.reset_noise_scale;
-        for &j in &self.actuated {
-            q[self.model.joints[j].idx_q] = self.rng.range(-a, a);
-        }
-        q[2] = self.resting_height(q.as_slice());
-        self.state.q.copy_from(&q);
-        self.state.v.fill(0.0);
-        self.sim.set_state(&self.state);
-        self.start = self.state.base_position();
-        for (t, &j) in self.targets.iter_mut().zip(&self.actuated) {
-            *t = q[self.model.joints[j].idx_q];
-        }
-        self.applied.fill(0.0);
-        for (h, &j) in self.joint_scratch.iter_mut().zip(&self.actuated) {
-            *h = q[self.model.joints[j].idx_q] as f32;
-        }
-        self.history.fill(&self.joint_scratch);
-        self.steps = 0;
-        self.episode_time = 0.0;
-        self.push.clear(&mut self.sim, 1);
-        self.write_obs(obs);
-        self.needs_reset = false;
-        Ok(())
-    }
-
-    fn step(&mut self, action: &[f32], obs: &mut [f32]) -> Result<Step, EnvError> {
-        check_action(&self.act_space, action)?;
-        check_observation(&self.obs_space, obs)?;
-        if self.needs_reset {
-            return Err(EnvError::NeedsReset);
-        }
-        let specs = self.config.body.specs();
-        for (t, a) in self.targets.iter_mut().zip(action) {
-            *t = (*a).clamp(-1.0, 1.0) as f64 * specs.range;
-        }
-        let before = self.progress();
-        let mut energy = 0.0;
-        for _ in 0..self.config.frame_skip {
-            self.push.apply(&mut self.sim, 1, self.episode_time);
-            for (k, &j) in self.actuated.iter().enumerate() {
-                let (q, qd) = self.sim.joint_state(j);
-                let tau = servo_torque(specs, self.targets[k], q, qd);
-                self.applied[k] = tau;
-                self.sim.set_joint_torque(self.model.joints[j].idx_v, tau);
-                energy += (tau * qd).abs() * self.config.sim.dt;
-            }
-            self.sim.step();
-            self.episode_time += self.config.sim.dt;
-        }
-        self.steps += 1;
-        self.sim.read_state(&mut self.state);
-        let mut info = StepInfo { energy, ..StepInfo::default() };
-        if !self.state.is_finite() || self.state.v.amax() > 1e4 {
-            self.needs_reset = true;
-            info.unstable = true;
-            return Ok(Step { reward: 0.0, terminated: true, truncated: false, info });
-        }
-        let progress = self.progress() - before;
-        let ctrl_cost =
-            self.config.ctrl_cost_weight * action.iter().map(|a| (*a as f64).powi(2)).sum::<f64>();
-        info.reward_terms[..2].copy_from_slice(&[progress, -ctrl_cost]);
-        info.forward_velocity = progress / self.dt();
-        self.write_obs(obs);
-        let truncated = self.steps >= self.config.max_episode_steps;
-        self.needs_reset = truncated;
-        Ok(Step { reward: progress - ctrl_cost, terminated: false, truncated, info })
-    }
-}
-
-impl RobotEnv for ModularEnv {
-    fn model(&self) -> &Model {
-        &self.model
-    }
-
-    fn robot_state(&self) -> &RobotState {
-        &self.state
-    }
-
-    /// Modular robots have no designated feet: empty.
-    fn foot_contacts(&self) -> &[FootContact] {
-        &[]
-    }
-
-    fn foot_frames(&self) -> &[String] {
-        &[]
-    }
-
-    fn actuated_joints(&self) -> &[usize] {
-        &self.actuated
-    }
-
-    fn episode_time(&self) -> f64 {
-        self.episode_time
-    }
-
-    fn push(&mut self, force: Vector3<f64>, duration: f64) {
-        self.push.start(force, self.episode_time, duration);
-    }
-
-    fn last_torques(&self) -> &[f64] {
-        &self.applied
-    }
-
-    /// The servo target whose PD torque at the current state is `τ`:
-    /// `a = (q + (τ + kd q̇) / kp) / range`, clipped to `[−1, 1]`.
-    fn action_for_torques(&self, tau: &[f64], out: &mut [f32]) {
-        let s = self.config.body.specs();
-        for ((o, &j), t) in out.iter_mut().zip(&self.actuated).zip(tau) {
-            let joint = &self.model.joints[j];
-            let (q, qd) = (self.state.q[joint.idx_q], self.state.v[joint.idx_v]);
-            *o = (((q + (t + s.kd * qd) / s.kp) / s.range) as f32).clamp(-1.0, 1.0);
-        }
-    }
 }

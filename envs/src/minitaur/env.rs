@@ -1,271 +1,22 @@
-//! PyBullet's `MinitaurBulletEnv-v0` on Rapier.
-//!
-//! Read from `pybullet_envs/bullet/{minitaur_gym_env,minitaur,motor,minitaur_env_randomizer}.py`
-//! (pybullet 3.2.7) and reproduced here:
-//!
-//! * **Robot**: `assets/minitaur/minitaur.urdf` (8 motors, 8 passive knees), the four 5-bar
-//!   legs closed at the toes by loop-closing joints between the two lower legs of each leg
-//!   (pivots `[0, 0.005, 0.2]` in `lower_leg_*R_link`, `[0, 0.01, 0.2]` in
-//!   `lower_leg_*L_link`). Inertias follow PyBullet, which ignores the file's 1 kg·m²:
-//!   each link gets the box inertia of the AABB of its collision shapes (+1 mm per side)
-//!   about its `<inertial>` origin — see [`minitaur_model`].
-//! * **Time**: physics step 2 ms, 5 physics steps per env step (100 Hz), 1000 steps.
-//!   Gravity −10 m/s², as PyBullet's env sets it.
-//! * **Motors**: PyBullet's DC motor model ([`MotorModel`]) recomputed before every physics
-//!   step from the current motor angle and velocity (pwm = clip(−kp (q − q*) − kd q̇), back-EMF,
-//!   the current→torque table, 50 V diode clipping), overheat protection (a motor above
-//!   2.45 N·m for more than 1 s switches off until reset); or a plain PD option.
-//! * **Action**: the leg model ([`leg_model_to_motor_angles`]) by default, motor angles or
-//!   PWM as options. Actions are clipped to [−1, 1] (PyBullet raises beyond ±1.01).
-//! * **Observation** (28): motor angles, velocities, observed torques (motor frame:
-//!   left motors negated) and the base quaternion (x, y, z, w).
-//! * **Reward**: `w_d Δx − w_e |τ_obs · q̇| · 0.002 − w_drift |Δy| − w_shake |Δz|`, weights
-//!   1.0 / 0.005 / 0 / 0 by default, the energy term on the last physics step only, the first
-//!   step measured from the origin (as PyBullet does).
-//! * **Termination**: base z-axis · world z < 0.85, or base height < 0.13 m.
-//! * **Randomisation** (on by default, as in v0; [`MinitaurRandomization`]): base mass and
-//!   leg/motor masses ±20 % (inertias scale with mass), battery voltage 14.8–16.8 V, motor
-//!   viscous damping 0–0.01, foot friction 0.8–1.5; plus the sim-to-real options of Tan et
-//!   al. (2018): motor strength, control latency and observation noise.
-//!
-//! Differences from PyBullet: Rapier's solver instead of Bullet's (1 substep, 16 PGS
-//! iterations, ground contact at 120 Hz natural frequency — standing height 0.158 m vs
-//! PyBullet's 0.157 m), loop closures locking the two in-plane directions only (a full
-//! point-to-point lock is unstable in Rapier: the out-of-plane row is redundant for a
-//! planar linkage), no self-collision (PyBullet enables it; it changes random-action
-//! statistics by a few percent), lower legs collide as capsules of the same length (option
-//! `capsule_feet`), and the randomiser draws from the environment's seeded generator rather
-//! than Python's global one.
+//! [`MinitaurEnv`]: the environment, its configuration and randomisation.
 
 use centaur_dynamics::nalgebra::Vector3;
-use centaur_dynamics::{BaseKind, Inertia, Model, RobotState, Shape, UrdfError};
-use centaur_rl::env::{check_action, check_observation};
-use centaur_rl::{BoxSpace, Env, EnvError, Rng, Step, StepInfo};
+use centaur_dynamics::{Inertia, Model, RobotState};
+use centaur_gym::{BoxSpace, Env, EnvError, Rng, Step, StepInfo};
+use centaur_gym::{check_action, check_observation};
 
+use super::legs::{leg_model_to_motor_angles, motor_angles_to_leg_model};
+use super::model::{
+    ENERGY_TERM_DT, KNEE_ANGLE, LEG_NAMES, MOTOR_DIRECTION, MOTOR_NAMES, TOE_LEFT, TOE_RIGHT, minitaur_model,
+};
+use super::motor::MotorModel;
+use crate::error::RobotEnvError;
 use crate::robot::{FootContact, JointHistory, ObsOptions, Push, RobotEnv};
 use crate::sim::{ColliderSpec, LoopClosure, Sim, SimConfig};
 
-/// The Minitaur URDF from pybullet_data, compiled into the crate.
-pub const MINITAUR_URDF: &str = include_str!("../../assets/minitaur/minitaur.urdf");
-
-/// Motor joints in observation/action order (PyBullet's `MOTOR_NAMES`).
-pub const MOTOR_NAMES: [&str; 8] = [
-    "motor_front_leftL_joint",
-    "motor_front_leftR_joint",
-    "motor_back_leftL_joint",
-    "motor_back_leftR_joint",
-    "motor_front_rightL_joint",
-    "motor_front_rightR_joint",
-    "motor_back_rightL_joint",
-    "motor_back_rightR_joint",
-];
-
-/// Legs in PyBullet's order (`LEG_POSITION`); leg `l` owns motors `2l` and `2l + 1`.
-pub const LEG_NAMES: [&str; 4] = ["front_left", "back_left", "front_right", "back_right"];
-
-/// Motor frame = joint frame × direction (left motors are mounted mirrored).
-pub const MOTOR_DIRECTION: [f64; 8] = [-1.0, -1.0, -1.0, -1.0, 1.0, 1.0, 1.0, 1.0];
-
-/// Knee angle of the initial pose (PyBullet's `knee_angle`, joint frame × direction).
-const KNEE_ANGLE: f64 = -2.1834;
-/// Loop-closure pivots in the lower legs (PyBullet's `KNEE_CONSTRAINT_POINT_*`).
-const TOE_RIGHT: [f64; 3] = [0.0, 0.005, 0.2];
-const TOE_LEFT: [f64; 3] = [0.0, 0.01, 0.2];
 /// Observation bounds: angle, velocity (V / Kt), observed torque, quaternion.
 const OBS_BOUNDS: [f32; 4] = [std::f32::consts::PI, 16.0 / 0.0954, 5.7, 1.0];
 const OBSERVATION_EPS: f32 = 0.01;
-/// PyBullet's energy term multiplies the power by its 2 ms simulation step; the reward keeps
-/// that definition whatever physics step Rapier uses.
-pub const ENERGY_TERM_DT: f64 = 0.002;
-
-/// The Minitaur model both the simulator and a controller use: the URDF with PyBullet's
-/// inertias (box inertia of each link's collision AABB, 1 mm margin per side, about the
-/// `<inertial>` origin, no parallel-axis term — PyBullet's behaviour without
-/// `URDF_USE_INERTIA_FROM_FILE`; it reproduces the base inertia (0.0241, 0.0289, 0.0504)
-/// kg·m² that PyBullet reports).
-pub fn minitaur_model() -> Result<Model, UrdfError> {
-    let mut model = Model::from_urdf_str(MINITAUR_URDF, "assets/minitaur/minitaur.urdf", BaseKind::Floating)?;
-    apply_box_inertias(&mut model, 0.001);
-    Ok(model)
-}
-
-/// Replaces every link's rotational inertia by Bullet's AABB box inertia (see
-/// [`minitaur_model`]) and recomputes the body inertias.
-pub fn apply_box_inertias(model: &mut Model, margin: f64) {
-    for f in 0..model.frames.len() {
-        let frame = &model.frames[f];
-        if !frame.is_link || frame.link_inertia.mass <= 0.0 {
-            continue;
-        }
-        let link_from_joint = frame.placement.inverse();
-        // The AABB in the inertial frame (link frame shifted to the <inertial> origin).
-        let origin = frame.link_inertia.lever;
-        let mut lo = Vector3::repeat(f64::INFINITY);
-        let mut hi = Vector3::repeat(f64::NEG_INFINITY);
-        for g in model
-            .geometries
-            .iter()
-            .filter(|g| g.frame == f && g.role == centaur_dynamics::GeometryRole::Collision)
-        {
-            let in_link = link_from_joint.mul(&g.placement);
-            let (c, r) = (in_link.translation - origin, in_link.rotation);
-            let half: Vector3<f64> = match &g.shape {
-                Shape::Box { size } => (r.abs() * size) / 2.0,
-                Shape::Sphere { radius } => Vector3::repeat(*radius),
-                Shape::Cylinder { radius, length } | Shape::Capsule { radius, length } => {
-                    let extra = if matches!(g.shape, Shape::Capsule { .. }) { *radius } else { 0.0 };
-                    let axis = r.column(2);
-                    Vector3::from_fn(|i, _| {
-                        axis[i].abs() * (length / 2.0 + extra)
-                            + radius * (1.0 - axis[i] * axis[i]).max(0.0).sqrt()
-                    })
-                }
-                Shape::Mesh { .. } => continue,
-            };
-            lo = lo.inf(&(c - half));
-            hi = hi.sup(&(c + half));
-        }
-        let m = frame.link_inertia.mass;
-        let rotational = if lo.x.is_finite() {
-            let l = (hi - lo) + Vector3::repeat(2.0 * margin);
-            let (lx, ly, lz) = (l.x * l.x, l.y * l.y, l.z * l.z);
-            centaur_dynamics::nalgebra::Matrix3::from_diagonal(&Vector3::new(ly + lz, lx + lz, lx + ly))
-                * (m / 12.0)
-        } else {
-            centaur_dynamics::nalgebra::Matrix3::zeros()
-        };
-        model.frames[f].link_inertia = Inertia::new(m, origin, rotational);
-    }
-    model.recompute_body_inertias();
-}
-
-/// Converts a leg-model action to the 8 desired motor angles (PyBullet's
-/// `ConvertFromLegModel`): for motor `i` of leg `l = i / 2`,
-/// `q*ᵢ = π − (π/4)(a[l+4] + 1.5) + sᵢ (π/4) a[l]` with `sᵢ = (−1)ⁱ` on the left legs
-/// (`i < 4`) and `−(−1)ⁱ` on the right. `a[0..4]` moves the two motors of a leg apart
-/// (PyBullet calls it extension; physically it swings the leg), `a[4..8]` together (leg
-/// length). `a = 0` gives 5π/8 on every motor.
-pub fn leg_model_to_motor_angles(a: &[f64; 8]) -> [f64; 8] {
-    let quarter_pi = std::f64::consts::FRAC_PI_4;
-    let mut out = [0.0; 8];
-    for (i, o) in out.iter_mut().enumerate() {
-        let leg = i / 2;
-        let common = -quarter_pi * (a[leg + 4] + 1.5);
-        let mut differential = if i % 2 == 0 { quarter_pi * a[leg] } else { -quarter_pi * a[leg] };
-        if i >= 4 {
-            differential = -differential;
-        }
-        *o = std::f64::consts::PI + common + differential;
-    }
-    out
-}
-
-/// The inverse of [`leg_model_to_motor_angles`]: the leg-model action whose motor angles
-/// are `q` (exact when `q` is reachable; actions outside [−1, 1] mean the angles are).
-pub fn motor_angles_to_leg_model(q: &[f64; 8]) -> [f64; 8] {
-    let quarter_pi = std::f64::consts::FRAC_PI_4;
-    let mut a = [0.0; 8];
-    for leg in 0..4 {
-        let (q0, q1) = (q[2 * leg], q[2 * leg + 1]);
-        let sign = if leg < 2 { 1.0 } else { -1.0 };
-        a[leg] = sign * (q0 - q1) / (2.0 * quarter_pi);
-        a[leg + 4] = (std::f64::consts::PI - (q0 + q1) / 2.0) / quarter_pi - 1.5;
-    }
-    a
-}
-
-/// PyBullet's DC motor model (`motor.py`), per motor, in the motor frame.
-#[derive(Clone, Debug, PartialEq)]
-pub struct MotorModel {
-    /// Position gain on PWM (1/rad) (default: 1.0).
-    pub kp: f64,
-    /// Velocity gain on PWM (s/rad) (default: 0.02).
-    pub kd: f64,
-    /// Battery voltage (V) (default: 16.0).
-    pub voltage: f64,
-    /// Winding resistance (Ω) (default: 0.186).
-    pub resistance: f64,
-    /// Torque constant (N·m/A) (default: 0.0954).
-    pub torque_constant: f64,
-    /// Viscous damping (N·m·s/rad), added to the back-EMF constant (default: 0).
-    pub viscous_damping: f64,
-    /// Scale of the produced torque, for motor-strength randomisation (default: 1.0).
-    pub strength: f64,
-}
-
-impl Default for MotorModel {
-    fn default() -> Self {
-        MotorModel {
-            kp: 1.0,
-            kd: 0.02,
-            voltage: 16.0,
-            resistance: 0.186,
-            torque_constant: 0.0954,
-            viscous_damping: 0.0,
-            strength: 1.0,
-        }
-    }
-}
-
-/// Torque the "sensor" reports is clipped here (N·m).
-pub const OBSERVED_TORQUE_LIMIT: f64 = 5.7;
-/// Diode clipping of the net voltage (V).
-const VOLTAGE_CLIPPING: f64 = 50.0;
-const CURRENT_TABLE: [f64; 7] = [0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0];
-const TORQUE_TABLE: [f64; 7] = [0.0, 1.0, 1.9, 2.45, 3.0, 3.25, 3.5];
-
-impl MotorModel {
-    /// Position control: `pwm = clip(−kp (q − q*) − kd q̇, −1, 1)`, then
-    /// [`MotorModel::torque_from_pwm`]. Returns `(actual, observed)` torques.
-    pub fn torque(&self, q_des: f64, q: f64, qd: f64) -> (f64, f64) {
-        let pwm = (-self.kp * (q - q_des) - self.kd * qd).clamp(-1.0, 1.0);
-        self.torque_from_pwm(pwm, qd)
-    }
-
-    /// `observed = clip(Kt·pwm·V/R, ±5.7)`; `V_net = clip(pwm V − (Kt + b) q̇, ±50)`;
-    /// `I = V_net / R`; `actual = sign(I) · interp(|I|, current table, torque table)`.
-    pub fn torque_from_pwm(&self, pwm: f64, qd: f64) -> (f64, f64) {
-        let observed = (self.torque_constant * pwm * self.voltage / self.resistance)
-            .clamp(-OBSERVED_TORQUE_LIMIT, OBSERVED_TORQUE_LIMIT);
-        let v_net = (pwm * self.voltage - (self.torque_constant + self.viscous_damping) * qd)
-            .clamp(-VOLTAGE_CLIPPING, VOLTAGE_CLIPPING);
-        let current = v_net / self.resistance;
-        let actual = current.signum() * interp(current.abs(), &CURRENT_TABLE, &TORQUE_TABLE);
-        (actual * self.strength, observed)
-    }
-}
-
-impl MotorModel {
-    /// The PWM that produces the actual torque `tau` (motor frame) at motor velocity `qd`:
-    /// the torque table inverted to a current, then `pwm = (I R + (Kt + b) q̇) / V`, clipped
-    /// to [−1, 1] (torques beyond the table's 3.5 N·m saturate).
-    pub fn pwm_for_torque(&self, tau: f64, qd: f64) -> f64 {
-        let t = (tau / self.strength).abs().min(TORQUE_TABLE[TORQUE_TABLE.len() - 1]);
-        let current = tau.signum() * interp(t, &TORQUE_TABLE, &CURRENT_TABLE);
-        ((current * self.resistance + (self.torque_constant + self.viscous_damping) * qd) / self.voltage)
-            .clamp(-1.0, 1.0)
-    }
-
-    /// The desired motor angle whose position control produces `tau` at `(q, qd)`:
-    /// `q* = q + (pwm + kd q̇) / kp`.
-    pub fn angle_for_torque(&self, tau: f64, q: f64, qd: f64) -> f64 {
-        q + (self.pwm_for_torque(tau, qd) + self.kd * qd) / self.kp
-    }
-}
-
-/// Piecewise-linear interpolation, clamped at the ends (numpy's `interp`).
-fn interp(x: f64, xs: &[f64], ys: &[f64]) -> f64 {
-    if x <= xs[0] {
-        return ys[0];
-    }
-    for k in 1..xs.len() {
-        if x <= xs[k] {
-            let t = (x - xs[k - 1]) / (xs[k] - xs[k - 1]);
-            return ys[k - 1] + t * (ys[k] - ys[k - 1]);
-        }
-    }
-    ys[ys.len() - 1]
-}
 
 /// How motor commands become torques.
 #[derive(Clone, Debug, PartialEq)]
@@ -403,8 +154,8 @@ impl MinitaurConfig {
     }
 
     /// Checks the numbers.
-    pub fn validate(&self) -> Result<(), EnvError> {
-        let bad = |what: &str| Err(EnvError::Other(format!("MinitaurConfig: {what}")));
+    pub fn validate(&self) -> Result<(), RobotEnvError> {
+        let bad = |what: &str| Err(RobotEnvError::config("MinitaurConfig", what));
         if self.action_repeat == 0 || self.max_episode_steps == 0 {
             return bad("action_repeat and max_episode_steps must be positive");
         }
@@ -473,13 +224,18 @@ pub struct MinitaurEnv {
 
 impl MinitaurEnv {
     /// Builds the environment (the robot stands at its reset pose after [`Env::reset`]).
-    pub fn new(config: MinitaurConfig) -> Result<MinitaurEnv, EnvError> {
+    pub fn new(config: MinitaurConfig) -> Result<MinitaurEnv, RobotEnvError> {
         config.validate()?;
-        let nominal = minitaur_model().map_err(|e| EnvError::Other(e.to_string()))?;
+        let nominal = minitaur_model()
+            .map_err(|source| RobotEnvError::Urdf { robot: "minitaur".into(), source: Box::new(source) })?;
         let mut motor_joints = [0usize; 8];
         let mut motor_dofs = [0usize; 8];
         for (i, name) in MOTOR_NAMES.iter().enumerate() {
-            let j = nominal.joint_index(name).ok_or_else(|| EnvError::Other(format!("no joint {name}")))?;
+            let j = nominal.joint_index(name).ok_or_else(|| RobotEnvError::Missing {
+                robot: "minitaur".into(),
+                what: "joint",
+                name: name.to_string(),
+            })?;
             motor_joints[i] = j;
             motor_dofs[i] = nominal.joints[j].idx_v;
         }
@@ -695,7 +451,7 @@ fn observation_dim(config: &MinitaurConfig) -> usize {
     (if config.obs.drop_base_orientation { 24 } else { 28 }) + 8 * config.obs.joint_history
 }
 
-fn build_sim(model: &Model, config: &MinitaurConfig, foot_friction: f64) -> Result<Sim, EnvError> {
+fn build_sim(model: &Model, config: &MinitaurConfig, foot_friction: f64) -> Result<Sim, RobotEnvError> {
     let closures: Vec<LoopClosure> = LEG_NAMES
         .iter()
         .map(|leg| LoopClosure {
@@ -714,7 +470,8 @@ fn build_sim(model: &Model, config: &MinitaurConfig, foot_friction: f64) -> Resu
         default_friction: 1.0,
         capsule_boxes: if config.capsule_feet { lower_legs } else { Vec::new() },
     };
-    Sim::new(model, &config.sim, &colliders, &closures).map_err(|e| EnvError::Other(e.to_string()))
+    Sim::new(model, &config.sim, &colliders, &closures)
+        .map_err(|source| RobotEnvError::Sim { robot: "minitaur".into(), source })
 }
 
 /// Scales the masses of links (and their inertias, as PyBullet's `changeDynamics` does).
@@ -900,12 +657,12 @@ impl RobotEnv for MinitaurEnv {
         self.push.start(force, self.episode_time, duration);
     }
 
-    /// Inverts the motor model at the current motor state: joint torque → motor-frame
-    /// torque → PWM → desired motor angle (position modes) → leg model (clipped to ±1).
     fn last_torques(&self) -> &[f64] {
         &self.applied_torque
     }
 
+    /// Inverts the motor model at the current motor state: joint torque → motor-frame
+    /// torque → PWM → desired motor angle (position modes) → leg model (clipped to ±1).
     fn action_for_torques(&self, tau: &[f64], out: &mut [f32]) {
         let (q, qd) = self.motor_state();
         let mut cmd = [0.0f64; 8];

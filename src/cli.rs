@@ -1,0 +1,206 @@
+//! The command line of the examples and the `centaur` binary: arguments, progress bars and
+//! the printed tables. Behind the default feature `cli` (clap, indicatif), so that robot
+//! software embedding the controller ([`crate::deploy`]) compiles neither.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use centaur_rl::{AlgoKind, UpdateMetrics};
+
+use crate::experiment::{
+    ExperimentError, ExperimentOptions, ExperimentResult, Phase, run_experiment, tuned_config,
+};
+use crate::registry::residual_config;
+use crate::train::parse_algo_config;
+
+/// The progress-bar style of the examples and the command line.
+pub fn progress_style() -> indicatif::ProgressStyle {
+    indicatif::ProgressStyle::with_template("{msg:>22} [{bar:40}] {pos}/{len} steps ({per_sec}, eta {eta})")
+        .expect("a valid template")
+        .progress_chars("=> ")
+}
+
+/// Training progress of an experiment's two agents, which may train side by side (see
+/// [`run_experiment`]): the steps both have done and the latest training return of each,
+/// for a progress bar.
+#[derive(Clone, Debug, Default)]
+pub struct TrainingProgress {
+    done: [u64; 2],
+    returns: [Option<f64>; 2],
+}
+
+impl TrainingProgress {
+    /// Records an update of a training phase (the evaluation phase is ignored) and returns
+    /// the steps both agents have done, each counted up to `steps`.
+    pub fn record(&mut self, phase: Phase, m: &UpdateMetrics, steps: u64) -> u64 {
+        let k = match phase {
+            Phase::TrainPure => 0,
+            Phase::TrainHybrid => 1,
+            Phase::Evaluate => return self.done.iter().sum(),
+        };
+        self.done[k] = m.env_steps.min(steps);
+        self.returns[k] = Some(m.episode_return_mean);
+        self.done.iter().sum()
+    }
+
+    /// "pure PPO 1.23, hybrid PPO 4.56" (the agents that have reported so far).
+    pub fn message(&self, learner: &str) -> String {
+        let parts: Vec<String> = ["pure", "hybrid"]
+            .iter()
+            .zip(self.returns)
+            .filter_map(|(name, r)| r.map(|r| format!("{name} {learner} {r:.2}")))
+            .collect();
+        parts.join(", ")
+    }
+}
+
+/// [`run_experiment`] with a progress bar over both agents' training and the evaluation;
+/// `learner` names the algorithm in the bar (e.g. "PPO"). What the examples run.
+pub fn run_experiment_with_progress(
+    opts: &ExperimentOptions,
+    learner: &str,
+) -> Result<ExperimentResult, ExperimentError> {
+    let steps = opts.steps;
+    let bar = indicatif::ProgressBar::new(2 * steps);
+    bar.set_style(progress_style());
+    let mut training = TrainingProgress::default();
+    let result = run_experiment(opts, &mut |phase, m| {
+        if phase == Phase::Evaluate {
+            bar.set_message("evaluating");
+            bar.set_position(2 * steps);
+            return;
+        }
+        bar.set_position(training.record(phase, m, steps));
+        bar.set_message(training.message(learner));
+    });
+    bar.finish_and_clear();
+    result
+}
+
+/// The command line shared by the experiment examples (`residual_ppo_minitaur`,
+/// `residual_sac_walker2d`, `residual_td3_ant`); flatten it into an example's own parser.
+#[derive(Clone, Debug, Default, clap::Args)]
+pub struct ExampleArgs {
+    /// Environment steps per agent [default: the example's budget]
+    #[arg(long)]
+    pub steps: Option<u64>,
+    /// Seed of both agents' training (the evaluation seeds follow from it)
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Run directory [default: runs/EXAMPLE, the example's name]
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Parallel environments per agent [default: the example's]
+    #[arg(long, value_parser = positive_count)]
+    pub envs: Option<usize>,
+    /// Threads stepping each agent's environments, at most one per environment; with more
+    /// than one the two agents train side by side [default: the available cores]
+    #[arg(long, value_parser = positive_count)]
+    pub threads: Option<usize>,
+    /// Deterministic evaluation episodes per agent
+    #[arg(long, default_value_t = 10)]
+    pub eval_episodes: usize,
+    /// TOML file of hyperparameters for both agents [default: the tuned set for the robot and
+    /// algorithm, see `tuned_config`]
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Do not write the MCAP recordings
+    #[arg(long)]
+    pub no_record: bool,
+}
+
+/// A count of at least 1 (`--envs`, `--threads`).
+fn positive_count(text: &str) -> Result<usize, String> {
+    match text.parse::<usize>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(format!("expected a whole number of at least 1, got {text:?}")),
+    }
+}
+
+/// What an example runs when its command line does not say otherwise.
+#[derive(Clone, Copy, Debug)]
+pub struct ExampleDefaults<'a> {
+    /// The example's name: error prefix and default run directory `runs/<name>`.
+    pub name: &'a str,
+    /// Robot environment.
+    pub env: &'a str,
+    /// Algorithm of both agents.
+    pub algo: AlgoKind,
+    /// Training steps per agent.
+    pub steps: u64,
+    /// Parallel environments per agent.
+    pub envs: usize,
+}
+
+impl ExampleArgs {
+    /// The experiment these arguments describe, with `defaults` filling in what they leave
+    /// out. Fails (with a message) only when the `--config` file cannot be read.
+    pub fn options(&self, defaults: &ExampleDefaults<'_>) -> Result<ExperimentOptions, String> {
+        let algo = match &self.config {
+            Some(path) => {
+                let text = std::fs::read_to_string(path)
+                    .map_err(|e| format!("cannot read --config {}: {e}", path.display()))?;
+                parse_algo_config(defaults.algo, &text, path).map_err(|e| e.to_string())?
+            }
+            None => tuned_config(defaults.env, defaults.algo),
+        };
+        let residual = residual_config(defaults.env).map_err(|e| e.to_string())?;
+        let n_envs = self.envs.unwrap_or(defaults.envs).max(1);
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        Ok(ExperimentOptions {
+            env: defaults.env.to_string(),
+            algo,
+            steps: self.steps.unwrap_or(defaults.steps),
+            seed: self.seed,
+            out: self.out.clone().unwrap_or_else(|| Path::new("runs").join(defaults.name)),
+            n_envs,
+            threads: self.threads.unwrap_or(cores).clamp(1, n_envs),
+            eval_episodes: self.eval_episodes,
+            residual,
+            record: !self.no_record,
+        })
+    }
+}
+
+/// The body of an experiment example: prints what runs, trains and evaluates with a
+/// progress bar ([`run_experiment_with_progress`]), prints the table, the training times and
+/// the run directory. Errors go to stderr prefixed with `name`; the exit code says whether
+/// it worked.
+pub fn run_example(name: &str, opts: &ExperimentOptions) -> std::process::ExitCode {
+    let label = opts.algo.kind().name().to_uppercase();
+    println!(
+        "Residual {label} vs pure {label} on {} — {} steps each, seed {}, {} envs on {} threads → {}",
+        opts.env,
+        opts.steps,
+        opts.seed,
+        opts.n_envs,
+        opts.threads,
+        opts.out.display()
+    );
+    let t0 = Instant::now();
+    let summary = match run_experiment_with_progress(opts, &label) {
+        Ok(r) => r.summary,
+        Err(e) => {
+            eprintln!("{name}: {e}");
+            return std::process::ExitCode::FAILURE;
+        }
+    };
+    println!(
+        "\nEvaluation over {} episodes (deterministic actions, same seeds for every agent):\n",
+        opts.eval_episodes
+    );
+    print!("{}", summary.markdown_table());
+    println!(
+        "\nTraining: hybrid {} steps in {:.0} s, pure {} steps in {:.0} s; total wall time {:.0} s.",
+        summary.hybrid.env_steps,
+        summary.hybrid.wall_seconds,
+        summary.pure_rl.env_steps,
+        summary.pure_rl.wall_seconds,
+        t0.elapsed().as_secs_f64()
+    );
+    println!(
+        "Run directory: {} (summary.json, learning_curves.png, */metrics.csv, */checkpoint, *.mcap)",
+        opts.out.display()
+    );
+    std::process::ExitCode::SUCCESS
+}

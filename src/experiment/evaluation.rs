@@ -1,0 +1,223 @@
+//! Deterministic evaluation of an agent — the controller alone, a pure-RL policy or the
+//! hybrid — over episodes with fixed seeds, with the first episode recorded for Foxglove.
+
+use std::path::Path;
+
+use centaur_dynamics::nalgebra::Vector3;
+use centaur_envs::RobotEnv;
+use centaur_gym::{Env, Step};
+use centaur_mpc::LocomotionController;
+use centaur_rl::Policy;
+
+use super::options::ExperimentError;
+use super::summary::AgentStats;
+use crate::hybrid::ActionMapping;
+use crate::recording::{Frame, Recorder};
+use crate::residual::ResidualEnv;
+
+/// The agent an evaluation runs.
+pub(crate) enum Driver {
+    Controller {
+        env: Box<dyn RobotEnv>,
+        controller: Box<LocomotionController>,
+        mapping: ActionMapping,
+        command: centaur_mpc::Command,
+    },
+    Pure {
+        env: Box<dyn RobotEnv>,
+        policy: Policy,
+    },
+    Hybrid {
+        env: Box<ResidualEnv>,
+        policy: Policy,
+    },
+}
+
+impl Driver {
+    fn robot(&self) -> &dyn RobotEnv {
+        match self {
+            Driver::Controller { env, .. } | Driver::Pure { env, .. } => env.as_ref(),
+            Driver::Hybrid { env, .. } => env.inner(),
+        }
+    }
+
+    fn obs_dim(&self) -> usize {
+        match self {
+            Driver::Controller { env, .. } | Driver::Pure { env, .. } => env.observation_space().dim(),
+            Driver::Hybrid { env, .. } => env.observation_space().dim(),
+        }
+    }
+
+    fn act_dim(&self) -> usize {
+        match self {
+            Driver::Controller { env, .. } | Driver::Pure { env, .. } => env.action_space().dim(),
+            Driver::Hybrid { env, .. } => env.action_space().dim(),
+        }
+    }
+
+    fn reset(&mut self, seed: u64, obs: &mut [f32]) -> Result<(), ExperimentError> {
+        match self {
+            Driver::Controller { env, controller, .. } => {
+                env.reset(Some(seed), obs)?;
+                controller.reset();
+            }
+            Driver::Pure { env, .. } => env.reset(Some(seed), obs)?,
+            Driver::Hybrid { env, .. } => env.reset(Some(seed), obs)?,
+        }
+        Ok(())
+    }
+
+    /// One step; returns the step and fills `reference`, `residual`, `applied` for recording.
+    fn step(
+        &mut self,
+        obs: &mut [f32],
+        action: &mut [f32],
+        rec: &mut StepRecord,
+    ) -> Result<Step, ExperimentError> {
+        let step = match self {
+            Driver::Controller { env, controller, mapping, command } => {
+                let t = env.episode_time();
+                let cmd = mapping.tick(controller, env.as_ref(), command, t);
+                mapping.action(env.as_ref(), cmd, action);
+                rec.reference.clone_from_slice(action);
+                rec.applied.clone_from_slice(action);
+                rec.planned_com.clear();
+                rec.planned_com.extend_from_slice(&controller.status().planned_com);
+                rec.foot_targets.clear();
+                rec.foot_targets.extend_from_slice(&controller.status().foot_targets);
+                env.step(action, obs)?
+            }
+            Driver::Pure { env, policy } => {
+                policy.act(obs, action);
+                rec.applied.clone_from_slice(action);
+                env.step(action, obs)?
+            }
+            Driver::Hybrid { env, policy } => {
+                policy.act(obs, action);
+                rec.reference.clone_from_slice(env.reference());
+                rec.planned_com.clear();
+                rec.planned_com.extend_from_slice(&env.controller().status().planned_com);
+                rec.foot_targets.clear();
+                rec.foot_targets.extend_from_slice(&env.controller().status().foot_targets);
+                let s = env.step(action, obs)?;
+                rec.applied.clone_from_slice(env.applied());
+                for k in 0..rec.residual.len() {
+                    rec.residual[k] = rec.applied[k] - rec.reference[k];
+                }
+                s
+            }
+        };
+        Ok(step)
+    }
+}
+
+#[derive(Default)]
+struct StepRecord {
+    reference: Vec<f32>,
+    residual: Vec<f32>,
+    applied: Vec<f32>,
+    planned_com: Vec<[f64; 3]>,
+    foot_targets: Vec<[f64; 3]>,
+}
+
+/// Base x position of a floating or planar robot.
+fn base_x(env: &dyn RobotEnv) -> f64 {
+    env.robot_state().q[0]
+}
+
+/// Evaluates an agent over `episodes` deterministic episodes (seeds `seed..seed+episodes`),
+/// recording the first one to `record` if given.
+pub(crate) fn evaluate(
+    driver: &mut Driver,
+    episodes: usize,
+    seed: u64,
+    record: Option<&Path>,
+) -> Result<AgentStats, ExperimentError> {
+    let mut obs = vec![0.0f32; driver.obs_dim()];
+    let mut action = vec![0.0f32; driver.act_dim()];
+    let m = driver.act_dim();
+    let mut rec = StepRecord {
+        reference: vec![0.0; m],
+        residual: vec![0.0; m],
+        applied: vec![0.0; m],
+        ..Default::default()
+    };
+    let mut recorder = match record {
+        Some(p) => Some(Recorder::create(p, driver.robot().model())?),
+        None => None,
+    };
+    let (mut returns, mut speeds, mut lengths) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut falls, mut energy, mut distance) = (0usize, 0.0, 0.0);
+    let (mut torque_sq, mut torque_n) = (0.0, 0usize);
+    let mut contacts: Vec<(Vector3<f64>, Vector3<f64>)> = Vec::new();
+    let mass = driver.robot().model().total_mass();
+    let g = driver.robot().model().gravity.norm().max(1e-9);
+    for ep in 0..episodes {
+        driver.reset(seed + ep as u64, &mut obs)?;
+        let x0 = base_x(driver.robot());
+        let (mut ret, mut n) = (0.0, 0usize);
+        loop {
+            let s = driver.step(&mut obs, &mut action, &mut rec)?;
+            ret += s.reward;
+            n += 1;
+            energy += s.info.energy;
+            for t in driver.robot().last_torques() {
+                torque_sq += t * t;
+                torque_n += 1;
+            }
+            if ep == 0
+                && let Some(r) = recorder.as_mut()
+            {
+                let robot = driver.robot();
+                contacts.clear();
+                contacts.extend(
+                    robot.foot_contacts().iter().filter(|c| c.in_contact).map(|c| (c.point, c.force)),
+                );
+                r.record(&Frame {
+                    time: robot.episode_time(),
+                    state: Some(robot.robot_state()),
+                    contacts: &contacts,
+                    planned_com: &rec.planned_com,
+                    foot_targets: &rec.foot_targets,
+                    reference: &rec.reference,
+                    residual: if matches!(driver, Driver::Hybrid { .. }) { &rec.residual } else { &[] },
+                    applied: &rec.applied,
+                    reward: s.reward,
+                    forward_velocity: s.info.forward_velocity,
+                    energy: s.info.energy,
+                })?;
+            }
+            if s.done() {
+                if s.terminated {
+                    falls += 1;
+                }
+                break;
+            }
+        }
+        let dx = base_x(driver.robot()) - x0;
+        let seconds = n as f64 * driver.robot().dt();
+        distance += dx;
+        returns.push(ret);
+        speeds.push(dx / seconds.max(1e-9));
+        lengths.push(n as f64);
+    }
+    if let Some(r) = recorder {
+        r.finish()?;
+    }
+    let k = episodes.max(1) as f64;
+    let mean = returns.iter().sum::<f64>() / k;
+    let std = (returns.iter().map(|r| (r - mean) * (r - mean)).sum::<f64>() / k).sqrt();
+    Ok(AgentStats {
+        return_mean: mean,
+        return_std: std,
+        mean_speed: speeds.iter().sum::<f64>() / k,
+        falls,
+        episodes,
+        cost_of_transport: (distance > 0.01).then(|| energy / (mass * g * distance)),
+        energy_mean: energy / k,
+        torque_rms: (torque_sq / torque_n.max(1) as f64).sqrt(),
+        length_mean: lengths.iter().sum::<f64>() / k,
+        env_steps: 0,
+        wall_seconds: 0.0,
+    })
+}

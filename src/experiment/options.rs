@@ -1,0 +1,102 @@
+//! What an experiment takes, gives back and can fail with.
+
+use std::path::{Path, PathBuf};
+
+use centaur_gym::EnvError;
+use centaur_rl::{AlgoConfig, RlError};
+
+use super::summary::ExperimentSummary;
+use crate::hybrid::{HybridError, ResidualConfig};
+use crate::plot::PlotError;
+use crate::recording::RecordError;
+use crate::registry::RegistryError;
+
+/// Why an experiment failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ExperimentError {
+    /// Environment, controller or hybrid.
+    #[error(transparent)]
+    Registry(#[from] RegistryError),
+    /// An environment refused a call.
+    #[error("environment: {0}")]
+    Env(#[from] EnvError),
+    /// The controller does not fit the robot.
+    #[error(transparent)]
+    Hybrid(#[from] HybridError),
+    /// Learning.
+    #[error(transparent)]
+    Rl(#[from] RlError),
+    /// Recording.
+    #[error(transparent)]
+    Record(#[from] RecordError),
+    /// Plotting.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+    /// Writing outputs.
+    #[error("{path}: {source}")]
+    Io {
+        /// File.
+        path: PathBuf,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// A training stopped because the other agent's, running side by side, failed.
+    #[error("stopped: the other agent's training failed")]
+    Stopped,
+}
+
+pub(crate) fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> ExperimentError + '_ {
+    move |source| ExperimentError::Io { path: path.to_path_buf(), source }
+}
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct ExperimentOptions {
+    /// Robot environment with a controller (see [`crate::registry::ROBOTS`]).
+    pub env: String,
+    /// Algorithm and hyperparameters, the same for both agents (the seed is
+    /// [`ExperimentOptions::seed`]; see [`crate::experiment::tuned_config`] for the presets).
+    pub algo: AlgoConfig,
+    /// Training steps per agent.
+    pub steps: u64,
+    /// Seed (learners; evaluation seeds are `1_000_000 + seed + k`).
+    pub seed: u64,
+    /// Output directory.
+    pub out: PathBuf,
+    /// Parallel environments per agent.
+    pub n_envs: usize,
+    /// Threads stepping each agent's environments; with more than one, the two agents also
+    /// train side by side (results unchanged, see [`run_experiment`](super::run_experiment)).
+    pub threads: usize,
+    /// Evaluation episodes per agent (≥ 10 recommended).
+    pub eval_episodes: usize,
+    /// The residual setup of the hybrid.
+    pub residual: ResidualConfig,
+    /// Write an MCAP recording per agent.
+    pub record: bool,
+}
+
+/// Training curve of one agent: `(env steps, mean training episode return)` per update.
+pub type Curve = Vec<(u64, f64)>;
+
+/// An experiment's summary and the two training curves.
+#[derive(Clone, Debug)]
+pub struct ExperimentResult {
+    /// Evaluation of the three agents.
+    pub summary: ExperimentSummary,
+    /// Pure RL's training curve.
+    pub pure_curve: Curve,
+    /// The hybrid's training curve.
+    pub hybrid_curve: Curve,
+}
+
+/// Which agent a progress report is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    /// Training the pure-RL agent.
+    TrainPure,
+    /// Training the hybrid agent.
+    TrainHybrid,
+    /// Evaluating all three agents: reported once, with default metrics, as it starts.
+    Evaluate,
+}

@@ -1,0 +1,234 @@
+//! Training the two agents (side by side when there are threads to spare) and evaluating
+//! the three: [`run_experiment`].
+
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use centaur_gym::{Env, VecEnv};
+use centaur_mpc::LocomotionController;
+use centaur_rl::{Algorithm, MetricsCsv, Policy, RlError, UpdateMetrics};
+
+use super::evaluation::{Driver, evaluate};
+use super::options::{ExperimentError, ExperimentOptions, ExperimentResult, Phase, io_err};
+use super::summary::ExperimentSummary;
+use crate::hybrid::{ActionMapping, HybridError};
+use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
+use crate::registry::{controller_config, make_residual_env, make_robot_env};
+
+fn vec_env_of(
+    make: &mut dyn FnMut() -> Result<Box<dyn Env>, ExperimentError>,
+    n: usize,
+    threads: usize,
+) -> Result<VecEnv, ExperimentError> {
+    let envs = (0..n.max(1)).map(|_| make()).collect::<Result<Vec<_>, _>>()?;
+    Ok(VecEnv::new(envs, threads)?)
+}
+
+/// Trains one agent; returns its checkpoint path, metrics and wall time.
+fn train_one(
+    opts: &ExperimentOptions,
+    dir: &Path,
+    env: &mut VecEnv,
+    phase: Phase,
+    progress: &mut dyn FnMut(Phase, &UpdateMetrics),
+    stop: &AtomicBool,
+) -> Result<(PathBuf, Vec<UpdateMetrics>, f64, u64), ExperimentError> {
+    std::fs::create_dir_all(dir).map_err(io_err(dir))?;
+    let mut algo: Box<dyn Algorithm> = opts.algo.clone().with_seed(opts.seed).build(env)?;
+    if phase == Phase::TrainHybrid {
+        // Zero mean residual at the start: the untrained hybrid is the controller.
+        algo.zero_policy_output();
+    }
+    let csv_path = dir.join("metrics.csv");
+    let mut csv = MetricsCsv::create(&csv_path).map_err(io_err(&csv_path))?;
+    let mut rows = Vec::new();
+    let mut csv_error = None;
+    let t0 = Instant::now();
+    algo.learn(env, opts.steps, &mut |m| {
+        if stop.load(Ordering::Relaxed) {
+            return ControlFlow::Break(());
+        }
+        if let Err(e) = csv.write(m) {
+            csv_error = Some(e);
+            return ControlFlow::Break(());
+        }
+        rows.push(*m);
+        progress(phase, m);
+        ControlFlow::Continue(())
+    })?;
+    let wall = t0.elapsed().as_secs_f64();
+    if stop.load(Ordering::Relaxed) {
+        return Err(ExperimentError::Stopped);
+    }
+    if let Some(e) = csv_error {
+        return Err(ExperimentError::Io { path: csv_path, source: e });
+    }
+    csv.flush().map_err(io_err(&csv_path))?;
+    let ckpt = dir.join("checkpoint");
+    algo.save(&ckpt)?;
+    Ok((ckpt, rows, wall, algo.steps_done()))
+}
+
+/// Runs the experiment (see the module docs) and writes the output directory.
+pub fn run_experiment(
+    opts: &ExperimentOptions,
+    progress: &mut dyn FnMut(Phase, &UpdateMetrics),
+) -> Result<ExperimentResult, ExperimentError> {
+    // The hybrid needs a controller: refuse a robot without one before training anything.
+    controller_config(&opts.env)?;
+    std::fs::create_dir_all(&opts.out).map_err(io_err(&opts.out))?;
+    // Pure RL on the robot environment, the hybrid on the residual environment.
+    // Set when one training fails, to stop the other one running side by side.
+    let stop = AtomicBool::new(false);
+    let failed = |r: Result<_, ExperimentError>| {
+        if r.is_err() {
+            stop.store(true, Ordering::Relaxed);
+        }
+        r
+    };
+    let train_pure = |progress: &mut dyn FnMut(Phase, &UpdateMetrics)| {
+        let mut env = vec_env_of(
+            &mut || Ok(make_robot_env(&opts.env, None)? as Box<dyn Env>),
+            opts.n_envs,
+            opts.threads,
+        )?;
+        train_one(opts, &opts.out.join("pure_rl"), &mut env, Phase::TrainPure, progress, &stop)
+    };
+    let train_hybrid = |progress: &mut dyn FnMut(Phase, &UpdateMetrics)| {
+        let mut env = vec_env_of(
+            &mut || Ok(Box::new(make_residual_env(&opts.env, opts.residual.clone())?) as Box<dyn Env>),
+            opts.n_envs,
+            opts.threads,
+        )?;
+        train_one(opts, &opts.out.join("hybrid"), &mut env, Phase::TrainHybrid, progress, &stop)
+    };
+    // With several threads the two trainings run side by side: each depends only on its own
+    // seed and environments (and not on the thread count, see `VecEnv`), so the results are
+    // those of one after the other, and the cores one training leaves idle (its learner's
+    // updates are single-threaded) do the other's work. The hybrid's progress reaches
+    // `progress` on this thread through a channel. Each agent's wall time (summary, metrics)
+    // is then measured while the other one trains too. A failure stops the other training.
+    let (pure, hybrid) = if opts.threads > 1 {
+        std::thread::scope(|s| {
+            let (tx, rx) = std::sync::mpsc::channel::<(Phase, UpdateMetrics)>();
+            let hybrid = s.spawn(move || {
+                failed(train_hybrid(&mut |phase, m| {
+                    let _ = tx.send((phase, *m));
+                }))
+            });
+            let pure = failed(train_pure(&mut |phase, m| {
+                progress(phase, m);
+                while let Ok((phase, m)) = rx.try_recv() {
+                    progress(phase, &m);
+                }
+            }));
+            // Until the hybrid's thread ends and drops its sender.
+            for (phase, m) in rx.iter() {
+                progress(phase, &m);
+            }
+            let hybrid = hybrid.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
+            (pure, hybrid)
+        })
+    } else {
+        let pure = train_pure(progress)?;
+        (Ok(pure), train_hybrid(progress))
+    };
+    // The first real error (not the other training's `Stopped`).
+    let (
+        (pure_ckpt, pure_rows, pure_wall, pure_steps),
+        (hybrid_ckpt, hybrid_rows, hybrid_wall, hybrid_steps),
+    ) = match (pure, hybrid) {
+        (Ok(p), Ok(h)) => (p, h),
+        (Err(ExperimentError::Stopped), Err(e)) | (Err(e), _) | (Ok(_), Err(e)) => return Err(e),
+    };
+    progress(Phase::Evaluate, &UpdateMetrics::default());
+
+    // Evaluation: the policies as deployed (loaded back from their checkpoints). The three
+    // agents are evaluated on their own envs and seeds, so running them side by side on
+    // the worker threads gives the same figures as one after the other.
+    let seed = 1_000_000 + opts.seed;
+    let eval = |name: &str, driver: Result<Driver, ExperimentError>| {
+        let record = opts.record.then(|| opts.out.join(format!("{name}.mcap")));
+        evaluate(&mut driver?, opts.eval_episodes, seed, record.as_deref())
+    };
+    let pure = || -> Result<Driver, ExperimentError> {
+        Ok(Driver::Pure {
+            env: make_robot_env(&opts.env, None)?,
+            policy: Policy::load(&pure_ckpt).map_err(RlError::from)?,
+        })
+    };
+    let hybrid = || -> Result<Driver, ExperimentError> {
+        Ok(Driver::Hybrid {
+            env: Box::new(make_residual_env(&opts.env, opts.residual.clone())?),
+            policy: Policy::load(&hybrid_ckpt).map_err(RlError::from)?,
+        })
+    };
+    let controller = || -> Result<Driver, ExperimentError> {
+        let env = make_robot_env(&opts.env, None)?;
+        let controller = LocomotionController::new(env.model(), controller_config(&opts.env)?)
+            .map_err(HybridError::from)?;
+        let mapping = ActionMapping::new(env.as_ref(), &controller)?;
+        Ok(Driver::Controller {
+            env,
+            controller: Box::new(controller),
+            mapping,
+            command: opts.residual.command,
+        })
+    };
+    let (pure_stats, hybrid_stats, ctrl_stats) = if opts.threads > 1 {
+        std::thread::scope(|s| {
+            let p = s.spawn(|| eval("pure_rl", pure()));
+            let h = s.spawn(|| eval("hybrid", hybrid()));
+            let c = eval("controller", controller());
+            let join = |h: std::thread::ScopedJoinHandle<'_, _>| {
+                h.join().unwrap_or_else(|e| std::panic::resume_unwind(e))
+            };
+            (join(p), join(h), c)
+        })
+    } else {
+        (eval("pure_rl", pure()), eval("hybrid", hybrid()), eval("controller", controller()))
+    };
+    let (mut pure_stats, mut hybrid_stats, ctrl_stats) = (pure_stats?, hybrid_stats?, ctrl_stats?);
+    (pure_stats.env_steps, pure_stats.wall_seconds) = (pure_steps, pure_wall);
+    (hybrid_stats.env_steps, hybrid_stats.wall_seconds) = (hybrid_steps, hybrid_wall);
+
+    let summary = ExperimentSummary { hybrid: hybrid_stats, pure_rl: pure_stats, controller: ctrl_stats };
+    write_outputs(opts, &summary, &pure_rows, &hybrid_rows)?;
+    let points = |rows: &[UpdateMetrics]| rows.iter().map(|m| (m.env_steps, m.episode_return_mean)).collect();
+    Ok(ExperimentResult { summary, pure_curve: points(&pure_rows), hybrid_curve: points(&hybrid_rows) })
+}
+
+/// Writes `summary.json` and the learning curves of both agents into the run directory.
+fn write_outputs(
+    opts: &ExperimentOptions,
+    summary: &ExperimentSummary,
+    pure_rows: &[UpdateMetrics],
+    hybrid_rows: &[UpdateMetrics],
+) -> Result<(), ExperimentError> {
+    let path = opts.out.join("summary.json");
+    let text = serde_json::to_string_pretty(summary)
+        .map_err(|e| ExperimentError::Io { path: path.clone(), source: e.into() })?;
+    std::fs::write(&path, text + "\n").map_err(io_err(&path))?;
+    let curve = |label: &str, rows: &[UpdateMetrics]| Series {
+        label: label.to_string(),
+        x: rows.iter().map(|m| m.env_steps as f64).collect(),
+        y: rows.iter().map(|m| m.episode_return_mean).collect(),
+        lower: Some(rows.iter().map(|m| m.episode_return_mean - m.episode_return_std).collect()),
+        upper: Some(rows.iter().map(|m| m.episode_return_mean + m.episode_return_std).collect()),
+    };
+    let labels = PlotLabels {
+        title: format!("{} on {}: pure RL vs hybrid (seed {})", opts.algo.kind().name(), opts.env, opts.seed),
+        x: "environment steps".into(),
+        y: "training episode return (mean ± std)".into(),
+    };
+    let series = [curve("pure RL", pure_rows), curve("hybrid (residual on the controller)", hybrid_rows)];
+    for ext in ["png", "svg"] {
+        match plot_curves(&opts.out.join(format!("learning_curves.{ext}")), &labels, &series) {
+            Ok(()) | Err(PlotError::Empty { .. }) => {}
+            Err(e) => return Err(e.into()),
+        }
+    }
+    Ok(())
+}

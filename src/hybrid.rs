@@ -1,0 +1,384 @@
+//! The hybrid's core, written once and used by training ([`crate::residual::ResidualEnv`])
+//! and by deployment ([`crate::deploy::HybridStack`]), so that what a robot runs is what the
+//! policy was trained on by construction:
+//!
+//! * [`Residual`]: the law `a = clip(a_ref + scale ⊙ clip(r, −1, 1), low, high)` that turns
+//!   the controller's reference action `a_ref` and the policy's output `r` into the action
+//!   applied, and the policy's observation layout;
+//! * [`CommandTorques`], [`ContactMap`], [`ActionMapping`]: from a controller tick to the
+//!   robot's actions (the controller's joint command as torques at the measured state, the
+//!   robot's contact sensors matched to the controller's contact points).
+//!
+//! Nothing here knows the simulator: a robot is a [`RobotEnv`] (simulated) or a
+//! [`crate::deploy::RobotInterface`] (anything that reports a state and takes actions).
+
+use centaur_dynamics::{Model, RobotState};
+use centaur_envs::RobotEnv;
+use centaur_mpc::{Command, ConfigError, Gait, JointCommand, LocomotionController};
+
+/// What the hybrid's pieces refuse.
+#[derive(Debug, thiserror::Error)]
+pub enum HybridError {
+    /// A robot actuator whose joint the controller does not drive.
+    #[error("the controller does not drive the robot's actuated joint '{joint}'")]
+    NotDriven {
+        /// The joint.
+        joint: String,
+    },
+    /// An actuated joint with more than one coordinate (a `(cos θ, sin θ)` pair).
+    #[error(
+        "the actuated joint '{joint}' is not a one-coordinate joint (load the URDF with angles: the default UrdfOptions)"
+    )]
+    NotOneCoordinate {
+        /// The joint.
+        joint: String,
+    },
+    /// A residual scale of the wrong length.
+    #[error("the residual scale has {entries} entries; give 1 or the action dimension {action_dim}")]
+    ScaleLength {
+        /// Entries given.
+        entries: usize,
+        /// The action dimension.
+        action_dim: usize,
+    },
+    /// A residual scale that is negative or not finite.
+    #[error("residual scale {value} is not a finite, non-negative number")]
+    BadScale {
+        /// The value.
+        value: f64,
+    },
+    /// A policy whose dimensions do not fit the robot and residual setup.
+    #[error("the policy maps {} observations to {} actions; this robot and residual setup need {} → {}", policy.0, policy.1, needed.0, needed.1)]
+    PolicyShape {
+        /// The policy's observation and action dimensions.
+        policy: (usize, usize),
+        /// What the robot and residual need.
+        needed: (usize, usize),
+    },
+    /// The controller's configuration.
+    #[error("controller: {0}")]
+    Controller(#[from] ConfigError),
+}
+
+/// The residual setup of a hybrid: how large the correction may be, what the policy sees,
+/// and what the controller is commanded.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResidualConfig {
+    /// Residual scale per action entry (one value: the same for every entry), in the
+    /// environment's action units (default: 0.3).
+    pub scale: Vec<f64>,
+    /// Append the reference action to the observation (default: true).
+    pub include_reference: bool,
+    /// The command the controller follows (default: trot at 0.3 m/s).
+    pub command: Command,
+}
+
+impl Default for ResidualConfig {
+    fn default() -> Self {
+        ResidualConfig {
+            scale: vec![0.3],
+            include_reference: true,
+            command: Command::forward(0.3, Gait::Trot),
+        }
+    }
+}
+
+impl ResidualConfig {
+    /// A residual of `scale` around the controller following `command`.
+    pub fn new(scale: f64, command: Command) -> Self {
+        ResidualConfig { scale: vec![scale], include_reference: true, command }
+    }
+
+    /// Checks the scale against the action dimension.
+    pub fn validate(&self, action_dim: usize) -> Result<(), HybridError> {
+        if !(self.scale.len() == 1 || self.scale.len() == action_dim) {
+            return Err(HybridError::ScaleLength { entries: self.scale.len(), action_dim });
+        }
+        if let Some(&value) = self.scale.iter().find(|s| !(s.is_finite() && **s >= 0.0)) {
+            return Err(HybridError::BadScale { value });
+        }
+        Ok(())
+    }
+}
+
+/// The residual law and the policy's observation layout, with the scale resolved per
+/// action entry. See the module docs.
+#[derive(Clone, Debug)]
+pub struct Residual {
+    scale: Vec<f32>,
+    include_reference: bool,
+}
+
+impl Residual {
+    /// The law for `action_dim` actions.
+    pub fn new(config: &ResidualConfig, action_dim: usize) -> Result<Residual, HybridError> {
+        config.validate(action_dim)?;
+        let scale =
+            (0..action_dim).map(|k| *config.scale.get(k).unwrap_or(&config.scale[0]) as f32).collect();
+        Ok(Residual { scale, include_reference: config.include_reference })
+    }
+
+    /// Number of actions.
+    pub fn action_dim(&self) -> usize {
+        self.scale.len()
+    }
+
+    /// Dimension of the policy's observation over a robot observation of `robot_obs_dim`.
+    pub fn obs_dim(&self, robot_obs_dim: usize) -> usize {
+        robot_obs_dim + 5 + if self.include_reference { self.scale.len() } else { 0 }
+    }
+
+    /// Whether the reference action is part of the observation.
+    pub fn includes_reference(&self) -> bool {
+        self.include_reference
+    }
+
+    /// `applied = clip(reference + scale ⊙ clip(output, −1, 1), low, high)`, per entry;
+    /// returns `Σ (scale ⊙ clip(output))²`, the squared size of the correction.
+    #[track_caller]
+    pub fn apply(
+        &self,
+        reference: &[f32],
+        output: &[f32],
+        low: &[f32],
+        high: &[f32],
+        applied: &mut [f32],
+    ) -> f64 {
+        let m = self.scale.len();
+        assert!(
+            reference.len() == m && output.len() == m && applied.len() == m,
+            "Residual::apply: {} actions, got reference {}, output {}, applied {}",
+            m,
+            reference.len(),
+            output.len(),
+            applied.len()
+        );
+        let mut sq = 0.0f64;
+        for k in 0..m {
+            let r = self.scale[k] * output[k].clamp(-1.0, 1.0);
+            sq += (r as f64) * (r as f64);
+            applied[k] = (reference[k] + r).clamp(low[k], high[k]);
+        }
+        sq
+    }
+
+    /// The policy's observation: the robot's observation, the gait phase
+    /// `(sin 2πφ, cos 2πφ)`, the command `(v_x, v_y, ω_z)` and (if included) the reference
+    /// action.
+    #[track_caller]
+    pub fn observation(
+        &self,
+        robot_obs: &[f32],
+        phase: f64,
+        command: &Command,
+        reference: &[f32],
+        out: &mut [f32],
+    ) {
+        let n = robot_obs.len();
+        assert!(
+            out.len() == self.obs_dim(n),
+            "residual observation: {} entries, expected {}",
+            out.len(),
+            self.obs_dim(n)
+        );
+        out[..n].copy_from_slice(robot_obs);
+        let (s, c) = (2.0 * std::f64::consts::PI * phase).sin_cos();
+        out[n..n + 5].copy_from_slice(&[
+            s as f32,
+            c as f32,
+            command.forward_velocity as f32,
+            command.lateral_velocity as f32,
+            command.yaw_rate as f32,
+        ]);
+        if self.include_reference {
+            out[n + 5..].copy_from_slice(reference);
+        }
+    }
+}
+
+/// Joint torques of a controller command at a state, in the robot's actuator order:
+/// `τ = τ_ff + k_p (q* − q) + k_d (q̇* − q̇)`.
+#[derive(Clone, Debug)]
+pub struct CommandTorques {
+    /// Per actuator: index in the controller's command, and the joint's `q`, `v` indices.
+    map: Vec<(usize, usize, usize)>,
+    tau: Vec<f64>,
+}
+
+impl CommandTorques {
+    /// Matches `actuated` (model joint indices) with the controller's joints by name.
+    pub fn new(
+        model: &Model,
+        actuated: &[usize],
+        controller: &LocomotionController,
+    ) -> Result<Self, HybridError> {
+        let names = controller.joint_names();
+        let mut map = Vec::with_capacity(actuated.len());
+        for &j in actuated {
+            let joint = &model.joints[j];
+            if joint.nq() != 1 || joint.nv() != 1 {
+                return Err(HybridError::NotOneCoordinate { joint: joint.name.clone() });
+            }
+            let k = names
+                .iter()
+                .position(|n| *n == joint.name)
+                .ok_or_else(|| HybridError::NotDriven { joint: joint.name.clone() })?;
+            map.push((k, joint.idx_q, joint.idx_v));
+        }
+        Ok(CommandTorques { tau: vec![0.0; map.len()], map })
+    }
+
+    /// The torques of `cmd` at `state`.
+    pub fn torques(&mut self, state: &RobotState, cmd: &JointCommand) -> &[f64] {
+        for (t, &(k, iq, iv)) in self.tau.iter_mut().zip(&self.map) {
+            *t = cmd.tau[k]
+                + cmd.kp[k] * (cmd.q_des[k] - state.q[iq])
+                + cmd.kd[k] * (cmd.qd_des[k] - state.v[iv]);
+        }
+        &self.tau
+    }
+}
+
+/// The controller's contact points matched by link name with a robot's contact sensors,
+/// once; then each tick reads the sensors without searching or allocating.
+#[derive(Clone, Debug)]
+pub struct ContactMap {
+    /// For each contact point of the controller: its sensor, or `None` if one has none.
+    sensor_of: Option<Vec<usize>>,
+    sensed: Vec<bool>,
+    flags: Vec<bool>,
+}
+
+impl ContactMap {
+    /// Matches `controller`'s contact frames with `sensor_frames`.
+    pub fn new(controller: &LocomotionController, sensor_frames: &[String]) -> Self {
+        let frames = controller.contact_frames();
+        let sensor_of = frames.iter().map(|f| sensor_frames.iter().position(|s| s == f)).collect();
+        ContactMap { sensor_of, sensed: vec![false; sensor_frames.len()], flags: vec![false; frames.len()] }
+    }
+
+    /// Whether every contact point has a sensor (the controller then uses them).
+    pub fn complete(&self) -> bool {
+        self.sensor_of.is_some()
+    }
+
+    /// One controller tick: with the sensed contacts (`read` fills them, in sensor order)
+    /// when the map is complete, else on the gait schedule alone.
+    pub fn tick<'c>(
+        &mut self,
+        controller: &'c mut LocomotionController,
+        state: &RobotState,
+        command: &Command,
+        t: f64,
+        read: impl FnOnce(&mut [bool]),
+    ) -> &'c JointCommand {
+        match &self.sensor_of {
+            Some(sensor_of) => {
+                read(&mut self.sensed);
+                for (flag, &k) in self.flags.iter_mut().zip(sensor_of) {
+                    *flag = self.sensed[k];
+                }
+                controller.tick_with_contacts(state, command, t, &self.flags)
+            }
+            None => controller.tick(state, command, t),
+        }
+    }
+}
+
+/// Maps a controller's joint command to a simulated robot's actions, and ticks the
+/// controller with the robot's measured foot contacts.
+///
+/// Each environment step the controller ticks once on the robot state the simulator
+/// reports (its only view of the robot); its command becomes joint torques at that state
+/// ([`CommandTorques`]), and the environment turns torques into its own actions
+/// ([`RobotEnv::action_for_torques`]: torque/gear for the Gymnasium robots, the inverted DC
+/// motor model and leg model for the Minitaur). Every runner — `centaur control`, the hybrid
+/// env, the experiment's controller baseline and the deployed stack — ticks the controller
+/// this way, so they all run the same controller, and an untrained hybrid acts exactly
+/// like the controller.
+#[derive(Clone, Debug)]
+pub struct ActionMapping {
+    torques: CommandTorques,
+    contacts: ContactMap,
+}
+
+impl ActionMapping {
+    /// Matches the env's actuated joints and feet with the controller's joints and contact
+    /// points by name.
+    pub fn new(env: &dyn RobotEnv, controller: &LocomotionController) -> Result<ActionMapping, HybridError> {
+        let torques = CommandTorques::new(env.model(), env.actuated_joints(), controller)?;
+        Ok(ActionMapping { torques, contacts: ContactMap::new(controller, env.foot_frames()) })
+    }
+
+    /// One controller tick at the env's state and time `t`: with the env's measured foot
+    /// contacts when every contact point of the controller has a foot in the env, else on
+    /// the gait schedule alone ([`ContactMap`]).
+    pub fn tick<'c>(
+        &mut self,
+        controller: &'c mut LocomotionController,
+        env: &dyn RobotEnv,
+        command: &Command,
+        t: f64,
+    ) -> &'c JointCommand {
+        self.contacts.tick(controller, env.robot_state(), command, t, |out| {
+            for (o, foot) in out.iter_mut().zip(env.foot_contacts()) {
+                *o = foot.in_contact;
+            }
+        })
+    }
+
+    /// The joint torques of `cmd` at the env's current state (action order).
+    pub fn torques(&mut self, env: &dyn RobotEnv, cmd: &JointCommand) -> &[f64] {
+        self.torques.torques(env.robot_state(), cmd)
+    }
+
+    /// The env action realising `cmd` at the env's current state.
+    pub fn action(&mut self, env: &dyn RobotEnv, cmd: &JointCommand, out: &mut [f32]) {
+        let tau = self.torques.torques(env.robot_state(), cmd);
+        env.action_for_torques(tau, out);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_residual_law_clips_the_output_then_the_sum() {
+        // scale 0.25: an output of 2 counts as 1 (a correction of 0.25); 0.9 + 0.25 clips to 1.
+        let config = ResidualConfig::new(0.25, Command::stand());
+        let r = Residual::new(&config, 3).unwrap();
+        let mut applied = [0.0f32; 3];
+        let sq = r.apply(&[0.9, 0.0, -0.5], &[2.0, -0.4, 0.0], &[-1.0; 3], &[1.0; 3], &mut applied);
+        assert_eq!(applied, [1.0, -0.1, -0.5]);
+        // (0.25)² + (0.1)² in f32 products summed in f64.
+        let want = (0.25f32 as f64).powi(2) + ((0.25f32 * -0.4) as f64).powi(2);
+        assert_eq!(sq, want);
+    }
+
+    #[test]
+    fn scales_are_checked() {
+        let bad = ResidualConfig { scale: vec![0.1, 0.2], ..ResidualConfig::default() };
+        assert!(matches!(
+            Residual::new(&bad, 3),
+            Err(HybridError::ScaleLength { entries: 2, action_dim: 3 })
+        ));
+        let nan = ResidualConfig { scale: vec![f64::NAN], ..ResidualConfig::default() };
+        assert!(matches!(Residual::new(&nan, 3), Err(HybridError::BadScale { .. })));
+        let per_entry = ResidualConfig { scale: vec![0.1, 0.2, 0.3], ..ResidualConfig::default() };
+        assert_eq!(Residual::new(&per_entry, 3).unwrap().action_dim(), 3);
+    }
+
+    #[test]
+    fn the_observation_appends_phase_command_and_reference() {
+        let r = Residual::new(&ResidualConfig::new(0.3, Command::forward(0.5, Gait::Trot)), 2).unwrap();
+        let mut out = vec![0.0f32; r.obs_dim(3)];
+        r.observation(&[1.0, 2.0, 3.0], 0.25, &Command::forward(0.5, Gait::Trot), &[0.7, -0.7], &mut out);
+        // φ = 1/4: (sin π/2, cos π/2) = (1, 0).
+        assert_eq!(out.len(), 3 + 5 + 2);
+        assert_eq!(&out[..3], &[1.0, 2.0, 3.0]);
+        assert!((out[3] - 1.0).abs() < 1e-7 && out[4].abs() < 1e-7);
+        assert_eq!(&out[5..8], &[0.5, 0.0, 0.0]);
+        assert_eq!(&out[8..], &[0.7, -0.7]);
+    }
+}
