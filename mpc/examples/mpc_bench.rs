@@ -1,13 +1,25 @@
-//! Times the convex MPC (horizon 10, 4 feet, exact cones, 1e-8), the whole-body QP (Solo12
-//! trot stance, dense and Clarabel backends) and a full controller tick; prints median and
-//! p99 in microseconds as JSON, including a 1 kHz loop with the MPC inline and on the
-//! controller's worker thread (`MpcExecution::Background`).
+//! Times the convex MPC's two solvers side by side on the same problems, and the rest of a
+//! controller tick.
+//!
+//! The problems are recorded from the controllers themselves: Solo12 and the Minitaur
+//! trotting at 0.3 m/s, Walker2d walking (planar MPC), each ticked over two gait cycles
+//! from the nominal state and from eight perturbed ones (base tilt ±0.1 rad, height
+//! ±1.5 cm, velocities ±0.2 m/s and ±0.3 rad/s, seeded), every MPC problem kept. Each
+//! problem is then solved by the structured solver (the default) and by Clarabel in turn,
+//! the sequence repeated, and the median and p99 of the solve times reported per robot.
+//!
+//! `--json` prints exactly `{"solo12_trot": {...}, "minitaur_trot": {...},
+//! "walker2d_walk": {...}}`, each with `default_median_us`, `default_p99_us`,
+//! `clarabel_median_us`, `clarabel_p99_us` (and the ratio, iteration counts and number of
+//! problems). Without it, a table, plus the whole-body QP, full ticks and a 1 kHz loop.
 
 use std::time::Instant;
 
-use centaur_dynamics::{BaseKind, Model};
+use centaur_dynamics::nalgebra::{UnitQuaternion, Vector3};
+use centaur_dynamics::{BaseKind, Model, RobotState};
 use centaur_mpc::{
-    Command, ControllerConfig, FrictionModel, Gait, LocomotionController, MpcExecution, QpBackend,
+    Command, ControllerConfig, ConvexMpc, FrictionModel, Gait, GaitPattern, LocomotionController, MpcExecution,
+    MpcInput, MpcSolver, QpBackend,
 };
 
 fn stats(mut v: Vec<f64>) -> (f64, f64) {
@@ -16,14 +28,113 @@ fn stats(mut v: Vec<f64>) -> (f64, f64) {
     (p(0.5), p(0.99))
 }
 
-/// Ticks a trotting Solo12 and collects the per-tick MPC and WBC solve times and tick times.
-/// With `paced`, ticks start 1 ms apart in wall time (a 1 kHz loop, as on a robot); else
-/// back to back.
-fn run(model: &Model, cfg: ControllerConfig, n: usize, paced: bool) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+fn load(name: &str) -> (Model, ControllerConfig) {
+    let (path, base) = match name {
+        "solo12" => ("solo12/solo12.urdf", BaseKind::Floating),
+        "minitaur" => ("minitaur/minitaur.urdf", BaseKind::Floating),
+        "walker2d" => ("mujoco/walker2d.urdf", BaseKind::Fixed),
+        _ => unreachable!("a robot of this bench"),
+    };
+    let full = format!("{}/../assets/{path}", env!("CARGO_MANIFEST_DIR"));
+    let model = Model::from_urdf_file(&full, base).expect("URDF loads");
+    (model, ControllerConfig::preset(name).expect("preset"))
+}
+
+/// A deterministic perturbation of the nominal state.
+fn perturbed(c: &LocomotionController, seed: u64) -> RobotState {
+    let mut s = c.nominal_state();
+    if seed == 0 {
+        return s;
+    }
+    let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    let mut u = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x % 20_001) as f64 / 10_000.0 - 1.0
+    };
+    let r = c.robot();
+    match r.planar_q {
+        None => {
+            let pos = s.base_position() + Vector3::new(0.0, 0.0, 0.015 * u());
+            s.set_base_pose(pos, UnitQuaternion::from_euler_angles(0.1 * u(), 0.1 * u(), 0.0));
+            let v = Vector3::new(0.2 * u(), 0.2 * u(), 0.2 * u());
+            s.set_base_twist_world(v, Vector3::new(0.3 * u(), 0.3 * u(), 0.3 * u()));
+        }
+        Some([_, iz, ip]) => {
+            s.q[iz] += 0.015 * u();
+            s.q[ip] += 0.1 * u();
+            s.v[r.base_v[0]] = 0.2 * u();
+            s.v[r.base_v[1]] = 0.2 * u();
+            s.v[r.base_v[2]] = 0.3 * u();
+        }
+    }
+    s
+}
+
+/// The MPC problems the controller poses over two gait cycles from nine states, and a
+/// solver for them (the controller's own MPC, the inputs replaced per solve).
+fn record(name: &str, gait: Gait) -> (Vec<MpcInput>, ConvexMpc) {
+    let (model, cfg) = load(name);
+    let period = GaitPattern::new(cfg.gait_for(gait), cfg.robot.n_legs).map_or(0.5, |g| g.period);
+    let mut problems = Vec::new();
+    let mut solver = None;
+    for seed in 0..9 {
+        let mut c = LocomotionController::new(&model, cfg.clone()).expect("config");
+        let state = perturbed(&c, seed);
+        let cmd = Command::forward(0.3, gait);
+        let mut t = 0.0;
+        while t < 2.0 * period * cfg.gait_period_scale {
+            c.tick(&state, &cmd, t);
+            if c.status().mpc_ran {
+                let mpc = c.mpc().expect("inline MPC");
+                problems.push(mpc.input.clone());
+                solver.get_or_insert_with(|| mpc.twin(|_| {}).expect("twin"));
+            }
+            t += 0.01;
+        }
+    }
+    (problems, solver.expect("at least one MPC solve"))
+}
+
+/// Per-solve times (µs) and iterations of both solvers over `reps` passes of `problems`,
+/// the solvers alternating problem by problem.
+struct Timed {
+    default_us: Vec<f64>,
+    clarabel_us: Vec<f64>,
+    default_iter: Vec<f64>,
+    clarabel_iter: Vec<f64>,
+}
+
+fn time_solvers(problems: &[MpcInput], template: &ConvexMpc, reps: usize) -> Timed {
+    let mut structured = template.twin(|c| c.solver = MpcSolver::Structured).expect("structured");
+    let mut clarabel = template.twin(|c| c.solver = MpcSolver::Clarabel).expect("Clarabel");
+    let mut out = Timed { default_us: vec![], clarabel_us: vec![], default_iter: vec![], clarabel_iter: vec![] };
+    for _ in 0..reps {
+        for p in problems {
+            for (mpc, us, it) in [
+                (&mut structured, &mut out.default_us, &mut out.default_iter),
+                (&mut clarabel, &mut out.clarabel_us, &mut out.clarabel_iter),
+            ] {
+                mpc.input.clone_from(p);
+                let t0 = Instant::now();
+                let status = mpc.solve();
+                us.push(t0.elapsed().as_secs_f64() * 1e6);
+                it.push(mpc.iterations() as f64);
+                assert!(status.is_ok(), "{:?}: {status:?}", mpc.config().solver);
+            }
+        }
+    }
+    out
+}
+
+/// Ticks a trotting Solo12 and collects the per-tick WBC solve times and tick times. With
+/// `paced`, ticks start 1 ms apart in wall time (a 1 kHz loop); else back to back.
+fn run_ticks(model: &Model, cfg: ControllerConfig, n: usize, paced: bool) -> (Vec<f64>, Vec<f64>) {
     let mut c = LocomotionController::new(model, cfg).expect("config");
     let s = c.nominal_state();
     let cmd = Command::forward(0.3, Gait::Trot);
-    let (mut mpc, mut wbc, mut tick) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut wbc, mut tick) = (Vec::new(), Vec::new());
     let start = Instant::now();
     for k in 0..n {
         let t = k as f64 * 0.001;
@@ -38,52 +149,78 @@ fn run(model: &Model, cfg: ControllerConfig, n: usize, paced: bool) -> (Vec<f64>
         let st = c.status();
         if k > 50 {
             tick.push(dt);
-            if st.mpc_ran {
-                mpc.push(st.mpc_solve_us);
-            }
-            // Trot stance: two feet down.
             if st.contact.iter().filter(|c| **c).count() == 2 {
                 wbc.push(st.wbc_solve_us);
             }
         }
     }
-    (mpc, wbc, tick)
+    (wbc, tick)
 }
 
 fn main() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/solo12/solo12.urdf");
-    let model = Model::from_urdf_file(path, BaseKind::Floating).expect("solo12");
+    let json = std::env::args().any(|a| a == "--json");
+    let reps = if json { 3 } else { 5 };
+    let mut entries = Vec::new();
+    for (key, robot, gait) in
+        [("solo12_trot", "solo12", Gait::Trot), ("minitaur_trot", "minitaur", Gait::Trot), ("walker2d_walk", "walker2d", Gait::Walk)]
+    {
+        let (problems, template) = record(robot, gait);
+        let t = time_solvers(&problems, &template, reps);
+        let (dm, dp) = stats(t.default_us);
+        let (cm, cp) = stats(t.clarabel_us);
+        let (di, _) = stats(t.default_iter);
+        let (ci, _) = stats(t.clarabel_iter);
+        entries.push((key, problems.len(), dm, dp, cm, cp, di, ci));
+    }
+    if json {
+        let body: Vec<String> = entries
+            .iter()
+            .map(|(key, n, dm, dp, cm, cp, di, ci)| {
+                format!(
+                    "\"{key}\": {{\"default_median_us\": {dm:.1}, \"default_p99_us\": {dp:.1}, \
+                     \"clarabel_median_us\": {cm:.1}, \"clarabel_p99_us\": {cp:.1}, \
+                     \"median_ratio\": {:.2}, \"default_iterations_median\": {di}, \
+                     \"clarabel_iterations_median\": {ci}, \"problems\": {n}}}",
+                    cm / dm
+                )
+            })
+            .collect();
+        println!("{{{}}}", body.join(", "));
+        return;
+    }
+    println!("MPC solve (µs), the same problems, {reps} passes, solvers alternating:");
+    println!("| problem | problems | structured median / p99 | Clarabel median / p99 | Clarabel / structured (median) | iterations (median) |");
+    println!("|---|---|---|---|---|---|");
+    for (key, n, dm, dp, cm, cp, di, ci) in &entries {
+        println!("| {key} | {n} | {dm:.0} / {dp:.0} | {cm:.0} / {cp:.0} | {:.1}× | {di} / {ci} |", cm / dm);
+    }
+    // The rest of a tick on Solo12: the whole-body QP and full ticks, and a 1 kHz loop.
+    let (model, _) = load("solo12");
     let n = 3000;
-    let (mpc, wbc_dense, tick) = run(&model, ControllerConfig::solo12(), n, false);
+    let (wbc_dense, tick) = run_ticks(&model, ControllerConfig::solo12(), n, false);
     let mut cfg = ControllerConfig::solo12();
     cfg.wbc.backend = QpBackend::Clarabel;
-    let (_, wbc_clarabel_pyr, tick_clarabel) = run(&model, cfg.clone(), n, false);
+    let (wbc_clarabel_pyr, tick_clarabel) = run_ticks(&model, cfg.clone(), n, false);
     cfg.wbc.friction = FrictionModel::Cone;
-    let (_, wbc_clarabel_cone, _) = run(&model, cfg, n, false);
-    // MPC every tick, to time the MPC alone with more samples.
+    let (wbc_clarabel_cone, _) = run_ticks(&model, cfg, n, false);
+    let (_, tick_paced) = run_ticks(&model, ControllerConfig::solo12(), n, true);
     let mut cfg = ControllerConfig::solo12();
-    cfg.mpc_period = 0.0;
-    let (mpc_all, _, _) = run(&model, cfg, 1500, false);
-    // A 1 kHz loop, MPC inline (ticks that solve take the solve's time) and on the
-    // controller's worker thread (no tick waits for a solve).
-    let (_, _, tick_paced) = run(&model, ControllerConfig::solo12(), n, true);
+    cfg.mpc.solver = MpcSolver::Clarabel;
+    let (_, tick_paced_clarabel) = run_ticks(&model, cfg, n, true);
     let cfg = ControllerConfig { mpc_execution: MpcExecution::Background, ..ControllerConfig::solo12() };
-    let (mpc_background, _, tick_background) = run(&model, cfg, n, true);
-    let mut out = Vec::new();
+    let (_, tick_background) = run_ticks(&model, cfg, n, true);
+    println!("\nSolo12 trotting, µs (median / p99):");
     for (name, v) in [
-        ("mpc_solve_us", mpc_all),
-        ("mpc_solve_us_every_20ms", mpc),
-        ("wbc_dense_us", wbc_dense),
-        ("wbc_clarabel_pyramid_us", wbc_clarabel_pyr),
-        ("wbc_clarabel_cone_us", wbc_clarabel_cone),
-        ("tick_dense_us", tick),
-        ("tick_clarabel_wbc_us", tick_clarabel),
-        ("tick_1khz_inline_mpc_us", tick_paced),
-        ("tick_1khz_background_mpc_us", tick_background),
-        ("mpc_solve_background_us", mpc_background),
+        ("whole-body QP, dense", wbc_dense),
+        ("whole-body QP, Clarabel, pyramid", wbc_clarabel_pyr),
+        ("whole-body QP, Clarabel, cone", wbc_clarabel_cone),
+        ("tick, back to back (MPC every 20 ms)", tick),
+        ("tick, Clarabel WBC", tick_clarabel),
+        ("1 kHz loop, MPC inline (structured)", tick_paced),
+        ("1 kHz loop, MPC inline (Clarabel)", tick_paced_clarabel),
+        ("1 kHz loop, MPC on the worker thread", tick_background),
     ] {
         let (m, p) = stats(v);
-        out.push(format!("\"{name}\": {{\"median\": {m:.1}, \"p99\": {p:.1}}}"));
+        println!("  {name}: {m:.1} / {p:.1}");
     }
-    println!("{{{}}}", out.join(", "));
 }

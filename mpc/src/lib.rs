@@ -107,7 +107,7 @@ mod wbc;
 
 pub use config::{Command, ControlMode, ControllerConfig, MpcExecution};
 pub use controller::{ControllerStatus, Fallback, JointCommand, LANDING_HEIGHT, LocomotionController};
-pub use convex_mpc::{ConvexMpc, HardConstraints, MpcConfig, MpcInput, NX, state_index};
+pub use convex_mpc::{ConvexMpc, HardConstraints, MpcConfig, MpcInput, MpcSolver, NX, state_index};
 pub use error::ConfigError;
 pub use friction::FrictionModel;
 pub use gait::{Gait, GaitPattern, GaitScheduler, MAX_LEGS};

@@ -4,53 +4,11 @@
 
 mod common;
 
-use centaur_dynamics::nalgebra::{UnitQuaternion, Vector3};
-use centaur_dynamics::{Model, RobotState};
+use common::{Perturbation, perturbed};
+
+use centaur_dynamics::Model;
 use centaur_mpc::{Command, ControllerConfig, Gait, LocomotionController, QpStatus};
 use proptest::prelude::*;
-
-/// A perturbation of the nominal state.
-#[derive(Clone, Debug)]
-struct Perturbation {
-    roll: f64,
-    pitch: f64,
-    dz: f64,
-    v: [f64; 3],
-    w: [f64; 3],
-    joint_offset: f64,
-    joint_seed: u64,
-}
-
-fn perturbed(c: &LocomotionController, p: &Perturbation) -> RobotState {
-    let mut s = c.nominal_state();
-    let r = c.robot();
-    match r.planar_q {
-        None => {
-            let pos = s.base_position() + Vector3::new(0.0, 0.0, p.dz);
-            let rot = UnitQuaternion::from_euler_angles(p.roll, p.pitch, 0.0);
-            s.set_base_pose(pos, rot);
-            s.set_base_twist_world(Vector3::from(p.v), Vector3::from(p.w));
-        }
-        Some([ix, iz, ip]) => {
-            s.q[iz] += p.dz;
-            s.q[ip] += p.pitch;
-            s.v[r.base_v[0]] = p.v[0];
-            s.v[r.base_v[1]] = p.v[2];
-            s.v[r.base_v[2]] = p.w[1];
-            let _ = ix;
-        }
-    }
-    // Deterministic pseudo-random joint offsets in ±joint_offset.
-    let mut x = p.joint_seed | 1;
-    for &iq in &r.joint_q {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        let u = (x % 10_000) as f64 / 10_000.0 * 2.0 - 1.0;
-        s.q[iq] += u * p.joint_offset;
-    }
-    s
-}
 
 /// Runs one gait cycle (plus a bit) and checks every QP status.
 fn check_cycle(name: &str, model: &Model, cfg: &ControllerConfig, gait: Gait, p: &Perturbation) {

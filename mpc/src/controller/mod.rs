@@ -36,6 +36,7 @@ use targets::{LocomotionTargets, TickContext};
 use torques::Torques;
 
 use crate::config::{Command, ControllerConfig};
+use crate::convex_mpc::ConvexMpc;
 use crate::error::ConfigError;
 use crate::gait::{Gait, GaitScheduler};
 use crate::robot::LeggedRobot;
@@ -119,6 +120,13 @@ impl LocomotionController {
     /// it (model `v` layout).
     pub fn planned_accelerations(&self) -> &DVector<f64> {
         &self.torques.wbc.output.qdd
+    }
+
+    /// The convex MPC with its last problem ([`ConvexMpc::input`]) and solution, when it
+    /// runs inside `tick` ([`crate::MpcExecution::Inline`]); `None` when it runs on the
+    /// worker thread.
+    pub fn mpc(&self) -> Option<&ConvexMpc> {
+        self.planner.mpc()
     }
 
     /// The last command.

@@ -56,6 +56,14 @@ impl Planner {
         })
     }
 
+    /// The MPC when it is solved in the tick.
+    pub(crate) fn mpc(&self) -> Option<&ConvexMpc> {
+        match &self.mpc {
+            MpcRunner::Inline { mpc, .. } => Some(mpc),
+            MpcRunner::Background(_) => None,
+        }
+    }
+
     /// Drops the plan (an episode reset), and any plan the worker solves for the old state.
     pub(crate) fn reset(&mut self) {
         self.plan_valid = false;

@@ -1,8 +1,9 @@
 //! Shared helpers: loading the robots of `assets/`.
 #![allow(dead_code)]
 
-use centaur_dynamics::{BaseKind, Model};
-use centaur_mpc::{ControllerConfig, HardConstraints};
+use centaur_dynamics::nalgebra::{UnitQuaternion, Vector3};
+use centaur_dynamics::{BaseKind, Model, RobotState};
+use centaur_mpc::{ControllerConfig, HardConstraints, LocomotionController};
 
 /// The five robots: name, URDF path relative to the workspace, base kind.
 pub const ROBOTS: [(&str, &str, BaseKind); 5] = [
@@ -31,4 +32,47 @@ pub fn low_friction_solo12() -> (Model, ControllerConfig) {
     cfg.mpc.hard = HardConstraints { max_height_drop: None, terminal_velocity_band: Some(0.05) };
     cfg.max_acceleration = 100.0;
     (model, cfg)
+}
+
+/// A perturbation of the nominal state.
+#[derive(Clone, Debug)]
+pub struct Perturbation {
+    pub roll: f64,
+    pub pitch: f64,
+    pub dz: f64,
+    pub v: [f64; 3],
+    pub w: [f64; 3],
+    pub joint_offset: f64,
+    pub joint_seed: u64,
+}
+
+pub fn perturbed(c: &LocomotionController, p: &Perturbation) -> RobotState {
+    let mut s = c.nominal_state();
+    let r = c.robot();
+    match r.planar_q {
+        None => {
+            let pos = s.base_position() + Vector3::new(0.0, 0.0, p.dz);
+            let rot = UnitQuaternion::from_euler_angles(p.roll, p.pitch, 0.0);
+            s.set_base_pose(pos, rot);
+            s.set_base_twist_world(Vector3::from(p.v), Vector3::from(p.w));
+        }
+        Some([ix, iz, ip]) => {
+            s.q[iz] += p.dz;
+            s.q[ip] += p.pitch;
+            s.v[r.base_v[0]] = p.v[0];
+            s.v[r.base_v[1]] = p.v[2];
+            s.v[r.base_v[2]] = p.w[1];
+            let _ = ix;
+        }
+    }
+    // Deterministic pseudo-random joint offsets in ±joint_offset.
+    let mut x = p.joint_seed | 1;
+    for &iq in &r.joint_q {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        let u = (x % 10_000) as f64 / 10_000.0 * 2.0 - 1.0;
+        s.q[iq] += u * p.joint_offset;
+    }
+    s
 }

@@ -15,34 +15,49 @@
 //! so `A_d = I + A_c Δt + A_c² Δt²/2` and `B_d = (I Δt + A_c Δt²/2) B_c`. The horizon uses
 //! the reference yaw `ψ_k` and reference CoM `p_k` of each step.
 //!
-//! **Sparse formulation** (both states and forces are decision variables,
-//! `z = [x₁ … x_N, u₀ … u_{N−1}]`):
+//! **The problem** (`N` steps; `Q`, `R` diagonal):
 //!
 //! ```text
 //! minimise   Σₖ (xₖ − x_ref,ₖ)ᵀ Q (xₖ − x_ref,ₖ) + uₖᵀ R uₖ
-//! subject to x₁ = A₀ x₀ + B₀ u₀,   x_{k+1} = A_k x_k + B_k u_k     (Clarabel ZeroCone)
-//!            f_z,ik ≤ f_max                                           (NonnegativeCone)
-//!            ‖(f_x, f_y)‖ ≤ μ f_z   (SecondOrderConeT(3); or a pyramid, NonnegativeCone)
+//! subject to x₁ = A₀ x₀ + B₀ u₀,   x_{k+1} = A_k x_k + B_k u_k
+//!            f_z,ik ≤ f_max
+//!            ‖(f_x, f_y)‖ ≤ μ f_z   (the exact cone; or a four-sided pyramid)
 //!            optional hard bounds: z_k ≥ z₀ − Δz_max, |ṗ_xy,N − ṗ_ref,N| ≤ band
 //! ```
 //!
-//! A foot predicted in swing at step `k` keeps its variables and cone (fixed sparsity), but
-//! its columns of `B_k` are zero, so it cannot act on the body and the `R` term drives its
-//! force to zero; reported forces of swing feet are exactly zero.
+//! A foot predicted in swing at step `k` cannot act on the body (zero columns of `B_k`);
+//! reported forces of swing feet are exactly zero.
 //!
-//! The problem is built once ([`ConvexMpc::new`]) with every entry that may ever be
-//! non-zero stored explicitly (Clarabel keeps explicit zeros from triplets), and each solve
-//! rewrites the values of `A`, `q` and `b` in place (`update_A/q/b`, presolve off).
+//! **Two solvers** ([`MpcSolver`]) give the same answer:
+//!
+//! * [`MpcSolver::Structured`] (the default, `ipm.rs`, `riccati.rs`, `cones.rs`): our
+//!   primal–dual interior point for this second-order-cone program — homogeneous
+//!   embedding, Mehrotra predictor–corrector, Nesterov–Todd scaling of the exact cones —
+//!   whose Newton systems are solved stage by stage by a Riccati recursion on 12 states
+//!   and 3 forces per foot in stance, allocation-free.
+//! * [`MpcSolver::Clarabel`] (`clarabel.rs`): the sparse formulation, states and forces
+//!   of every foot as variables, handed to Clarabel's generic interior point (its KKT
+//!   system factored by sparse LDL): the reference the structured solver is tested
+//!   against.
 //!
 //! **Planar variant** ([`MpcConfig::planar`], used for Walker2d): the same problem with the
 //! feet projected to the sagittal plane through the CoM, the lateral force columns of `B`
 //! removed and the inertia reduced to its diagonal, so lateral, roll and yaw motion are
 //! neither produced nor required.
 
+mod clarabel;
+mod cones;
+mod ipm;
+mod riccati;
+
+use std::time::Instant;
+
 use centaur_dynamics::spatial::skew;
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SupportedConeT};
 use nalgebra::{Matrix3, Vector3};
+
+use self::clarabel::ClarabelMpc;
+pub(crate) use self::clarabel::triplet_positions;
+use self::ipm::StructuredMpc;
 
 use crate::error::ConfigError;
 use crate::friction::FrictionModel;
@@ -79,6 +94,17 @@ pub struct HardConstraints {
     pub terminal_velocity_band: Option<f64>,
 }
 
+/// The solver of the convex MPC (both solve the same problem to the same tolerance).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum MpcSolver {
+    /// Our interior point with a Riccati recursion as its linear solve (the default): no
+    /// allocation per solve, about an order of magnitude faster than Clarabel here.
+    #[default]
+    Structured,
+    /// Clarabel on the sparse formulation (the reference).
+    Clarabel,
+}
+
 /// Convex-MPC settings. [`Default`] is the trot of the MIT Cheetah 3 paper adapted to
 /// small robots.
 #[derive(Clone, Debug, PartialEq)]
@@ -103,10 +129,12 @@ pub struct MpcConfig {
     pub planar: bool,
     /// Hard constraints (default: none).
     pub hard: HardConstraints,
-    /// Clarabel's gap and feasibility tolerances (default: 1e-8).
+    /// The solver's gap and feasibility tolerances (default: 1e-8).
     pub tolerance: f64,
-    /// Clarabel's iteration limit (default: 50).
+    /// The solver's iteration limit (default: 50).
     pub max_iter: u32,
+    /// The solver (default: [`MpcSolver::Structured`]).
+    pub solver: MpcSolver,
 }
 
 impl Default for MpcConfig {
@@ -123,6 +151,7 @@ impl Default for MpcConfig {
             hard: HardConstraints::default(),
             tolerance: 1e-8,
             max_iter: 50,
+            solver: MpcSolver::Structured,
         }
     }
 }
@@ -211,33 +240,99 @@ pub struct MpcInput {
     pub foot: Vec<Vec<Vector3<f64>>>,
 }
 
-/// The convex MPC: a Clarabel solver built once and updated in place.
+/// The single rigid body the MPC plans for.
+#[derive(Clone, Debug)]
+pub(crate) struct SrbModel {
+    pub cfg: MpcConfig,
+    pub nc: usize,
+    pub mass: f64,
+    /// Body-frame inertia about the CoM (its diagonal only for the planar variant).
+    pub inertia_body: Matrix3<f64>,
+}
+
+/// Where step `k` is linearised: `R_zᵀ` of its yaw, the world inverse inertia there, and
+/// the CoM (the current state for `k = 0`, the reference `x_ref,k` after).
+pub(crate) struct StepFrame {
+    pub rzt: Matrix3<f64>,
+    iw_inv: Matrix3<f64>,
+    pref: Vector3<f64>,
+}
+
+impl SrbModel {
+    pub(crate) fn step_frame(&self, input: &MpcInput, k: usize) -> StepFrame {
+        let x = if k == 0 { &input.x0 } else { &input.x_ref[k - 1] };
+        let (psi, pref) = (x[2], Vector3::new(x[3], x[4], x[5]));
+        let (c, s) = (psi.cos(), psi.sin());
+        let rzt = Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0);
+        let rz = rzt.transpose();
+        let iw_inv = (rz * self.inertia_body * rzt).try_inverse().unwrap_or_else(Matrix3::zeros);
+        StepFrame { rzt, iw_inv, pref }
+    }
+
+    /// The columns of `B_d` for foot `i` at step `k`, one per force axis, each over
+    /// `[Θ, p, ω, ṗ]`: `R_zᵀ I_w⁻¹ [r]× Δt²/2`, `Δt²/(2m)`, `I_w⁻¹ [r]× Δt`, `Δt/m`; `None`
+    /// for a foot in swing; the lateral column is zero for the planar variant.
+    pub(crate) fn force_response(
+        &self,
+        input: &MpcInput,
+        frame: &StepFrame,
+        k: usize,
+        i: usize,
+    ) -> Option<[[f64; 12]; 3]> {
+        if !input.contact[k][i] {
+            return None;
+        }
+        let dt = self.cfg.dt;
+        let mut r = input.foot[k][i] - frame.pref;
+        if self.cfg.planar {
+            r.y = 0.0;
+        }
+        let w = frame.iw_inv * skew(&r); // ω̇ per unit force
+        let lin = dt / self.mass;
+        let th = frame.rzt * w * (0.5 * dt * dt);
+        let mut cols = [[0.0; 12]; 3];
+        for (cc, col) in cols.iter_mut().enumerate() {
+            if self.cfg.planar && cc == 1 {
+                continue;
+            }
+            for r in 0..3 {
+                col[r] = th[(r, cc)];
+                col[6 + r] = w[(r, cc)] * dt;
+            }
+            col[3 + cc] = 0.5 * dt * lin;
+            col[9 + cc] = lin;
+        }
+        Some(cols)
+    }
+}
+
+/// The solver behind a [`ConvexMpc`].
+#[allow(clippy::large_enum_variant)] // one per controller, never moved in a hot path
+enum Backend {
+    Structured(StructuredMpc),
+    Clarabel(ClarabelMpc),
+}
+
+/// The convex MPC: the problem built once, updated in place and solved by the
+/// [`MpcSolver`] of its config.
 pub struct ConvexMpc {
-    cfg: MpcConfig,
-    nc: usize,
-    mass: f64,
-    inertia_body: Matrix3<f64>,
+    model: SrbModel,
     /// Inputs of the next solve.
     pub input: MpcInput,
-    solver: DefaultSolver<f64>,
-    // A in CSC with a fixed pattern: values in triplet order and their nzval positions.
-    a_pos: Vec<usize>,
-    a_nz: Vec<f64>,
-    q: Vec<f64>,
-    b: Vec<f64>,
-    n_var: usize,
+    backend: Backend,
     status: QpStatus,
     forces: Vec<Vector3<f64>>,
     states: Vec<[f64; NX]>,
     iterations: u32,
     solve_time: f64,
+    objective: f64,
 }
 
 impl std::fmt::Debug for ConvexMpc {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("ConvexMpc")
-            .field("cfg", &self.cfg)
-            .field("nc", &self.nc)
+            .field("cfg", &self.model.cfg)
+            .field("nc", &self.model.nc)
             .field("status", &self.status)
             .finish()
     }
@@ -256,334 +351,115 @@ impl ConvexMpc {
         if nc == 0 || nc > MAX_CONTACTS {
             return Err(ConfigError::OutOfRange { field: "contacts", value: nc as f64, range: "1..=8" });
         }
+        if !(mass.is_finite() && mass > 0.0) {
+            return Err(ConfigError::OutOfRange { field: "mass", value: mass, range: "> 0" });
+        }
         let n = cfg.horizon;
         let mut inertia = inertia_body;
         if cfg.planar {
             inertia = Matrix3::from_diagonal(&inertia.diagonal());
         }
-        let input = MpcInput {
+        let mut input = MpcInput {
             x0: [0.0; NX],
             x_ref: vec![[0.0; NX]; n],
             contact: vec![vec![true; nc]; n],
             foot: vec![vec![Vector3::zeros(); nc]; n],
         };
-        let n_var = n * NX + n * 3 * nc;
-        let rows_dyn = n * NX;
-        let rows_fmax = n * nc;
-        let rows_hard =
-            cfg.hard.max_height_drop.map_or(0, |_| n) + cfg.hard.terminal_velocity_band.map_or(0, |_| 4);
-        let rows_pyr = if cfg.friction.is_pyramid() { 4 * n * nc } else { 0 };
-        let rows_soc = if cfg.friction.is_pyramid() { 0 } else { 3 * n * nc };
-        let m = rows_dyn + rows_fmax + rows_hard + rows_pyr + rows_soc;
-        let mut mpc = ConvexMpc {
-            cfg: cfg.clone(),
-            nc,
-            mass,
-            inertia_body: inertia,
+        // Nominal data: every foot in contact (the sparse pattern is then complete).
+        input.x0[state_index::GRAVITY] = -9.81;
+        let model = SrbModel { cfg: cfg.clone(), nc, mass, inertia_body: inertia };
+        let backend = match cfg.solver {
+            MpcSolver::Structured => Backend::Structured(StructuredMpc::new(&model)),
+            MpcSolver::Clarabel => Backend::Clarabel(ClarabelMpc::new(&model, &input)?),
+        };
+        Ok(ConvexMpc {
+            model,
             input,
-            // Placeholder, replaced below once the data exist.
-            solver: tiny_solver(),
-            a_pos: Vec::new(),
-            a_nz: Vec::new(),
-            q: vec![0.0; n_var],
-            b: vec![0.0; m],
-            n_var,
+            backend,
             status: QpStatus::NotRun,
             forces: vec![Vector3::zeros(); n * nc],
             states: vec![[0.0; NX]; n],
             iterations: 0,
             solve_time: 0.0,
-        };
-        // Nominal data so that the pattern is complete: every foot in contact.
-        mpc.input.x0[state_index::GRAVITY] = -9.81;
-        let (mut ri, mut ci, mut vi) = (Vec::new(), Vec::new(), Vec::new());
-        mpc.emit_a(&mut |r, c, v| {
-            ri.push(r);
-            ci.push(c);
-            vi.push(v);
-        });
-        let nnz = vi.len();
-        let a = csc_from_triplets(m, n_var, &ri, &ci, &vi);
-        mpc.a_pos = triplet_positions(&a, &ri, &ci);
-        mpc.a_nz = a.nzval.clone();
-        debug_assert_eq!(mpc.a_pos.len(), nnz);
-        // P: diagonal (Q for states, R for forces).
-        let mut pd = vec![0.0; n_var];
-        for k in 0..n {
-            for s in 0..12 {
-                pd[k * NX + s] = 2.0 * cfg.state_weights[s];
-            }
+            objective: f64::NAN,
+        })
+    }
+
+    /// The same problem (model and current input) under a changed configuration — another
+    /// solver, tolerance or iteration limit — for cross-checks, e.g. solving a controller's
+    /// last problem ([`crate::LocomotionController::mpc`]) with Clarabel:
+    /// `mpc.twin(|c| c.solver = MpcSolver::Clarabel)`. Changes of the horizon or of the
+    /// planar flag are refused (the input would not fit).
+    pub fn twin(&self, change: impl FnOnce(&mut MpcConfig)) -> Result<Self, ConfigError> {
+        let mut cfg = self.model.cfg.clone();
+        change(&mut cfg);
+        if cfg.horizon != self.model.cfg.horizon || cfg.planar != self.model.cfg.planar {
+            return Err(ConfigError::OutOfRange {
+                field: "mpc.horizon",
+                value: cfg.horizon as f64,
+                range: "the twin's horizon and planar flag",
+            });
         }
-        for v in pd.iter_mut().skip(n * NX) {
-            *v = 2.0 * cfg.force_weight;
-        }
-        let idx: Vec<usize> = (0..n_var).collect();
-        let p = csc_from_triplets(n_var, n_var, &idx, &idx, &pd);
-        mpc.fill_qb();
-        let mut cones = vec![SupportedConeT::ZeroConeT(rows_dyn)];
-        cones.push(SupportedConeT::NonnegativeConeT(rows_fmax + rows_hard + rows_pyr));
-        if rows_soc > 0 {
-            for _ in 0..n * nc {
-                cones.push(SupportedConeT::SecondOrderConeT(3));
-            }
-        }
-        let settings = DefaultSettings::<f64> {
-            verbose: false,
-            presolve_enable: false,
-            max_iter: cfg.max_iter,
-            tol_gap_abs: cfg.tolerance,
-            tol_gap_rel: cfg.tolerance,
-            tol_feas: cfg.tolerance,
-            max_threads: 1,
-            ..Default::default()
-        };
-        mpc.solver = DefaultSolver::new(&p, &mpc.q, &a, &mpc.b, &cones, settings)
-            .map_err(|source| ConfigError::Solver { problem: "convex MPC", source })?;
-        Ok(mpc)
+        let mut twin = ConvexMpc::new(&cfg, self.model.nc, self.model.mass, self.model.inertia_body)?;
+        twin.input = self.input.clone();
+        Ok(twin)
     }
 
     /// The configuration.
     pub fn config(&self) -> &MpcConfig {
-        &self.cfg
+        &self.model.cfg
     }
 
     /// Number of contacts.
     pub fn n_contacts(&self) -> usize {
-        self.nc
+        self.model.nc
     }
 
     /// Body mass used by the model.
     pub fn mass(&self) -> f64 {
-        self.mass
+        self.model.mass
     }
 
-    /// Number of decision variables and constraint rows.
+    /// Number of decision variables and constraint rows of the sparse formulation (every
+    /// foot in stance; the structured solver drops the swing feet's and gravity's).
     pub fn size(&self) -> (usize, usize) {
-        (self.n_var, self.b.len())
+        let cfg = &self.model.cfg;
+        let (n, nc) = (cfg.horizon, self.model.nc);
+        let hard = cfg.hard.max_height_drop.map_or(0, |_| n) + cfg.hard.terminal_velocity_band.map_or(0, |_| 4);
+        let friction = if cfg.friction.is_pyramid() { 4 } else { 3 };
+        (n * NX + 3 * n * nc, n * NX + n * nc * (1 + friction) + hard)
     }
 
-    /// Emits every entry of the constraint matrix, in a fixed order, from `self.input`.
-    fn emit_a(&self, emit: &mut impl FnMut(usize, usize, f64)) {
-        let n = self.cfg.horizon;
-        let nc = self.nc;
-        let dt = self.cfg.dt;
-        let m = self.mass;
-        let ucol = |k: usize, i: usize| n * NX + (k * nc + i) * 3;
-        for k in 0..n {
-            let row = k * NX;
-            // +x_{k+1}
-            for s in 0..NX {
-                emit(row + s, k * NX + s, 1.0);
-            }
-            let (psi, pref) = self.linearisation_point(k);
-            let (c, s) = (psi.cos(), psi.sin());
-            // R_zᵀ
-            let rzt = Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0);
-            if k > 0 {
-                // −A_d at x_k: −I − A_c Δt − A_c² Δt²/2.
-                let col = (k - 1) * NX;
-                for s in 0..NX {
-                    emit(row + s, col + s, -1.0);
-                }
-                for r in 0..3 {
-                    for cc in 0..3 {
-                        emit(row + r, col + 6 + cc, -rzt[(r, cc)] * dt);
-                    }
-                }
-                for r in 0..3 {
-                    emit(row + 3 + r, col + 9 + r, -dt);
-                }
-                emit(row + 5, col + 12, -0.5 * dt * dt);
-                emit(row + 11, col + 12, -dt);
-            }
-            // −B_d at u_k.
-            let rz = rzt.transpose();
-            let iw_inv = (rz * self.inertia_body * rzt).try_inverse().unwrap_or_else(Matrix3::zeros);
-            for i in 0..nc {
-                let on = self.input.contact[k][i];
-                let mut r = self.input.foot[k][i] - pref;
-                if self.cfg.planar {
-                    r.y = 0.0;
-                }
-                let mut w = iw_inv * skew(&r); // ω̇ per unit force
-                let mut lin = dt / m;
-                if !on {
-                    w = Matrix3::zeros();
-                    lin = 0.0;
-                }
-                let th = rzt * w * (0.5 * dt * dt);
-                let col = ucol(k, i);
-                for cc in 0..3 {
-                    let lat = self.cfg.planar && cc == 1;
-                    let z = if lat { 0.0 } else { 1.0 };
-                    for r in 0..3 {
-                        emit(row + r, col + cc, -th[(r, cc)] * z);
-                    }
-                    emit(row + 3 + cc, col + cc, -0.5 * dt * lin * z);
-                    for r in 0..3 {
-                        emit(row + 6 + r, col + cc, -w[(r, cc)] * dt * z);
-                    }
-                    emit(row + 9 + cc, col + cc, -lin * z);
-                }
-            }
-        }
-        // f_z ≤ f_max.
-        let mut row = n * NX;
-        for k in 0..n {
-            for i in 0..nc {
-                emit(row, ucol(k, i) + 2, 1.0);
-                row += 1;
-            }
-        }
-        // Hard constraints.
-        if self.cfg.hard.max_height_drop.is_some() {
-            for k in 0..n {
-                emit(row, k * NX + state_index::POS + 2, -1.0);
-                row += 1;
-            }
-        }
-        if self.cfg.hard.terminal_velocity_band.is_some() {
-            let col = (n - 1) * NX + state_index::VEL;
-            for (d, sg) in [(0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0)] {
-                emit(row, col + d, sg);
-                row += 1;
-            }
-        }
-        // Friction.
-        let mu = self.cfg.mu;
-        if self.cfg.friction.is_pyramid() {
-            let rows = crate::friction::pyramid_rows(self.cfg.friction.pyramid_mu(mu));
-            for k in 0..n {
-                for i in 0..nc {
-                    let col = ucol(k, i);
-                    for a in &rows {
-                        for d in 0..3 {
-                            emit(row, col + d, a[d]);
-                        }
-                        row += 1;
-                    }
-                }
-            }
-        } else {
-            // s = b − A z = (μ f_z, f_x, f_y) with b = 0.
-            for k in 0..n {
-                for i in 0..nc {
-                    let col = ucol(k, i);
-                    emit(row, col + 2, -mu);
-                    emit(row + 1, col, -1.0);
-                    emit(row + 2, col + 1, -1.0);
-                    row += 3;
-                }
-            }
-        }
-    }
-
-    /// Yaw and CoM position at which step `k` is linearised (current state for `k = 0`).
-    fn linearisation_point(&self, k: usize) -> (f64, Vector3<f64>) {
-        let x = if k == 0 { &self.input.x0 } else { &self.input.x_ref[k - 1] };
-        (x[2], Vector3::new(x[3], x[4], x[5]))
-    }
-
-    /// `q = −2 Q x_ref` and `b` (initial-state row, force limits, hard bounds).
-    fn fill_qb(&mut self) {
-        let n = self.cfg.horizon;
-        let nc = self.nc;
-        for k in 0..n {
-            for s in 0..12 {
-                self.q[k * NX + s] = -2.0 * self.cfg.state_weights[s] * self.input.x_ref[k][s];
-            }
-            self.q[k * NX + 12] = 0.0;
-        }
-        for v in self.q.iter_mut().skip(n * NX) {
-            *v = 0.0;
-        }
-        // b of the first dynamics block: A₀ x₀.
-        self.b.fill(0.0);
-        let x0 = self.input.x0;
-        let dt = self.cfg.dt;
-        let psi = x0[2];
-        let (c, s) = (psi.cos(), psi.sin());
-        let rzt = Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0);
-        let w = Vector3::new(x0[6], x0[7], x0[8]);
-        let th = rzt * w * dt;
-        self.b[..NX].copy_from_slice(&x0);
-        for r in 0..3 {
-            self.b[r] += th[r];
-            self.b[3 + r] += x0[9 + r] * dt;
-        }
-        self.b[5] += 0.5 * dt * dt * x0[12];
-        self.b[11] += dt * x0[12];
-        let weight = self.mass * x0[12].abs();
-        let fmax = self.cfg.max_normal_force_ratio * weight;
-        let mut row = n * NX;
-        for _ in 0..n * nc {
-            self.b[row] = fmax;
-            row += 1;
-        }
-        if let Some(dz) = self.cfg.hard.max_height_drop {
-            for _ in 0..n {
-                self.b[row] = -(x0[5] - dz);
-                row += 1;
-            }
-        }
-        if let Some(band) = self.cfg.hard.terminal_velocity_band {
-            let v = &self.input.x_ref[n - 1];
-            let vals = [v[9] + band, -v[9] + band, v[10] + band, -v[10] + band];
-            for val in vals {
-                self.b[row] = val;
-                row += 1;
-            }
-        }
-    }
-
-    /// Updates the solver with `self.input` and solves. Returns the status; forces and
-    /// predicted states are available through [`ConvexMpc::force`] and
-    /// [`ConvexMpc::predicted_state`] when it is OK.
+    /// Solves the problem of `self.input`. Returns the status; forces and predicted states
+    /// are available through [`ConvexMpc::force`] and [`ConvexMpc::predicted_state`] when
+    /// it is OK. Non-finite inputs give [`QpStatus::NumericalError`] without a solve.
     pub fn solve(&mut self) -> QpStatus {
-        let finite = self.input.x0.iter().all(|v| v.is_finite())
-            && self.input.x_ref.iter().all(|x| x.iter().all(|v| v.is_finite()))
-            && self.input.foot.iter().all(|f| f.iter().all(|p| p.iter().all(|v| v.is_finite())));
+        let inp = &self.input;
+        let finite = inp.x0.iter().all(|v| v.is_finite())
+            && inp.x_ref.iter().all(|x| x.iter().all(|v| v.is_finite()))
+            && inp.foot.iter().all(|f| f.iter().all(|p| p.iter().all(|v| v.is_finite())));
+        self.iterations = 0;
+        self.objective = f64::NAN;
         if !finite {
             self.status = QpStatus::NumericalError;
             return self.status;
         }
-        let mut vals = std::mem::take(&mut self.a_nz);
-        let pos = std::mem::take(&mut self.a_pos);
-        let mut t = 0usize;
-        self.emit_a(&mut |_, _, v| {
-            vals[pos[t]] = v;
-            t += 1;
-        });
-        self.a_pos = pos;
-        self.fill_qb();
-        let ok = self.solver.update_A(&vals).is_ok()
-            && self.solver.update_q(&self.q).is_ok()
-            && self.solver.update_b(&self.b).is_ok();
-        self.a_nz = vals;
-        if !ok {
-            self.status = QpStatus::NumericalError;
-            return self.status;
-        }
-        self.solver.solve();
-        let sol = &self.solver.solution;
-        self.status = QpStatus::from_clarabel(sol.status);
-        self.iterations = sol.iterations;
-        self.solve_time = sol.solve_time;
-        if self.status.is_ok() {
-            let n = self.cfg.horizon;
-            let nc = self.nc;
-            for k in 0..n {
-                self.states[k].copy_from_slice(&sol.x[k * NX..(k + 1) * NX]);
-                for i in 0..nc {
-                    let c = n * NX + (k * nc + i) * 3;
-                    let mut f = Vector3::new(sol.x[c], sol.x[c + 1], sol.x[c + 2]);
-                    if !self.input.contact[k][i] {
-                        f = Vector3::zeros();
-                    }
-                    if self.cfg.planar {
-                        f.y = 0.0;
-                    }
-                    self.forces[k * nc + i] = f;
+        match &mut self.backend {
+            Backend::Structured(s) => {
+                let t0 = Instant::now();
+                self.status = s.solve(&self.model, inp, &mut self.forces, &mut self.states);
+                self.solve_time = t0.elapsed().as_secs_f64();
+                self.iterations = s.iterations();
+                self.objective = s.objective();
+            }
+            Backend::Clarabel(c) => {
+                let (status, iterations, time, objective) =
+                    c.solve(&self.model, inp, &mut self.forces, &mut self.states);
+                self.status = status;
+                self.iterations = iterations;
+                self.solve_time = time;
+                if status.is_ok() {
+                    self.objective = objective;
                 }
             }
         }
@@ -600,45 +476,27 @@ impl ConvexMpc {
         self.iterations
     }
 
-    /// Clarabel's own solve time of the last solve (s).
+    /// The solver's time in the last solve (s): Clarabel's own figure, or the structured
+    /// solver's wall time.
     pub fn solve_time(&self) -> f64 {
         self.solve_time
     }
 
+    /// Objective `Σ xᵀQx − 2 x_refᵀQx + uᵀRu` (the sparse formulation's `½zᵀPz + qᵀz`) at
+    /// the last successful solve; NaN otherwise.
+    pub fn objective(&self) -> f64 {
+        self.objective
+    }
+
     /// Force of contact `i` at step `k` of the last successful solve (world axes, N).
     pub fn force(&self, k: usize, i: usize) -> Vector3<f64> {
-        self.forces[k * self.nc + i]
+        self.forces[k * self.model.nc + i]
     }
 
     /// Predicted state `x_{k+1}` of the last successful solve.
     pub fn predicted_state(&self, k: usize) -> &[f64; NX] {
         &self.states[k]
     }
-}
-
-/// A trivially small solver used as a placeholder during construction.
-fn tiny_solver() -> DefaultSolver<f64> {
-    let p = CscMatrix::new(1, 1, vec![0, 1], vec![0], vec![1.0]);
-    let a = CscMatrix::new(1, 1, vec![0, 1], vec![0], vec![1.0]);
-    let settings = DefaultSettings::<f64> { verbose: false, presolve_enable: false, ..Default::default() };
-    DefaultSolver::new(&p, &[0.0], &a, &[1.0], &[SupportedConeT::NonnegativeConeT(1)], settings)
-        .expect("a 1×1 QP is valid")
-}
-
-/// A CSC matrix from triplets, keeping explicit zeros and summing duplicates.
-pub(crate) fn csc_from_triplets(m: usize, n: usize, r: &[usize], c: &[usize], v: &[f64]) -> CscMatrix<f64> {
-    CscMatrix::new_from_triplets(m, n, r.to_vec(), c.to_vec(), v.to_vec())
-}
-
-/// For each triplet, the index of its entry in `a.nzval`.
-pub(crate) fn triplet_positions(a: &CscMatrix<f64>, r: &[usize], c: &[usize]) -> Vec<usize> {
-    r.iter()
-        .zip(c)
-        .map(|(&row, &col)| {
-            let (s, e) = (a.colptr[col], a.colptr[col + 1]);
-            s + a.rowval[s..e].binary_search(&row).expect("entry in pattern")
-        })
-        .collect()
 }
 
 #[cfg(test)]
