@@ -2,11 +2,15 @@
 //! controller tick.
 //!
 //! The problems are recorded from the controllers themselves: Solo12 and the Minitaur
-//! trotting at 0.3 m/s, Walker2d walking (planar MPC), each ticked over two gait cycles
-//! from the nominal state and from eight perturbed ones (base tilt ±0.1 rad, height
-//! ±1.5 cm, velocities ±0.2 m/s and ±0.3 rad/s, seeded), every MPC problem kept. Each
-//! problem is then solved by the structured solver (the default) and by Clarabel in turn,
-//! the sequence repeated, and the median and p99 of the solve times reported per robot.
+//! trotting at 0.3 m/s, Walker2d walking (planar MPC), each ticked every 10 ms from the
+//! nominal state and from eight perturbed ones (base tilt ±0.1 rad, base lowered by up to
+//! 1.5 cm — raised, a frozen state would read as airborne and hold every foot in stance —
+//! velocities ±0.2 m/s and ±0.3 rad/s, seeded); the problems of two gait cycles after one
+//! cycle of start-up are kept (steady gait, as the earlier bench timed ticks after the first
+//! 50), those of the start-up — plans from standing, every foot in stance over the whole
+//! horizon — are timed apart. Each problem is then solved by the structured solver (the
+//! default) and by Clarabel in turn, the sequence repeated, and the median and p99 of the
+//! solve times reported per robot.
 //!
 //! `--json` prints exactly `{"solo12_trot": {...}, "minitaur_trot": {...},
 //! "walker2d_walk": {...}}`, each with `default_median_us`, `default_p99_us`,
@@ -18,8 +22,8 @@ use std::time::Instant;
 use centaur_dynamics::nalgebra::{UnitQuaternion, Vector3};
 use centaur_dynamics::{BaseKind, Model, RobotState};
 use centaur_mpc::{
-    Command, ControllerConfig, ConvexMpc, FrictionModel, Gait, GaitPattern, LocomotionController, MpcExecution,
-    MpcInput, MpcSolver, QpBackend,
+    Command, ControllerConfig, ConvexMpc, FrictionModel, Gait, GaitPattern, LocomotionController,
+    MpcExecution, MpcInput, MpcSolver, QpBackend,
 };
 
 fn stats(mut v: Vec<f64>) -> (f64, f64) {
@@ -56,13 +60,13 @@ fn perturbed(c: &LocomotionController, seed: u64) -> RobotState {
     let r = c.robot();
     match r.planar_q {
         None => {
-            let pos = s.base_position() + Vector3::new(0.0, 0.0, 0.015 * u());
+            let pos = s.base_position() - Vector3::new(0.0, 0.0, 0.015 * u().abs());
             s.set_base_pose(pos, UnitQuaternion::from_euler_angles(0.1 * u(), 0.1 * u(), 0.0));
             let v = Vector3::new(0.2 * u(), 0.2 * u(), 0.2 * u());
             s.set_base_twist_world(v, Vector3::new(0.3 * u(), 0.3 * u(), 0.3 * u()));
         }
         Some([_, iz, ip]) => {
-            s.q[iz] += 0.015 * u();
+            s.q[iz] -= 0.015 * u().abs();
             s.q[ip] += 0.1 * u();
             s.v[r.base_v[0]] = 0.2 * u();
             s.v[r.base_v[1]] = 0.2 * u();
@@ -72,29 +76,33 @@ fn perturbed(c: &LocomotionController, seed: u64) -> RobotState {
     s
 }
 
-/// The MPC problems the controller poses over two gait cycles from nine states, and a
-/// solver for them (the controller's own MPC, the inputs replaced per solve).
-fn record(name: &str, gait: Gait) -> (Vec<MpcInput>, ConvexMpc) {
+/// The MPC problems the controller poses from nine states: those of two gait cycles after
+/// one cycle of start-up, those of the start-up, and a solver for them (the controller's
+/// own MPC, the inputs replaced per solve).
+fn record(name: &str, gait: Gait) -> (Vec<MpcInput>, Vec<MpcInput>, ConvexMpc) {
     let (model, cfg) = load(name);
-    let period = GaitPattern::new(cfg.gait_for(gait), cfg.robot.n_legs).map_or(0.5, |g| g.period);
-    let mut problems = Vec::new();
+    let period = GaitPattern::new(cfg.gait_for(gait), cfg.robot.n_legs).map_or(0.5, |g| g.period)
+        * cfg.gait_period_scale;
+    let (mut steady, mut start) = (Vec::new(), Vec::new());
     let mut solver = None;
     for seed in 0..9 {
         let mut c = LocomotionController::new(&model, cfg.clone()).expect("config");
         let state = perturbed(&c, seed);
         let cmd = Command::forward(0.3, gait);
-        let mut t = 0.0;
-        while t < 2.0 * period * cfg.gait_period_scale {
+        let mut k = 0;
+        while (k as f64) * 0.01 < 3.0 * period {
+            let t = k as f64 * 0.01;
             c.tick(&state, &cmd, t);
             if c.status().mpc_ran {
                 let mpc = c.mpc().expect("inline MPC");
-                problems.push(mpc.input.clone());
+                let into = if t < period { &mut start } else { &mut steady };
+                into.push(mpc.input.clone());
                 solver.get_or_insert_with(|| mpc.twin(|_| {}).expect("twin"));
             }
-            t += 0.01;
+            k += 1;
         }
     }
-    (problems, solver.expect("at least one MPC solve"))
+    (steady, start, solver.expect("at least one MPC solve"))
 }
 
 /// Per-solve times (µs) and iterations of both solvers over `reps` passes of `problems`,
@@ -109,7 +117,8 @@ struct Timed {
 fn time_solvers(problems: &[MpcInput], template: &ConvexMpc, reps: usize) -> Timed {
     let mut structured = template.twin(|c| c.solver = MpcSolver::Structured).expect("structured");
     let mut clarabel = template.twin(|c| c.solver = MpcSolver::Clarabel).expect("Clarabel");
-    let mut out = Timed { default_us: vec![], clarabel_us: vec![], default_iter: vec![], clarabel_iter: vec![] };
+    let mut out =
+        Timed { default_us: vec![], clarabel_us: vec![], default_iter: vec![], clarabel_iter: vec![] };
     for _ in 0..reps {
         for p in problems {
             for (mpc, us, it) in [
@@ -160,17 +169,23 @@ fn run_ticks(model: &Model, cfg: ControllerConfig, n: usize, paced: bool) -> (Ve
 fn main() {
     let json = std::env::args().any(|a| a == "--json");
     let reps = if json { 3 } else { 5 };
-    let mut entries = Vec::new();
-    for (key, robot, gait) in
-        [("solo12_trot", "solo12", Gait::Trot), ("minitaur_trot", "minitaur", Gait::Trot), ("walker2d_walk", "walker2d", Gait::Walk)]
-    {
-        let (problems, template) = record(robot, gait);
+    let (mut entries, mut startup) = (Vec::new(), Vec::new());
+    for (key, robot, gait) in [
+        ("solo12_trot", "solo12", Gait::Trot),
+        ("minitaur_trot", "minitaur", Gait::Trot),
+        ("walker2d_walk", "walker2d", Gait::Walk),
+    ] {
+        let (problems, start, template) = record(robot, gait);
         let t = time_solvers(&problems, &template, reps);
         let (dm, dp) = stats(t.default_us);
         let (cm, cp) = stats(t.clarabel_us);
         let (di, _) = stats(t.default_iter);
         let (ci, _) = stats(t.clarabel_iter);
         entries.push((key, problems.len(), dm, dp, cm, cp, di, ci));
+        let s = time_solvers(&start, &template, reps);
+        let (sm, sp) = stats(s.default_us);
+        let (scm, scp) = stats(s.clarabel_us);
+        startup.push((key, start.len(), sm, sp, scm, scp));
     }
     if json {
         let body: Vec<String> = entries
@@ -189,10 +204,18 @@ fn main() {
         return;
     }
     println!("MPC solve (µs), the same problems, {reps} passes, solvers alternating:");
-    println!("| problem | problems | structured median / p99 | Clarabel median / p99 | Clarabel / structured (median) | iterations (median) |");
+    println!(
+        "| problem | problems | structured median / p99 | Clarabel median / p99 | Clarabel / structured (median) | iterations (median) |"
+    );
     println!("|---|---|---|---|---|---|");
     for (key, n, dm, dp, cm, cp, di, ci) in &entries {
         println!("| {key} | {n} | {dm:.0} / {dp:.0} | {cm:.0} / {cp:.0} | {:.1}× | {di} / {ci} |", cm / dm);
+    }
+    println!("\nThe start-up problems (plans from standing, first gait cycle), same solvers, µs:");
+    println!("| problem | problems | structured median / p99 | Clarabel median / p99 |");
+    println!("|---|---|---|---|");
+    for (key, n, sm, sp, cm, cp) in &startup {
+        println!("| {key} start-up | {n} | {sm:.0} / {sp:.0} | {cm:.0} / {cp:.0} |");
     }
     // The rest of a tick on Solo12: the whole-body QP and full ticks, and a 1 kHz loop.
     let (model, _) = load("solo12");

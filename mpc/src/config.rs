@@ -12,7 +12,7 @@ use crate::wbc::WbcConfig;
 pub enum MpcExecution {
     /// Inside [`crate::LocomotionController::tick`], every `mpc_period`: deterministic (the
     /// same states give the same commands bit for bit), as simulation and training need.
-    /// A tick that solves takes the solve's time (≈ 2 ms), the others the whole-body QP's.
+    /// A tick that solves takes the solve's time (≈ 0.3 ms), the others the whole-body QP's.
     #[default]
     Inline,
     /// On a worker thread the controller starts in `new` and joins when dropped. A tick

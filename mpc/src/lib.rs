@@ -13,7 +13,7 @@
 //! |---|---|---|---|
 //! | gait schedule (stand, walk, trot, pace, bound, pronk, gallop; biped walk) | `gait.rs` | [`Gait`], [`GaitPattern`], [`GaitScheduler`] | offsets `oᵢ`, duty `dᵢ`, `ψᵢ = (φ − oᵢ) mod 1`, stance iff `ψᵢ < dᵢ` |
 //! | friction | `friction.rs` | [`FrictionModel`] | `‖(f_x, f_y)‖ ≤ μ f_z` (SOC) or a 4-sided pyramid |
-//! | convex MPC | `convex_mpc.rs` | [`ConvexMpc`], [`MpcConfig`] | Di Carlo et al. 2018, single rigid body, yaw-linearised, sparse, Clarabel |
+//! | convex MPC | `convex_mpc/` | [`ConvexMpc`], [`MpcConfig`], [`MpcSolver`] | Di Carlo et al. 2018, single rigid body, yaw-linearised; our interior point with a Riccati recursion (`ipm.rs`, `riccati.rs`, `cones.rs`), Clarabel as the reference (`clarabel.rs`) |
 //! | whole-body QP | `wbc.rs` | [`WholeBodyQp`], [`WbcConfig`] | `[q̈, f, λ]`, floating-base rows as equalities, torque limits, weighted tasks |
 //! | dense QP solver | `qp.rs` | [`DenseQp`] | Goldfarb–Idnani dual active set (the WBC default) |
 //! | footholds, swing curves | `swing.rs` | (internal) | Raibert + capture point `√(h/g)(v − v_cmd)`; Bézier swing |
@@ -61,23 +61,22 @@
 //! ## Timing: where the MPC runs
 //!
 //! By default ([`MpcExecution::Inline`]) `tick` solves the MPC itself every `mpc_period`,
-//! so the ticks that solve take the solve's ≈ 2 ms and the others the whole-body QP's
-//! tens of µs; the results are reproducible bit for bit, which simulation and training
-//! need. On a robot, set [`ControllerConfig::mpc_execution`] to
+//! so the ticks that solve take the solve's ≈ 0.3 ms (the structured solver; Clarabel's
+//! ≈ 2–4 ms) and the others the whole-body QP's tens of µs; the results are reproducible
+//! bit for bit, which simulation and training need. On a robot, set [`ControllerConfig::mpc_execution`] to
 //! [`MpcExecution::Background`]: the controller then owns a worker thread that solves
 //! while the control loop goes on, each tick adopts the newest finished plan and follows
 //! it from the time its state was measured (MIT Cheetah's arrangement), and a tick waits
 //! for a solve only before the first plan (after construction or a reset), never after
-//! failed solves. A 1 kHz loop then holds its deadline: in
-//! `mpc_bench` the ticks' p99 falls from the solve time to about 0.15 ms.
+//! failed solves. The ticks then never wait for a solve: in `mpc_bench` the ticks' p99
+//! falls from the solve time to about 0.15 ms.
 //!
 //! ## Limits
 //!
-//! Flat ground (contact normal +z); contact states follow the schedule (no touch-down
-//! detection); inline, `tick` allocates nothing except one small allocation inside each
-//! Clarabel solve (Clarabel 0.11's internal timers), which with
-//! [`MpcExecution::Background`] happens on the worker thread; the dense WBC needs a pyramid
-//! friction model.
+//! Flat ground (contact normal +z); with the default solvers `tick` allocates nothing
+//! (Clarabel, where chosen for the MPC or the WBC, allocates once inside each solve — its
+//! internal timers — which with [`MpcExecution::Background`] happens on the worker thread);
+//! the dense WBC needs a pyramid friction model.
 //!
 //! ## Example
 //!

@@ -1,17 +1,19 @@
-//! `tick` allocates nothing after construction (counting global allocator) — except one
-//! small allocation inside every Clarabel solve: Clarabel 0.11 resets its internal timer
-//! tree at the start of `solve()`, dropping the nested `HashMap` of sub-timers and
-//! re-creating it (`timers.rs`, `reset_timer("solve")`), which no setting turns off. The
-//! test therefore proves: zero allocations on ticks without a Clarabel solve, and at most
-//! one per Clarabel solve. With the MPC on its worker thread (`MpcExecution::Background`)
-//! that solve allocates there: the ticking thread allocates nothing at all. (Allocations are
-//! counted per thread.)
+//! `tick` allocates nothing after construction (counting global allocator). With the
+//! default solvers — the structured MPC and the dense whole-body QP — no tick allocates at
+//! all. Clarabel, where chosen (`MpcSolver::Clarabel`, `QpBackend::Clarabel`), makes one
+//! small allocation inside every solve: Clarabel 0.11 resets its internal timer tree at the
+//! start of `solve()`, dropping the nested `HashMap` of sub-timers and re-creating it
+//! (`timers.rs`, `reset_timer("solve")`), which no setting turns off; for it the test proves
+//! zero allocations on ticks without a Clarabel solve and at most one per Clarabel solve.
+//! With the MPC on its worker thread (`MpcExecution::Background`) that solve allocates
+//! there: the ticking thread allocates nothing at all. (Allocations are counted per
+//! thread.)
 
 mod common;
 
 use std::time::{Duration, Instant};
 
-use centaur_mpc::{Command, Gait, LocomotionController, MpcExecution, QpBackend};
+use centaur_mpc::{Command, Gait, LocomotionController, MpcExecution, MpcSolver, QpBackend};
 use centaur_test_support::{CountingAllocator, allocations};
 
 #[global_allocator]
@@ -22,10 +24,19 @@ fn counted(f: impl FnOnce()) -> usize {
     allocations(f)
 }
 
-/// Returns (allocations on ticks without a Clarabel solve, allocations on ticks with one,
-/// number of Clarabel solves).
-fn count_ticks(name: &str, backend: QpBackend, exec: MpcExecution) -> (usize, usize, usize) {
+/// Counts of one run of ticks.
+struct Counts {
+    /// Allocations on ticks without a Clarabel solve, and on ticks with one.
+    quiet: usize,
+    loud: usize,
+    /// Clarabel solves, and MPC plans run or adopted.
+    clarabel_solves: usize,
+    plans: usize,
+}
+
+fn count_ticks(name: &str, solver: MpcSolver, backend: QpBackend, exec: MpcExecution) -> Counts {
     let (model, mut cfg) = common::load(name);
+    cfg.mpc.solver = solver;
     cfg.wbc.backend = backend;
     cfg.mpc_execution = exec;
     let mut c = LocomotionController::new(&model, cfg).unwrap();
@@ -34,7 +45,7 @@ fn count_ticks(name: &str, backend: QpBackend, exec: MpcExecution) -> (usize, us
     c.tick(&s, &Command::stand(), 0.0);
     let mut bad = s.clone();
     bad.q[0] = f64::NAN;
-    let (mut quiet, mut loud, mut solves) = (0, 0, 0);
+    let (mut quiet, mut loud, mut solves, mut plans) = (0, 0, 0, 0);
     let mut t = 0.0;
     // Ticks, counting allocations; returns whether the tick ran (or adopted) an MPC plan.
     let mut run = |c: &mut LocomotionController, state, cmd: &Command, t: f64| {
@@ -42,7 +53,7 @@ fn count_ticks(name: &str, backend: QpBackend, exec: MpcExecution) -> (usize, us
             c.tick(state, cmd, t);
         });
         let st = c.status();
-        let clarabel = usize::from(st.mpc_ran)
+        let clarabel = usize::from(st.mpc_ran && solver == MpcSolver::Clarabel)
             + usize::from(backend == QpBackend::Clarabel && st.wbc_status != centaur_mpc::QpStatus::NotRun);
         if clarabel == 0 {
             quiet += n;
@@ -50,6 +61,7 @@ fn count_ticks(name: &str, backend: QpBackend, exec: MpcExecution) -> (usize, us
             loud += n;
             solves += clarabel;
         }
+        plans += usize::from(st.mpc_ran);
         st.mpc_ran
     };
     // On the worker thread a plan arrives after a solve's wall time, not after a number of
@@ -76,19 +88,29 @@ fn count_ticks(name: &str, backend: QpBackend, exec: MpcExecution) -> (usize, us
         std::thread::sleep(Duration::from_millis(1));
     }
     run(&mut c, &bad, &Command::stand(), t + 0.001);
-    (quiet, loud, solves)
+    Counts { quiet, loud, clarabel_solves: solves, plans }
 }
 
 #[test]
 fn tick_does_not_allocate() {
+    // The default solvers: nothing at all, MPC solves included.
     for name in ["solo12", "ant", "minitaur", "walker2d", "humanoid"] {
-        let (quiet, loud, solves) = count_ticks(name, QpBackend::Dense, MpcExecution::Inline);
-        assert_eq!(quiet, 0, "{name} (dense WBC): allocations outside Clarabel");
+        let n = count_ticks(name, MpcSolver::Structured, QpBackend::Dense, MpcExecution::Inline);
+        assert!(n.plans > 0 && n.clarabel_solves == 0);
+        assert_eq!((n.quiet, n.loud), (0, 0), "{name}: allocations with the default solvers");
+    }
+    // Clarabel for the MPC: at most one allocation per solve, none outside.
+    for name in ["solo12", "walker2d"] {
+        let n = count_ticks(name, MpcSolver::Clarabel, QpBackend::Dense, MpcExecution::Inline);
+        assert_eq!(n.quiet, 0, "{name} (Clarabel MPC): allocations outside Clarabel");
+        let (loud, solves) = (n.loud, n.clarabel_solves);
         assert!(solves > 0 && loud <= solves, "{name}: {loud} allocations in {solves} Clarabel solves");
     }
     // With the Clarabel WBC each of the 16 per-stance-pattern solvers also fills its timer
     // map on its first solve.
-    let (_, loud, solves) = count_ticks("solo12", QpBackend::Clarabel, MpcExecution::Inline);
+    let n = count_ticks("solo12", MpcSolver::Structured, QpBackend::Clarabel, MpcExecution::Inline);
+    let (loud, solves) = (n.loud, n.clarabel_solves);
+    assert_eq!(n.quiet, 0);
     assert!(loud <= solves + 16, "solo12 (Clarabel WBC): {loud} allocations in {solves} Clarabel solves");
 }
 
@@ -105,8 +127,8 @@ fn with_the_mpc_on_its_worker_thread_tick_never_allocates() {
     assert!(c.status().mpc_blocked && c.status().mpc_status.is_ok());
     assert_eq!(n, 0, "the first (waiting) tick allocated");
     for name in ["solo12", "minitaur", "walker2d"] {
-        let (quiet, loud, solves) = count_ticks(name, QpBackend::Dense, MpcExecution::Background);
-        assert_eq!((quiet, loud), (0, 0), "{name}: allocations on the ticking thread");
-        assert!(solves > 0, "{name}: no plan adopted");
+        let n = count_ticks(name, MpcSolver::Structured, QpBackend::Dense, MpcExecution::Background);
+        assert_eq!((n.quiet, n.loud), (0, 0), "{name}: allocations on the ticking thread");
+        assert!(n.plans > 0, "{name}: no plan adopted");
     }
 }

@@ -20,10 +20,10 @@ mod common;
 use centaur_dynamics::Model;
 use centaur_dynamics::nalgebra::Vector3;
 use centaur_mpc::{
-    Command, ControllerConfig, ConvexMpc, FrictionModel, Gait, GaitPattern, HardConstraints, LocomotionController,
-    MpcConfig, MpcSolver, QpStatus,
+    Command, ControllerConfig, ConvexMpc, FrictionModel, Gait, GaitPattern, HardConstraints,
+    LocomotionController, MpcConfig, MpcSolver, QpStatus,
 };
-use common::{Perturbation, perturbed};
+use common::{Perturbation, perturbation, perturbed};
 use proptest::prelude::*;
 
 /// Objectives agree within `TOL_OBJECTIVE · max(1, |J|)`.
@@ -137,7 +137,7 @@ fn gaits_for(c: &ControllerConfig) -> Vec<Gait> {
 
 #[test]
 fn every_robot_every_gait_agrees_with_clarabel() {
-    let zero = Perturbation { roll: 0.0, pitch: 0.0, dz: 0.0, v: [0.0; 3], w: [0.0; 3], joint_offset: 0.0, joint_seed: 1 };
+    let zero = Perturbation { joint_seed: 1, ..Perturbation::default() };
     for (name, _, _) in common::ROBOTS {
         let (model, cfg) = common::load(name);
         let (mut compared, mut tight) = (0, 0);
@@ -148,7 +148,10 @@ fn every_robot_every_gait_agrees_with_clarabel() {
         }
         assert!(compared >= 10, "{name}: only {compared} problems");
         // Both solvers reach 1e-12 on most problems (the comparison is not vacuous).
-        assert!(2 * tight >= compared, "{name}: only {tight} of {compared} problems solved by both at {TIGHT:e}");
+        assert!(
+            2 * tight >= compared,
+            "{name}: only {tight} of {compared} problems solved by both at {TIGHT:e}"
+        );
     }
 }
 
@@ -157,31 +160,18 @@ fn pyramids_and_hard_bounds_agree_with_clarabel() {
     let (model, mut cfg) = common::load("solo12");
     cfg.mpc.friction = FrictionModel::InscribedPyramid;
     cfg.mpc.hard = HardConstraints { max_height_drop: Some(0.05), terminal_velocity_band: Some(0.5) };
-    let zero = Perturbation { roll: 0.05, pitch: -0.03, dz: 0.0, v: [0.1; 3], w: [0.0; 3], joint_offset: 0.0, joint_seed: 1 };
+    let zero = Perturbation {
+        roll: 0.05,
+        pitch: -0.03,
+        dz: 0.0,
+        v: [0.1; 3],
+        w: [0.0; 3],
+        joint_offset: 0.0,
+        joint_seed: 1,
+    };
     for gait in [Gait::Stand, Gait::Trot, Gait::Bound] {
         agree_over_cycle("solo12 (pyramid, hard bounds)", &model, &cfg, gait, &zero);
     }
-}
-
-fn perturbation() -> impl Strategy<Value = Perturbation> {
-    (
-        -0.15..0.15f64,
-        -0.15..0.15f64,
-        -0.03..0.02f64,
-        prop::array::uniform3(-0.3..0.3f64),
-        prop::array::uniform3(-0.5..0.5f64),
-        0.0..0.1f64,
-        any::<u64>(),
-    )
-        .prop_map(|(roll, pitch, dz, v, w, joint_offset, joint_seed)| Perturbation {
-            roll,
-            pitch,
-            dz,
-            v,
-            w,
-            joint_offset,
-            joint_seed,
-        })
 }
 
 proptest! {

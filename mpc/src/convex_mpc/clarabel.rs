@@ -17,7 +17,7 @@ use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SupportedConeT};
 use nalgebra::{Matrix3, Vector3};
 
-use super::{MpcInput, NX, SrbModel, state_index};
+use super::problem::{MpcInput, NX, SrbModel, state_index};
 use crate::error::ConfigError;
 use crate::qp::QpStatus;
 

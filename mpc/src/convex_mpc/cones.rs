@@ -41,6 +41,8 @@ pub(crate) fn soc_min_eig(v: &[f64; 3]) -> f64 {
 pub(crate) struct SocScaling {
     eta: f64,
     w: [f64; 3],
+    /// `W⁻¹` as a matrix (applied many times per iteration).
+    winv: [[f64; 3]; 3],
 }
 
 impl SocScaling {
@@ -60,12 +62,25 @@ impl SocScaling {
             (st[1] + jz[1]) / (2.0 * gamma),
             (st[2] + jz[2]) / (2.0 * gamma),
         ];
-        Some(SocScaling { eta: (ss / zz).sqrt().sqrt(), w })
+        Some(SocScaling::from_parts((ss / zz).sqrt().sqrt(), w))
+    }
+
+    fn from_parts(eta: f64, w: [f64; 3]) -> Self {
+        let mut s = SocScaling { eta, w, winv: [[0.0; 3]; 3] };
+        for c in 0..3 {
+            let mut e = [0.0; 3];
+            e[c] = 1.0;
+            let col = jv(&s.wbar(&jv(&e)));
+            for r in 0..3 {
+                s.winv[r][c] = col[r] / eta;
+            }
+        }
+        s
     }
 
     /// `W = I`.
     pub(crate) fn identity() -> Self {
-        SocScaling { eta: 1.0, w: [1.0, 0.0, 0.0] }
+        SocScaling::from_parts(1.0, [1.0, 0.0, 0.0])
     }
 
     /// `W̄ v`.
@@ -87,9 +102,8 @@ impl SocScaling {
     /// `W⁻¹ v = J W̄ J v / η`.
     #[inline]
     pub(crate) fn div(&self, v: &[f64; 3]) -> [f64; 3] {
-        let r = jv(&self.wbar(&jv(v)));
-        let e = 1.0 / self.eta;
-        [e * r[0], e * r[1], e * r[2]]
+        let m = &self.winv;
+        [dot3(&m[0], v), dot3(&m[1], v), dot3(&m[2], v)]
     }
 
     /// `W⁻² = J W̄² J / η²` as a symmetric matrix, with `W̄² = 2 w wᵀ − J`.
@@ -206,7 +220,7 @@ mod tests {
     #[test]
     fn step_reaches_the_boundary_exactly() {
         let cases = [
-            ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], 1.0), // sideways: ‖v̄‖ = 1 at α = 1
+            ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], 1.0),  // sideways: ‖v̄‖ = 1 at α = 1
             ([1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], 1.0), // through the apex
             ([2.0, 1.0, 0.0], [1.0, 0.0, 0.0], f64::INFINITY), // up the axis
             ([1.0, 0.5, 0.0], [1.0, 1.0, 0.0], f64::INFINITY), // parallel to a ray of ∂K

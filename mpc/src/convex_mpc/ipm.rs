@@ -28,9 +28,12 @@
 //! corrector with centring `σ = (1 − α_aff)³` and second-order term
 //! `(W⁻¹Δs_aff) ∘ (W Δz_aff)` — each as `K (v₂, y₂, z₂) = (−d_v, −d_y, −d_z + W(λ \ d_s))`
 //! followed by the scalar `Δτ`, and steps 99 % of the way to the cones' boundary.
-//! `K` is solved by eliminating the cone rows (`Δz = W⁻²(G Δv − r)`), which leaves a
-//! linear–quadratic control problem with Hessian `P + Gᵀ W⁻² G` — diagonal in the
-//! states, 3 × 3 blocks per foot — for the Riccati recursion.
+//! `K` is solved by eliminating the cone rows in the scaled dual `z̃ = W Δz`
+//! (`z̃ = W⁻¹(G Δv − r_z)`, [`Kkt`]), which leaves a linear–quadratic control problem
+//! with Hessian `P + Gᵀ W⁻² G` — diagonal in the states, 3 × 3 blocks per foot — for the
+//! Riccati recursion, refined iteratively once the scalings are ill-conditioned; `Δs`
+//! comes from the primal rows `G Δv + Δs = h Δτ − d_z`, which the iterates then satisfy
+//! to rounding.
 //!
 //! **Termination** (on `v̂ = v/τ`, `ŷ, ẑ, ŝ` likewise): solved when the primal and dual
 //! residuals, relative to `max(1, ‖b‖ + ‖v̂‖ + ‖ŝ‖)` and `max(1, ‖q‖ + ‖v̂‖ + ‖ẑ‖)`, and
@@ -41,11 +44,11 @@
 //! (iteration limit, no progress) reports [`QpStatus::AlmostSolved`] when the iterate meets
 //! the reduced tolerances (feasibility 1e-4, gap 5e-5, as Clarabel's defaults).
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 use super::cones::{SocScaling, nonneg_step, soc_divide, soc_min_eig, soc_product, soc_step};
+use super::problem::{MpcConfig, MpcInput, NX, SrbModel};
 use super::riccati::{MAX_NU, NS, Riccati, StageDynamics, Vec12};
-use super::{MpcConfig, MpcInput, NX, SrbModel};
 use crate::qp::QpStatus;
 use crate::robot::MAX_CONTACTS;
 
@@ -174,6 +177,8 @@ struct Problem {
     /// Feet in stance at stage `k`: contact indices, and the first foot block of the stage.
     stance: Vec<[usize; MAX_CONTACTS]>,
     block_start: Vec<usize>,
+    /// `3 × block_start`: where stage `k`'s forces start in `u`.
+    u_start: Vec<usize>,
     /// Foot blocks in use (three force variables each).
     n_blocks: usize,
     /// Friction: exact cones (one per foot block) or pyramid rows.
@@ -249,9 +254,7 @@ impl Problem {
                 r -= d.a_mul(&x[k - 1]);
             }
             let f0 = 3 * self.block_start[k];
-            for j in 0..d.nu {
-                r -= d.b[j] * u[f0 + j];
-            }
+            r -= d.b_mul(&u[f0..f0 + d.nu()]);
             out[k] = r;
         }
     }
@@ -265,8 +268,10 @@ impl Problem {
                 gx[k - 1] -= d.at_mul(&y[k]);
             }
             let f0 = 3 * self.block_start[k];
-            for j in 0..d.nu {
-                gu[f0 + j] -= d.b[j].dot(&y[k]);
+            let mut g = [0.0; MAX_NU];
+            d.bt_mul(&y[k], &mut g);
+            for (o, gj) in gu[f0..f0 + d.nu()].iter_mut().zip(&g) {
+                *o -= gj;
             }
         }
     }
@@ -292,8 +297,9 @@ impl Problem {
 /// Cone scalings and the scaled point `λ`.
 #[derive(Clone, Debug)]
 struct Scaling {
-    /// Nonnegative rows: `W² = s/z` and `λ = √(s z)`.
+    /// Nonnegative rows: `W² = s/z`, `W⁻¹ = √(z/s)` and `λ = √(s z)`.
     w2: Vec<f64>,
+    w_inv: Vec<f64>,
     lam: Vec<f64>,
     /// Second-order cones.
     soc: Vec<SocScaling>,
@@ -304,6 +310,7 @@ impl Scaling {
     /// The identity scaling (`W = I`), for the initial point.
     fn identity(&mut self, p: &Problem) {
         self.w2[..p.n_rows].fill(1.0);
+        self.w_inv[..p.n_rows].fill(1.0);
         for w in &mut self.soc[..p.n_soc()] {
             *w = SocScaling::identity();
         }
@@ -316,6 +323,7 @@ impl Scaling {
                 return false;
             }
             self.w2[i] = s[i] / z[i];
+            self.w_inv[i] = (z[i] / s[i]).sqrt();
             self.lam[i] = (s[i] * z[i]).sqrt();
         }
         for c in 0..p.n_soc() {
@@ -331,7 +339,7 @@ impl Scaling {
     /// `out = W⁻¹ v`.
     fn inv_mul(&self, p: &Problem, v: &[f64], out: &mut [f64]) {
         for i in 0..p.n_rows {
-            out[i] = v[i] / self.w2[i].sqrt();
+            out[i] = v[i] * self.w_inv[i];
         }
         for c in 0..p.n_soc() {
             let o = p.n_rows + 3 * c;
@@ -375,6 +383,16 @@ fn cone3(v: &[f64], o: usize) -> [f64; 3] {
 const MAX_REFINE: usize = 3;
 const REFINE_TOL: f64 = 1e-14;
 
+/// Whether a solve measures its residual: always (the first solve with new factors), or
+/// only if the first solve with these factors needed refinement (a residual costs about a
+/// solve, and whether refinement pays depends on the factors' conditioning, not on the
+/// right-hand side).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Refine {
+    Probe,
+    IfNeeded,
+}
+
 /// The Newton matrix `K = [P Eᵀ Gᵀ; E 0 0; G 0 −W²]`, solved in the scaled dual
 /// `z̃ = W Δz`, i.e. as `K̃ = [P Eᵀ (W⁻¹G)ᵀ; E 0 0; W⁻¹G 0 −I]` with the cone rows'
 /// right-hand side `W⁻¹ r_z` (CVXOPT's form). Near the end of a solve a saturated friction
@@ -387,10 +405,12 @@ struct Kkt {
     riccati: Riccati,
     /// Hessian blocks: state diagonals per stage, 3 × 3 per foot block.
     hx: Vec<Vec12>,
-    hu: Vec<[[f64; 3]; 3]>,
+    hu: Vec<Matrix3<f64>>,
     /// The reduced right-hand side `r_v + Gᵀ W⁻¹ r̃`.
     reduced_x: Vec<Vec12>,
     reduced_u: Vec<f64>,
+    /// Whether the probing solve with the current factors needed refinement.
+    needs_refinement: bool,
     /// The scaled cone rows' right-hand side `r̃ = W⁻¹ r_z`, and cone-sized scratch.
     rt: Vec<f64>,
     w: Vec<f64>,
@@ -402,9 +422,10 @@ impl Kkt {
         Kkt {
             riccati: Riccati::new(n),
             hx: vec![Vec12::zeros(); n],
-            hu: vec![[[0.0; 3]; 3]; nu / 3],
+            hu: vec![Matrix3::zeros(); nu / 3],
             reduced_x: vec![Vec12::zeros(); n],
             reduced_u: vec![0.0; nu],
+            needs_refinement: true,
             rt: vec![0.0; m],
             w: vec![0.0; m],
             gv: vec![0.0; m],
@@ -417,7 +438,7 @@ impl Kkt {
             *h = p.p_state;
         }
         for b in &mut self.hu[..p.n_blocks] {
-            *b = [[p.p_force, 0.0, 0.0], [0.0, p.p_force, 0.0], [0.0, 0.0, p.p_force]];
+            *b = Matrix3::from_diagonal_element(p.p_force);
         }
         for (r, w2) in p.rows[..p.n_rows].iter().zip(&sc.w2) {
             let d = 1.0 / w2;
@@ -426,7 +447,7 @@ impl Kkt {
                 RowVar::Force { b } => {
                     for i in 0..3 {
                         for j in 0..3 {
-                            self.hu[b][i][j] += d * r.a[i] * r.a[j];
+                            self.hu[b][(i, j)] += d * r.a[i] * r.a[j];
                         }
                     }
                 }
@@ -440,12 +461,11 @@ impl Kkt {
             let h = &mut self.hu[c];
             for (i, &(ri, fi)) in map.iter().enumerate() {
                 for (j, &(rj, fj)) in map.iter().enumerate() {
-                    h[i][j] += fi * fj * v[ri][rj];
+                    h[(i, j)] += fi * fj * v[ri][rj];
                 }
             }
         }
-        let (hu, starts) = (&self.hu, &p.block_start);
-        self.riccati.factor(&p.dynamics, &self.hx, |k, i, j| hu[starts[k] + i / 3][i % 3][j % 3]).is_ok()
+        self.riccati.factor(&p.dynamics, &self.hx, &self.hu, &p.block_start).is_ok()
     }
 
     /// `out = K̃⁻¹ (src.x, src.u, src.y, rt)` (scaled dual into `out.zt`) by elimination of
@@ -457,23 +477,14 @@ impl Kkt {
         self.reduced_x.copy_from_slice(&src.x);
         self.reduced_u[..p.nu()].copy_from_slice(&src.u[..p.nu()]);
         p.gt_mul_add(&self.w[..m], &mut self.reduced_x, &mut self.reduced_u);
-        let starts = &p.block_start;
-        let (ux, reduced_u) = (&mut out.u, &self.reduced_u);
         self.riccati.solve(
             &p.dynamics,
             &self.reduced_x,
-            |k| {
-                let mut a = [0.0; MAX_NU];
-                let (b0, b1) = (3 * starts[k], 3 * starts[k + 1]);
-                a[..b1 - b0].copy_from_slice(&reduced_u[b0..b1]);
-                a
-            },
+            &self.reduced_u,
+            &p.u_start,
             &src.y,
             &mut out.x,
-            |k, du| {
-                let b0 = 3 * starts[k];
-                ux[b0..b0 + du.len()].copy_from_slice(du);
-            },
+            &mut out.u,
             &mut out.y,
         );
         // z̃ = W⁻¹ G Δv − r̃.
@@ -518,14 +529,31 @@ impl Kkt {
     /// iterative refinement: each step solves `K̃ δ = rhs − K̃ out` with the same factors
     /// and keeps `out + δ` while the residual falls (Clarabel refines likewise). `resid`
     /// and `delta` are scratch.
-    fn solve(&mut self, p: &Problem, sc: &Scaling, rhs: &Point, out: &mut Point, resid: &mut Point, delta: &mut Point) {
+    #[allow(clippy::too_many_arguments)]
+    fn solve(
+        &mut self,
+        p: &Problem,
+        sc: &Scaling,
+        refine: Refine,
+        rhs: &Point,
+        out: &mut Point,
+        resid: &mut Point,
+        delta: &mut Point,
+    ) {
         let m = p.m();
         let mut rt = std::mem::take(&mut self.rt);
         sc.inv_mul(p, &rhs.z[..m], &mut rt[..m]);
         self.solve_once(p, sc, rhs, &rt, out);
         self.rt = rt;
         let scale = 1.0 + rhs.xuy_norm(p).max(inf(&self.rt[..m]));
+        if refine == Refine::IfNeeded && !self.needs_refinement {
+            sc.inv_mul(p, &out.zt[..m], &mut out.z[..m]);
+            return;
+        }
         let mut err = self.residual(p, sc, rhs, out, resid);
+        if refine == Refine::Probe {
+            self.needs_refinement = err > REFINE_TOL * scale;
+        }
         for _ in 0..MAX_REFINE {
             if err <= REFINE_TOL * scale {
                 break;
@@ -535,7 +563,7 @@ impl Kkt {
             resid.zt = rt;
             out.add_scaled(p, 1.0, delta);
             let next = self.residual(p, sc, rhs, out, resid);
-            if !(next < err) {
+            if next.is_nan() || next >= err {
                 out.add_scaled(p, -1.0, delta);
                 break;
             }
@@ -577,7 +605,8 @@ impl StructuredMpc {
         let (n, nc) = (cfg.horizon, model.nc);
         let blocks = n * nc;
         let nu = 3 * blocks;
-        let hard = cfg.hard.max_height_drop.map_or(0, |_| n) + cfg.hard.terminal_velocity_band.map_or(0, |_| 4);
+        let hard =
+            cfg.hard.max_height_drop.map_or(0, |_| n) + cfg.hard.terminal_velocity_band.map_or(0, |_| 4);
         let per_foot = if cfg.friction.is_pyramid() { 5 } else { 1 };
         let n_rows_max = blocks * per_foot + hard;
         let m = n_rows_max + if cfg.friction.is_pyramid() { 0 } else { 3 * blocks };
@@ -596,6 +625,7 @@ impl StructuredMpc {
             q: vec![Vec12::zeros(); n],
             stance: vec![[0; MAX_CONTACTS]; n],
             block_start: vec![0; n + 1],
+            u_start: vec![0; n + 1],
             n_blocks: 0,
             cone: !cfg.friction.is_pyramid(),
             mu: cfg.mu,
@@ -611,6 +641,7 @@ impl StructuredMpc {
             max_iter: cfg.max_iter,
             scaling: Scaling {
                 w2: vec![1.0; m],
+                w_inv: vec![1.0; m],
                 lam: vec![1.0; m],
                 soc: vec![SocScaling::identity(); blocks],
                 soc_lam: vec![[1.0, 0.0, 0.0]; blocks],
@@ -654,29 +685,34 @@ impl StructuredMpc {
         p.n_rows = 0;
         let mut blocks = 0;
         let fmax = cfg.max_normal_force_ratio * model.mass * g.abs() / fs;
+        let (force_p, force_v) = (0.5 * dt * dt * fs / model.mass, dt * fs / model.mass);
         for k in 0..n {
             let frame = model.step_frame(input, k);
-            p.dynamics[k].rzt_dt = frame.rzt * dt;
-            p.dynamics[k].dt = dt;
+            let d = &mut p.dynamics[k];
+            d.rzt_dt = frame.rzt * dt;
+            d.dt = dt;
+            d.force_p = force_p;
+            d.force_v = force_v;
+            d.moment_theta = frame.rzt * frame.iw_inv * (0.5 * dt * dt * fs);
+            d.moment_omega = frame.iw_inv * (dt * fs);
+            d.planar = cfg.planar;
             p.block_start[k] = blocks;
-            let mut nu = 0;
+            let mut feet = 0;
             for i in 0..nc {
-                let Some(cols) = model.force_response(input, &frame, k, i) else { continue };
-                p.stance[k][nu / 3] = i;
-                for (j, col) in cols.iter().enumerate() {
-                    p.dynamics[k].b[nu + j] = Vec12::from_column_slice(col) * fs;
-                }
-                let b = blocks + nu / 3;
+                let Some(r) = model.lever(input, &frame, k, i) else { continue };
+                p.dynamics[k].lever[feet] = r;
+                p.stance[k][feet] = i;
+                let b = blocks + feet;
                 push_row(p, RowVar::Force { b }, [0.0, 0.0, 1.0], fmax);
                 if !p.cone {
                     for a in crate::friction::pyramid_rows(cfg.friction.pyramid_mu(cfg.mu)) {
                         push_row(p, RowVar::Force { b }, a, 0.0);
                     }
                 }
-                nu += 3;
+                feet += 1;
             }
-            p.dynamics[k].nu = nu;
-            blocks += nu / 3;
+            p.dynamics[k].feet = feet;
+            blocks += feet;
             // q on x_{k+1}: −2 Q x_ref.
             for s in 0..NS {
                 p.q[k][s] = -2.0 * cfg.state_weights[s] * input.x_ref[k][s];
@@ -688,6 +724,9 @@ impl StructuredMpc {
         }
         p.block_start[n] = blocks;
         p.n_blocks = blocks;
+        for (u, b) in p.u_start.iter_mut().zip(&p.block_start) {
+            *u = 3 * b;
+        }
         if let Some(band) = cfg.hard.terminal_velocity_band {
             let v = &input.x_ref[n - 1];
             for (i, sg) in [(9, 1.0), (9, -1.0), (10, 1.0), (10, -1.0)] {
@@ -696,7 +735,9 @@ impl StructuredMpc {
         }
         // c₀ = A₀ x₀ + gravity, A₀ at the current yaw.
         let frame = model.step_frame(input, 0);
-        let a0 = StageDynamics { rzt_dt: frame.rzt * dt, dt, nu: 0, b: [Vec12::zeros(); MAX_NU] };
+        let mut a0 = StageDynamics::new();
+        a0.rzt_dt = frame.rzt * dt;
+        a0.dt = dt;
         p.c[0] += a0.a_mul(&Vec12::from_column_slice(&input.x0[..NS]));
         // The cone rows follow the nonnegative ones, with h = 0.
         let m = p.m();
@@ -755,13 +796,15 @@ impl StructuredMpc {
                 None => {}
             }
             self.iterations += 1;
-            if !self.scaling.update(&self.prob, &self.pt.s, &self.pt.z) || !self.kkt.factor(&self.prob, &self.scaling)
+            if !self.scaling.update(&self.prob, &self.pt.s, &self.pt.z)
+                || !self.kkt.factor(&self.prob, &self.scaling)
             {
                 return self.stuck(QpStatus::NumericalError);
             }
             // (v₁, y₁, z₁) = K⁻¹ (−q, b_E, h).
             self.rhs.set_constant(&self.prob);
-            self.kkt.solve(&self.prob, &self.scaling, &self.rhs, &mut self.sol1, &mut self.resid, &mut self.delta);
+            let (p, sc) = (&self.prob, &self.scaling);
+            self.kkt.solve(p, sc, Refine::Probe, &self.rhs, &mut self.sol1, &mut self.resid, &mut self.delta);
             // Predictor: d = (r, λ ∘ λ, τκ).
             self.direction(0.0, mu, false);
             let alpha_aff = self.step_length().min(1.0);
@@ -770,7 +813,7 @@ impl StructuredMpc {
             // Corrector with centring σμ and Mehrotra's second-order term.
             self.direction(sigma, mu, true);
             let alpha = (STEP_FRACTION * self.step_length()).min(1.0);
-            if !(alpha > MIN_STEP) {
+            if alpha.is_nan() || alpha <= MIN_STEP {
                 return self.stuck(QpStatus::InsufficientProgress);
             }
             self.take_step(alpha);
@@ -793,7 +836,15 @@ impl StructuredMpc {
             return false;
         }
         self.rhs.set_constant(p);
-        self.kkt.solve(p, &self.scaling, &self.rhs, &mut self.pt, &mut self.resid, &mut self.delta);
+        self.kkt.solve(
+            p,
+            &self.scaling,
+            Refine::Probe,
+            &self.rhs,
+            &mut self.pt,
+            &mut self.resid,
+            &mut self.delta,
+        );
         let (pt, m) = (&mut self.pt, p.m());
         for i in 0..m {
             pt.s[i] = -pt.z[i];
@@ -837,7 +888,12 @@ impl StructuredMpc {
     /// Termination test at tolerances `feas` and `gap` on the residuals in `res`.
     fn check(&mut self, feas: f64, gap: f64) -> Option<QpStatus> {
         let btz = self.prob.b_dot(&self.pt.y, &self.pt.z);
-        let cert = if btz < 0.0 { self.certificate_residual() } else { f64::INFINITY };
+        // (The certificate is only consulted once τ < κ.)
+        let cert = if btz < 0.0 && self.pt.kappa > self.pt.tau {
+            self.certificate_residual()
+        } else {
+            f64::INFINITY
+        };
         let (p, pt, r) = (&self.prob, &self.pt, &self.res);
         let m = p.m();
         let tau = pt.tau;
@@ -929,7 +985,7 @@ impl StructuredMpc {
             rhs.z[i] = -r.z[i] * keep + self.w_ds[i];
         }
         let out = &mut self.dir;
-        self.kkt.solve(p, sc, rhs, out, &mut self.resid, &mut self.delta);
+        self.kkt.solve(p, sc, Refine::IfNeeded, rhs, out, &mut self.resid, &mut self.delta);
         // Δτ from the τ row, with ξ = v/τ and the denominator in its negative-definite form
         // −(v₁ − ξ)ᵀP(v₁ − ξ) − ‖W z₁‖² − κ/τ.
         let s1 = &self.sol1;
@@ -1132,7 +1188,17 @@ mod tests {
 
     #[test]
     fn riccati_solves_the_kkt_system() {
-        for cfg in [MpcConfig::trot(), MpcConfig { friction: crate::FrictionModel::InscribedPyramid, hard: super::super::HardConstraints { max_height_drop: Some(0.05), terminal_velocity_band: Some(0.2) }, ..MpcConfig::trot() }] {
+        for cfg in [
+            MpcConfig::trot(),
+            MpcConfig {
+                friction: crate::FrictionModel::InscribedPyramid,
+                hard: super::super::HardConstraints {
+                    max_height_drop: Some(0.05),
+                    terminal_velocity_band: Some(0.2),
+                },
+                ..MpcConfig::trot()
+            },
+        ] {
             let (model, input) = problem(&cfg);
             let mut s = StructuredMpc::new(&model);
             s.fill(&model, &input);
@@ -1173,7 +1239,7 @@ mod tests {
             let mut r = Point::new(p.n, p.nu(), m);
             unflat(&p, &rhs, &mut r);
             let mut out = Point::new(p.n, p.nu(), m);
-            s.kkt.solve(&p, &s.scaling, &r, &mut out, &mut s.resid, &mut s.delta);
+            s.kkt.solve(&p, &s.scaling, Refine::Probe, &r, &mut out, &mut s.resid, &mut s.delta);
             let got = flat(&p, &out);
             let err = (&got - &want).amax() / want.amax();
             assert!(err < 1e-9, "relative error {err}");

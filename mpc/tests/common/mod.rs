@@ -35,7 +35,7 @@ pub fn low_friction_solo12() -> (Model, ControllerConfig) {
 }
 
 /// A perturbation of the nominal state.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct Perturbation {
     pub roll: f64,
     pub pitch: f64,
@@ -75,4 +75,28 @@ pub fn perturbed(c: &LocomotionController, p: &Perturbation) -> RobotState {
         s.q[iq] += u * p.joint_offset;
     }
     s
+}
+
+/// Random perturbations: tilt ±0.15 rad, height −3…+2 cm, velocities ±0.3 m/s and
+/// ±0.5 rad/s, joint offsets up to 0.1 rad.
+pub fn perturbation() -> impl proptest::strategy::Strategy<Value = Perturbation> {
+    use proptest::prelude::*;
+    (
+        -0.15..0.15f64,
+        -0.15..0.15f64,
+        -0.03..0.02f64,
+        prop::array::uniform3(-0.3..0.3f64),
+        prop::array::uniform3(-0.5..0.5f64),
+        0.0..0.1f64,
+        any::<u64>(),
+    )
+        .prop_map(|(roll, pitch, dz, v, w, joint_offset, joint_seed)| Perturbation {
+            roll,
+            pitch,
+            dz,
+            v,
+            w,
+            joint_offset,
+            joint_seed,
+        })
 }
