@@ -106,6 +106,8 @@ fn main() {
                 "mpc_dt" => cfg.mpc.dt = x,
                 "horizon" => cfg.mpc.horizon = x as usize,
                 "force_weight" => cfg.mpc.force_weight = x,
+                "mpc_tol" => cfg.mpc.tolerance = x,
+                "mpc_clarabel" if x != 0.0 => cfg.mpc.solver = centaur::mpc::MpcSolver::Clarabel,
                 "raibert_kv" => cfg.raibert_kv = x,
                 "fh_com" => cfg.foothold_from_com = x != 0.0,
                 "fh_kp" => cfg.foothold_position_gain = x,

@@ -8,7 +8,7 @@ use std::time::Instant;
 use centaur_dynamics::nalgebra::Vector3;
 use centaur_envs::RobotEnv;
 use centaur_gym::EnvError;
-use centaur_mpc::{Command, ConfigError, Gait, LocomotionController, MpcExecution};
+use centaur_mpc::{Command, ConfigError, Gait, LocomotionController, MpcExecution, MpcSolver};
 
 use crate::hybrid::{ActionMapping, HybridError};
 use crate::registry::{RegistryError, controller_config, make_robot_env};
@@ -78,6 +78,9 @@ pub struct ControlOptions {
     /// then takes `seconds` of wall time and is not reproducible bit for bit (default:
     /// false).
     pub background_mpc: bool,
+    /// The MPC's solver (default: [`MpcSolver::Structured`], the controller's default;
+    /// [`MpcSolver::Clarabel`] to compare).
+    pub mpc_solver: MpcSolver,
 }
 
 impl Default for ControlOptions {
@@ -91,6 +94,7 @@ impl Default for ControlOptions {
             push: None,
             measure_from: 0.0,
             background_mpc: false,
+            mpc_solver: MpcSolver::Structured,
         }
     }
 }
@@ -136,6 +140,8 @@ pub struct ControlSummary {
     pub env_return: f64,
     /// Where the MPC ran: "inline" or "background" (its worker thread).
     pub mpc_execution: String,
+    /// The MPC's solver: "structured" or "clarabel".
+    pub mpc_solver: String,
     /// Ticks that solved the MPC or waited for its solve (inline: every solving tick;
     /// background: only the ticks before the first plan).
     pub mpc_blocking_ticks: u64,
@@ -183,6 +189,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     if opts.background_mpc {
         config.mpc_execution = MpcExecution::Background;
     }
+    config.mpc.solver = opts.mpc_solver;
     let mut ctrl = LocomotionController::new(env.model(), config)?;
     let n_legs = ctrl.robot().n_legs;
     if !opts.gait.supported(n_legs) {
@@ -279,6 +286,11 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         }),
         env_return: ret,
         mpc_execution: if opts.background_mpc { "background" } else { "inline" }.into(),
+        mpc_solver: match opts.mpc_solver {
+            MpcSolver::Structured => "structured",
+            MpcSolver::Clarabel => "clarabel",
+        }
+        .into(),
         mpc_blocking_ticks: blocking,
     })
 }

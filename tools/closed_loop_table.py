@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Runs `centaur control` on the closed-loop cases of the README and prints the Markdown table.
 
-    cargo build --release --bin centaur && python tools/closed_loop_table.py [--only humanoid]
+    cargo build --release --bin centaur && python tools/closed_loop_table.py [--only humanoid] [--mpc-solver clarabel]
 
 No dependencies beyond the standard library; each case writes /tmp/centaur-closed-loop/<n>/.
 """
@@ -36,6 +36,7 @@ def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--bin", default="target/release/centaur")
     ap.add_argument("--only", help="run only this robot's rows")
+    ap.add_argument("--mpc-solver", default="structured", help="structured (the default) or clarabel")
     args = ap.parse_args()
     root = Path("/tmp/centaur-closed-loop")
     print("| robot | gait, command | push | survived | mean speed (m/s) | yaw drift (rad) | "
@@ -46,7 +47,8 @@ def main() -> int:
             continue
         out = root / str(n)
         cmd = [args.bin, "control", "--env", env, "--gait", gait, "--speed", str(speed),
-               "--seconds", str(seconds), "--measure-from", str(measure_from), "--out", str(out)]
+               "--seconds", str(seconds), "--measure-from", str(measure_from), "--out", str(out),
+               "--mpc-solver", args.mpc_solver]
         if push is not None:
             cmd += ["--push-force", str(push)]
         subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)

@@ -99,6 +99,23 @@ fn a_non_physical_body_of_negligible_mass_is_kept() {
     assert!(kept.to_string().contains("negligible"), "{kept}");
 }
 
+/// A negative principal moment makes the mass matrix indefinite (accelerations against the
+/// torque): refused even on a body of negligible mass.
+#[test]
+fn a_negative_moment_is_refused_whatever_the_mass() {
+    let text = robot(&format!(
+        "{}{}{}",
+        trunk(),
+        link("flap", 0.005, [-1.0, 1.0, 1.0]),
+        revolute("flap_joint", "trunk", "flap")
+    ));
+    let err = load(&text).unwrap_err();
+    assert!(
+        matches!(&err, UrdfError::NonPhysicalBody { joint, reason, .. } if joint == "flap_joint" && reason.contains("negative")),
+        "{err}"
+    );
+}
+
 /// The same violation on a body that carries mass is refused, and loads as given only on
 /// request (example-robot-data's romeo_small, pybullet's mini_cheetah and xarm6).
 #[test]
@@ -199,6 +216,26 @@ fn a_file_urdf_rs_cannot_read_is_read_again_without_what_the_dynamics_ignores() 
     assert!((model.total_mass() - 11.0).abs() < 1e-12);
     let err = load_strict(&text).unwrap_err();
     assert!(matches!(err, UrdfError::Parse { .. }), "{err}");
+}
+
+/// The second reading of a file whose `<robot>` declares namespace prefixes (xacro, Gazebo)
+/// used inside the elements it keeps: the prefixed attributes and elements are left out of
+/// the reduced document (an unbound prefix made the XML writer panic).
+#[test]
+fn namespaced_attributes_in_kept_elements_do_not_break_the_second_reading() {
+    let text = r#"<robot name="r" xmlns:foo="urn:x" xmlns:xacro="http://www.ros.org/wiki/xacro">
+      <link name="a"><inertial foo:k="1"><origin xyz="0 0 0" foo:tag="o"/><mass value="1"/>
+        <inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/><foo:extra v="2"/></inertial>
+        <visual><origin xyz="0 0 0" xacro:note="n"/><geometry><box size="1 1 1"/></geometry>
+          <material name="m"><texture/></material></visual></link>
+      <link name="b"><inertial><mass value="0.5"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+      <joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1" foo:a="1"/>
+        <limit lower="-1" upper="1" effort="1" velocity="1" xacro:x="y"/></joint>
+    </robot>"#;
+    let model = load(text).unwrap();
+    assert!(has(&model, |w| matches!(w, UrdfWarning::Reread { .. })));
+    assert!((model.total_mass() - 1.5).abs() < 1e-12);
+    assert_eq!(model.geometries.len(), 1);
 }
 
 /// A geometry urdf-rs cannot read (pybullet's racecar puts a `<material>` inside

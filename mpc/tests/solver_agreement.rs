@@ -2,18 +2,19 @@
 //! problems the controllers pose on every robot, in every phase of every gait, from the
 //! nominal state and from perturbed ones.
 //!
-//! What "the same answer" can mean here was measured first (1,761 problems: five robots,
-//! every gait, three perturbations; `solver_agreement` notes in the README). The optimum is
-//! unique but flat: forces that cancel between feet do not move the body, only `R = 1e-5`
-//! weighs them, so an objective within `δ` of the optimum leaves them free by ≈ √(δ/R).
-//! At the default tolerance 1e-8 the two solvers' objectives agree to 4.5e-9 (relative,
-//! worst case) while their forces differ by 7e-5 m g (median) to 7e-3 m g (worst); the
-//! force difference shrinks with the tolerance (7e-4 m g at 1e-10, 3.4e-5 m g at 1e-12),
-//! as two solvers converging on one point do. So the tests ask: at 1e-8, objectives within
-//! 1e-6 and forces within 2e-2 m g, and the structured solution feasible (cones, limits,
-//! dynamics) to 1e-7; at 1e-12, forces within 1e-4 m g wherever Clarabel reaches that
-//! tolerance (it stops at "almost solved" on about a third of these problems; the
-//! structured solver solved all).
+//! What "the same answer" can mean here was measured first. The optimum is unique but
+//! flat: forces that cancel between feet do not move the body, only the force weight `R`
+//! (1e-5; 1e-4 on the Ant) weighs them, so an objective within `δ` of the optimum leaves
+//! them free by ≈ √(δ/R). Measured on the 884 problems of
+//! `every_robot_every_gait_agrees_with_clarabel` (2026-11-25): at the default tolerance 1e-8
+//! the objectives agree to 4.5e-9 (relative) while the forces differ by a median of 7e-7
+//! (Humanoid) to 5e-5 m g (Solo12) per robot and by 1.8e-3 m g at worst (Ant); at 1e-11, on
+//! the 729 problems both solvers solve to that tolerance, by a median of 6e-10 to 2.2e-6 m g
+//! and 1.02e-4 m g at worst — two solvers converging on one point. So the tests ask: at
+//! 1e-8, objectives within 1e-6 and forces within 2e-2 m g, and the structured solution
+//! feasible (cones, limits, dynamics) to 1e-7; at 1e-11, forces within 2e-4 m g wherever
+//! Clarabel reaches that tolerance (it stops at "almost solved" on some of these problems;
+//! the structured solver solved all).
 
 mod common;
 
@@ -30,7 +31,7 @@ use proptest::prelude::*;
 const TOL_OBJECTIVE: f64 = 1e-6;
 /// Forces agree within this many `m g` at the default tolerance, and at `TIGHT`.
 const TOL_FORCE_DEFAULT: f64 = 2e-2;
-const TOL_FORCE_TIGHT: f64 = 1e-4;
+const TOL_FORCE_TIGHT: f64 = 2e-4;
 const TIGHT: f64 = 1e-11;
 
 /// Largest force difference (relative to the weight) and objective difference (relative)

@@ -1,7 +1,7 @@
 //! The rollout collection the on-policy learners ([`crate::Ppo`], [`crate::A2c`]) share:
 //! `n_steps × n_envs` transitions with Gaussian exploration `a = μ(s) + σ ε`,
 //! `ε ~ N(0, 𝟙)`, stored unclipped with their log-probabilities and values, stepped
-//! clipped to the action bounds (a setting: PPO can switch it off, A2C keeps it on), with
+//! clipped to the action bounds (a setting of both learners, on by default), with
 //! running observation normalisation and reward scaling when enabled, and `V(s_final)` of
 //! truncated episodes for bootstrapping (Gymnasium's truncation, or, with
 //! `bootstrap_truncation` off, a truncation counted as a termination as in older codes).

@@ -11,7 +11,7 @@ use centaur::control::{ControlOptions, Push, parse_gait, run_control, write_summ
 use centaur::experiment::{Phase, tuned_config};
 use centaur::registry::{env_names, residual_config};
 use centaur::train::{TrainOptions, parse_algo_config, train};
-use centaur_mpc::Gait;
+use centaur_mpc::{Gait, MpcSolver};
 use centaur_rl::AlgoKind;
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -108,6 +108,9 @@ struct ControlArgs {
     /// for a solve; the run takes `--seconds` of wall time and is not bit-reproducible).
     #[arg(long)]
     background_mpc: bool,
+    /// The MPC's solver: structured (the default) or clarabel.
+    #[arg(long, value_parser = parse_mpc_solver, default_value = "structured")]
+    mpc_solver: MpcSolver,
 }
 
 #[derive(Args)]
@@ -225,6 +228,14 @@ fn parse_gait_arg(s: &str) -> Result<Gait, String> {
     parse_gait(s).map_err(|e| e.to_string())
 }
 
+fn parse_mpc_solver(s: &str) -> Result<MpcSolver, String> {
+    match s {
+        "structured" => Ok(MpcSolver::Structured),
+        "clarabel" => Ok(MpcSolver::Clarabel),
+        other => Err(format!("unknown MPC solver `{other}` (structured or clarabel)")),
+    }
+}
+
 /// `centaur control`: one closed-loop run, its summary printed and written.
 fn control(args: ControlArgs) -> ExitCode {
     let opts = ControlOptions {
@@ -240,6 +251,7 @@ fn control(args: ControlArgs) -> ExitCode {
         }),
         measure_from: args.measure_from,
         background_mpc: args.background_mpc,
+        mpc_solver: args.mpc_solver,
     };
     let result = run_control(&opts).and_then(|s| write_summary(&args.out, &s).map(|path| (s, path)));
     match result {

@@ -551,7 +551,8 @@ impl ShapePolicy<'_> {
 }
 
 /// The inertia policy on the bodies the dynamics uses (links merged across fixed joints):
-/// a violation within rounding passes; beyond it, a body of negligible mass (or any body,
+/// a violation within rounding passes; beyond it, a body of negligible mass without a
+/// negative principal moment (or any body,
 /// with [`UrdfOptions::accept_nonphysical_inertia`]) is kept with a warning and any other
 /// body is refused. Links that violate on their own but sit in a physical body are reported.
 fn check_bodies(
@@ -577,23 +578,26 @@ fn check_bodies(
         }
         body_ok[j] = false;
         let joint = model.joints[j].name.clone();
-        let kept_because = if y.mass <= inertia::NEGLIGIBLE_MASS * total_mass {
-            format!(
-                "its mass {} kg is negligible (below {} of the robot's {total_mass} kg)",
-                y.mass,
-                inertia::NEGLIGIBLE_MASS
-            )
-        } else if options.accept_nonphysical_inertia {
-            "UrdfOptions::accept_nonphysical_inertia".to_string()
-        } else {
-            return Err(UrdfError::NonPhysicalBody {
-                file: file.into(),
-                joint,
-                links: links_of(j),
-                mass: y.mass,
-                reason: inertia::describe(p),
-            });
-        };
+        // A clearly negative moment makes the mass matrix indefinite (the dynamics would be
+        // wrong, not only unrealisable), whatever the body's mass.
+        let kept_because =
+            if y.mass <= inertia::NEGLIGIBLE_MASS * total_mass && !inertia::is_negative(p, scale) {
+                format!(
+                    "its mass {} kg is negligible (below {} of the robot's {total_mass} kg)",
+                    y.mass,
+                    inertia::NEGLIGIBLE_MASS
+                )
+            } else if options.accept_nonphysical_inertia {
+                "UrdfOptions::accept_nonphysical_inertia".to_string()
+            } else {
+                return Err(UrdfError::NonPhysicalBody {
+                    file: file.into(),
+                    joint,
+                    links: links_of(j),
+                    mass: y.mass,
+                    reason: inertia::describe(p),
+                });
+            };
         warnings.push(UrdfWarning::NonPhysicalBodyKept {
             joint,
             links: links_of(j),

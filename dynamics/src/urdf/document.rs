@@ -116,7 +116,7 @@ impl Document {
                     copy_attr(e, &mut j, "type");
                     for c in elements(e) {
                         if c.ns.is_none() && JOINT_READ.contains(&c.name.as_str()) && c.name != "mimic" {
-                            j.tag_stay(c.clone());
+                            j.tag_stay(plain(c));
                         }
                     }
                     robot.tag_stay(j);
@@ -129,6 +129,30 @@ impl Document {
         }
         robot.to_string()
     }
+}
+
+/// A copy of `e` without namespaced attributes or elements: a prefix declared on an ancestor
+/// would not be bound in the reduced document (and the dynamics reads none of them).
+fn plain(e: &Element) -> Element {
+    let attrs = e
+        .attributes
+        .iter()
+        .filter(|((_, ns), _)| ns.is_none())
+        .map(|((k, _), v)| (k.clone(), None, v.clone()));
+    let mut out = Element::new(e.name.clone(), None, attrs.collect::<Vec<_>>());
+    for child in &e.children {
+        match child {
+            Xml::ElementNode(c) if c.ns.is_none() => {
+                out.tag_stay(plain(c));
+            }
+            Xml::ElementNode(_) => {}
+            Xml::CharacterNode(t) => {
+                out.text(t.clone());
+            }
+            _ => {}
+        }
+    }
+    out
 }
 
 fn copy_attr(from: &Element, to: &mut Element, name: &str) {
@@ -158,7 +182,7 @@ fn reduced_link(e: &Element, dropped: &mut Vec<UrdfWarning>) -> Element {
     for c in elements(e).filter(|c| c.ns.is_none()) {
         let k = match c.name.as_str() {
             "inertial" => {
-                link.tag_stay(c.clone());
+                link.tag_stay(plain(c));
                 continue;
             }
             "visual" => 0,
@@ -186,7 +210,7 @@ fn reduced_shape(e: &Element) -> Result<Element, String> {
     let mut out = Element::new(e.name.clone(), None, vec![]);
     copy_attr(e, &mut out, "name");
     if let Some(origin) = e.get_child("origin", None) {
-        out.tag_stay(origin.clone());
+        out.tag_stay(plain(origin));
     }
     let geometry = e.get_child("geometry", None).ok_or_else(|| "no <geometry>".to_string())?;
     let shape = elements(geometry)

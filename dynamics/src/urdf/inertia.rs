@@ -61,6 +61,12 @@ pub(crate) fn is_rounding(p: [f64; 3], v: f64, robot_scale: f64) -> bool {
     v <= REL_TOL * (p[0].abs() + p[1].abs() + p[2].abs()) + ROBOT_TOL * robot_scale
 }
 
+/// Whether the smallest moment of `p` is negative beyond rounding (the tolerances of
+/// [`is_rounding`]): such a body makes the joint-space mass matrix indefinite.
+pub(crate) fn is_negative(p: [f64; 3], robot_scale: f64) -> bool {
+    -p[0] > REL_TOL * (p[0].abs() + p[1].abs() + p[2].abs()) + ROBOT_TOL * robot_scale
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
