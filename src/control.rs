@@ -268,7 +268,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         mean_speed: if t > t0 { distance / (t - t0) } else { 0.0 },
         distance,
         fell,
-        yaw_drift: wrap_angle(yaw1 - yaw0).abs(),
+        yaw_drift: centaur_mpc::wrap_pi(yaw1 - yaw0).abs(),
         lateral_drift: lateral,
         mean_tick_us: ticks.iter().sum::<f64>() / ticks.len().max(1) as f64,
         p99_tick_us: p99,
@@ -314,11 +314,4 @@ pub fn write_summary(
 /// Parses a gait name.
 pub fn parse_gait(name: &str) -> Result<Gait, ControlError> {
     Gait::from_name(name).ok_or_else(|| ControlError::UnknownGait(name.to_string()))
-}
-
-/// An angle wrapped to `(−π, π]`.
-fn wrap_angle(a: f64) -> f64 {
-    use std::f64::consts::PI;
-    let r = (a + PI).rem_euclid(2.0 * PI) - PI;
-    if r <= -PI { r + 2.0 * PI } else { r }
 }

@@ -228,15 +228,20 @@ pub fn robot(name: &str) -> Option<&'static RobotSpec> {
 /// `spider`) or `modular:FILE.json`, a body read from a file and named after it; `None` for
 /// other names.
 pub fn modular_config(name: &str) -> Result<Option<ModularConfig>, RegistryError> {
-    let Some(file) = name.strip_prefix("modular:") else {
-        return Ok(ModularConfig::preset(name));
-    };
+    match name.strip_prefix("modular:") {
+        Some(file) => modular_file_config(file).map(Some),
+        None => Ok(ModularConfig::preset(name)),
+    }
+}
+
+/// The configuration of `modular:FILE.json`: the body read from `file`, named after it.
+fn modular_file_config(file: &str) -> Result<ModularConfig, RegistryError> {
     let path = PathBuf::from(file);
     let text =
         std::fs::read_to_string(&path).map_err(|source| RegistryError::Io { path: path.clone(), source })?;
     let body = Body::from_json(&text).map_err(|source| RegistryError::Body { path: path.clone(), source })?;
     let stem = path.file_stem().map_or("modular".to_string(), |s| s.to_string_lossy().into_owned());
-    Ok(Some(ModularConfig::new(&stem, body)))
+    Ok(ModularConfig::new(&stem, body))
 }
 
 /// A robot environment by name; `max_episode_steps` overrides the default length.
@@ -244,9 +249,8 @@ pub fn make_robot_env(
     name: &str,
     max_episode_steps: Option<usize>,
 ) -> Result<Box<dyn RobotEnv>, RegistryError> {
-    if name.starts_with("modular:") {
-        let config = modular_config(name)?.expect("a modular: name has a config");
-        return Ok(modular(config, max_episode_steps)?);
+    if let Some(file) = name.strip_prefix("modular:") {
+        return Ok(modular(modular_file_config(file)?, max_episode_steps)?);
     }
     let spec = robot(name).ok_or_else(|| RegistryError::UnknownEnv { name: name.to_string() })?;
     Ok((spec.build)(max_episode_steps)?)

@@ -105,7 +105,9 @@ mod swing;
 mod wbc;
 
 pub use config::{Command, ControlMode, ControllerConfig, MpcExecution};
-pub use controller::{ControllerStatus, Fallback, JointCommand, LANDING_HEIGHT, LocomotionController};
+pub use controller::{
+    ControllerStatus, Fallback, JointCommand, LANDING_HEIGHT, LocomotionController, wrap_pi,
+};
 pub use convex_mpc::{ConvexMpc, HardConstraints, MpcConfig, MpcInput, MpcSolver, NX, state_index};
 pub use error::ConfigError;
 pub use friction::FrictionModel;

@@ -26,6 +26,7 @@ use centaur_dynamics::nalgebra::DVector;
 use centaur_dynamics::{Data, Model, RobotState};
 
 pub use contacts::LANDING_HEIGHT;
+pub use reference::wrap_pi;
 pub use status::{ControllerStatus, Fallback, JointCommand};
 
 use contacts::Contacts;

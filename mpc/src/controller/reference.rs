@@ -121,7 +121,7 @@ impl Reference {
 
 /// Wraps an angle to `(−π, π]`.
 #[inline]
-pub(crate) fn wrap_pi(a: f64) -> f64 {
+pub fn wrap_pi(a: f64) -> f64 {
     let two_pi = 2.0 * std::f64::consts::PI;
     let r = (a + std::f64::consts::PI).rem_euclid(two_pi) - std::f64::consts::PI;
     if r <= -std::f64::consts::PI { r + two_pi } else { r }
