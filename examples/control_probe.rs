@@ -143,7 +143,8 @@ fn main() {
     let mut obs = vec![0.0f32; env.observation_space().dim()];
     let mut action = vec![0.0f32; env.action_space().dim()];
     env.reset(Some(seed), &mut obs).expect("reset");
-    let command = Command::forward(speed, gait);
+    let yaw_rate: f64 = flag("--yaw-rate").and_then(|s| s.parse().ok()).unwrap_or(0.0);
+    let command = Command { yaw_rate, ..Command::forward(speed, gait) };
     let pd_hold: Option<(f64, f64)> = flag("--pd").map(|s| {
         let (a, b) = s.split_once(',').expect("kp,kd");
         (a.parse().expect("kp"), b.parse().expect("kd"))
@@ -153,6 +154,8 @@ fn main() {
         let v: Vec<f64> = s.split(',').map(|x| x.parse().expect("number")).collect();
         (v[0], v[1], v[2], v[3])
     });
+    let noise_frac: f64 = flag("--action-noise").and_then(|s| s.parse().ok()).unwrap_or(0.0);
+    let mut noise = centaur::gym::Rng::seed_from_u64(seed ^ 0x6e6f_6973_65);
     let dt = env.dt();
     let mut t = 0.0;
     let mut x0 = env.robot_state().q[0];
@@ -179,6 +182,13 @@ fn main() {
             ctrl.tick(env.robot_state(), &command, t)
         };
         mapping.action(env.as_ref(), cmd, &mut action);
+        if noise_frac > 0.0 {
+            let space = env.action_space();
+            for ((a, lo), hi) in action.iter_mut().zip(&space.low).zip(&space.high) {
+                let half = 0.5 * (hi - lo) as f64;
+                *a = (*a as f64 + noise_frac * half * noise.normal()).clamp(*lo as f64, *hi as f64) as f32;
+            }
+        }
         if let Some((amp, lift, period, sign)) = cpg {
             // Open-loop joint-space trot for the Ant (simulator check): diagonal pairs,
             // hips sweep front→back in stance and back→front in swing, ankles lift in swing.

@@ -7,8 +7,8 @@ use std::time::Instant;
 
 use centaur_dynamics::nalgebra::Vector3;
 use centaur_envs::RobotEnv;
-use centaur_gym::EnvError;
-use centaur_mpc::{Command, ConfigError, Gait, LocomotionController, MpcExecution, MpcSolver};
+use centaur_gym::{EnvError, Rng};
+use centaur_mpc::{Command, ConfigError, Gait, GaitOffer, LocomotionController, MpcExecution, MpcSolver};
 
 use crate::hybrid::{ActionMapping, HybridError};
 use crate::registry::{RegistryError, controller_config, make_robot_env};
@@ -81,6 +81,21 @@ pub struct ControlOptions {
     /// The MPC's solver (default: [`MpcSolver::Structured`], the controller's default;
     /// [`MpcSolver::Clarabel`] to compare).
     pub mpc_solver: MpcSolver,
+    /// Commanded yaw rate (rad/s, positive to the left) (default: 0).
+    pub yaw_rate: f64,
+    /// Commanded forward speed over time: `(from, speed)` pairs in increasing time; the
+    /// speed of the last pair whose time has come is commanded, `speed` before the first
+    /// (default: empty, `speed` throughout). The summary reports each segment's mean speed.
+    pub speed_schedule: Vec<(f64, f64)>,
+    /// Independent Gaussian noise added to every action entry every control step, as a
+    /// fraction of that entry's half-range `(high − low)/2` (the perturbation a learner's
+    /// exploration adds: a hybrid policy with log-std −1.2 and residual scale 0.25 adds
+    /// 0.075); the noisy action is clipped to the bounds (default: 0).
+    pub action_noise: f64,
+    /// Lift the preset's gait offers for this run: every gait defined for the robot's legs
+    /// runs (offered ones at their own periods) at any speed, to measure what is not rated
+    /// (default: false, a gait or speed outside the offers is refused).
+    pub unrated: bool,
 }
 
 impl Default for ControlOptions {
@@ -95,6 +110,10 @@ impl Default for ControlOptions {
             measure_from: 0.0,
             background_mpc: false,
             mpc_solver: MpcSolver::Structured,
+            yaw_rate: 0.0,
+            speed_schedule: Vec::new(),
+            action_noise: 0.0,
+            unrated: false,
         }
     }
 }
@@ -114,7 +133,8 @@ pub struct ControlSummary {
     pub distance: f64,
     /// Whether the episode ended by a fall (the env's termination).
     pub fell: bool,
-    /// |final yaw − initial yaw| (rad).
+    /// Heading error at the end (rad): |unwrapped heading change − commanded yaw rate × the
+    /// measured time| (without a yaw-rate command, |final yaw − initial yaw|).
     pub yaw_drift: f64,
     /// Lateral displacement (m).
     pub lateral_drift: f64,
@@ -145,6 +165,34 @@ pub struct ControlSummary {
     /// Ticks that solved the MPC or waited for its solve (inline: every solving tick;
     /// background: only the ticks before the first plan).
     pub mpc_blocking_ticks: u64,
+    /// Commanded yaw rate (rad/s).
+    pub commanded_yaw_rate: f64,
+    /// Mean yaw rate over the measured time (rad/s): the unwrapped heading change / time.
+    pub mean_yaw_rate: f64,
+    /// Mean speed along the body's heading (m/s): each step's displacement projected on the
+    /// heading at its start, summed, over the measured time (for turning runs, where
+    /// `mean_speed` measures along the initial heading only).
+    pub mean_forward_speed: f64,
+    /// Action noise (fraction of each entry's half-range; 0: none).
+    pub action_noise: f64,
+    /// Whether the run lifted the gait offers (`--unrated`).
+    pub unrated: bool,
+    /// Per segment of the speed schedule (one segment without a schedule): its time span,
+    /// commanded speed and the mean forward speed over it along the heading at its start.
+    pub segments: Vec<SegmentSummary>,
+}
+
+/// One segment of a speed schedule, as recorded in the summary.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct SegmentSummary {
+    /// Start (s).
+    pub from: f64,
+    /// End (s): the next segment's start, or the end of the run.
+    pub to: f64,
+    /// Commanded forward speed (m/s).
+    pub commanded_speed: f64,
+    /// Mean forward speed over the segment (m/s).
+    pub mean_speed: f64,
 }
 
 /// The push of a run, as recorded in the summary.
@@ -181,6 +229,22 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     if !(opts.seconds > 0.0 && opts.seconds.is_finite() && opts.speed.is_finite()) {
         return Err(ControlError::Invalid("seconds must be positive and speed finite".into()));
     }
+    if !opts.yaw_rate.is_finite() {
+        return Err(ControlError::Invalid("the yaw rate must be finite".into()));
+    }
+    if !(opts.action_noise.is_finite() && opts.action_noise >= 0.0) {
+        return Err(ControlError::Invalid("the action noise must be finite and >= 0".into()));
+    }
+    for (i, &(at, v)) in opts.speed_schedule.iter().enumerate() {
+        if !(at.is_finite() && at >= 0.0 && v.is_finite()) {
+            return Err(ControlError::Invalid(format!(
+                "speed schedule entry {i}: time >= 0 and a finite speed"
+            )));
+        }
+        if i > 0 && at <= opts.speed_schedule[i - 1].0 {
+            return Err(ControlError::Invalid("speed schedule times must increase".into()));
+        }
+    }
     let probe = make_robot_env(&opts.env, None)?;
     let steps = (opts.seconds / probe.dt()).round() as usize;
     drop(probe);
@@ -190,14 +254,23 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         config.mpc_execution = MpcExecution::Background;
     }
     config.mpc.solver = opts.mpc_solver;
-    let mut ctrl = LocomotionController::new(env.model(), config)?;
-    let n_legs = ctrl.robot().n_legs;
-    if !opts.gait.supported(n_legs) {
-        return Err(ControlError::Invalid(format!(
-            "the gait `{}` is not defined for a robot with {n_legs} legs",
-            opts.gait.name()
-        )));
+    if opts.unrated {
+        let n_legs = config.robot.n_legs;
+        let offered = std::mem::take(&mut config.gaits);
+        config.gaits = Gait::ALL
+            .iter()
+            .filter(|g| g.supported(n_legs))
+            .map(|&g| {
+                let scale = offered.iter().find(|o| o.gait == g).map_or(1.0, |o| o.period_scale);
+                GaitOffer { gait: g, period_scale: scale, max_speed: f64::INFINITY }
+            })
+            .collect();
     }
+    // Refuse a gait the robot does not offer, or a speed above its rating, naming what works.
+    for v in std::iter::once(opts.speed).chain(opts.speed_schedule.iter().map(|p| p.1)) {
+        config.check_command(opts.gait, v)?;
+    }
+    let mut ctrl = LocomotionController::new(env.model(), config)?;
     let mut mapping = ActionMapping::new(env.as_ref(), &ctrl)?;
     let mut obs = vec![0.0f32; env.observation_space().dim()];
     let mut action = vec![0.0f32; env.action_space().dim()];
@@ -205,7 +278,16 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     let (mut x0, mut y0, mut yaw0) = planar_pose(env.as_ref());
     let mut t0 = 0.0;
     let mut max_tilt = 0.0f64;
-    let command = Command::forward(opts.speed, opts.gait);
+    let mut command = Command { yaw_rate: opts.yaw_rate, ..Command::forward(opts.speed, opts.gait) };
+    let space = env.action_space().clone();
+    let mut noise = Rng::seed_from_u64(opts.seed ^ 0x6e6f_6973_65);
+    let (mut x_prev, mut y_prev, mut yaw_prev) = (x0, y0, yaw0);
+    let mut yaw_turned = 0.0;
+    let mut forward_path = 0.0;
+    // Segment starts: (time, commanded speed, x, y, heading there).
+    let mut seg_starts: Vec<(f64, f64, f64, f64, f64)> = Vec::new();
+    let speed_at =
+        |t: f64| opts.speed_schedule.iter().rev().find(|p| t >= p.0 - 1e-9).map_or(opts.speed, |p| p.1);
     let mut ticks = Vec::with_capacity(steps);
     let (mut mpc_us, mut mpc_n, mut wbc_us, mut wbc_n) = (0.0, 0usize, 0.0, 0usize);
     let mut blocking = 0u64;
@@ -224,6 +306,13 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         if opts.measure_from > 0.0 && t0 == 0.0 && t >= opts.measure_from - 1e-9 {
             (x0, y0, yaw0) = planar_pose(env.as_ref());
             t0 = t;
+            yaw_turned = 0.0;
+            forward_path = 0.0;
+        }
+        command.forward_velocity = speed_at(t);
+        if seg_starts.last().is_none_or(|s| s.1 != command.forward_velocity) {
+            let (x, y, yaw) = planar_pose(env.as_ref());
+            seg_starts.push((t, command.forward_velocity, x, y, yaw));
         }
         if let Some(p) = opts.push
             && (t - p.at).abs() < 0.5 * env.dt()
@@ -234,6 +323,13 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         let cmd = mapping.tick(&mut ctrl, env.as_ref(), &command, t);
         ticks.push(start.elapsed().as_secs_f64() * 1e6);
         mapping.action(env.as_ref(), cmd, &mut action);
+        if opts.action_noise > 0.0 {
+            for ((a, lo), hi) in action.iter_mut().zip(&space.low).zip(&space.high) {
+                let half = 0.5 * (hi - lo) as f64;
+                *a = (*a as f64 + opts.action_noise * half * noise.normal()).clamp(*lo as f64, *hi as f64)
+                    as f32;
+            }
+        }
         let status = ctrl.status();
         max_tilt = max_tilt.max(status.rpy[0].abs()).max(status.rpy[1].abs());
         if status.mpc_ran {
@@ -246,6 +342,10 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         let step = env.step(&action, &mut obs)?;
         ret += step.reward;
         t = (k + 1) as f64 * env.dt();
+        let (x_now, y_now, yaw_now) = planar_pose(env.as_ref());
+        yaw_turned += centaur_mpc::wrap_pi(yaw_now - yaw_prev);
+        forward_path += (x_now - x_prev) * yaw_prev.cos() + (y_now - y_prev) * yaw_prev.sin();
+        (x_prev, y_prev, yaw_prev) = (x_now, y_now, yaw_now);
         if step.terminated {
             fell = true;
             break;
@@ -254,13 +354,30 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
             break;
         }
     }
-    let (x1, y1, yaw1) = planar_pose(env.as_ref());
+    let (x1, y1, _) = planar_pose(env.as_ref());
     let (dx, dy) = (x1 - x0, y1 - y0);
     let distance = dx * yaw0.cos() + dy * yaw0.sin();
     let lateral = -dx * yaw0.sin() + dy * yaw0.cos();
     ticks.sort_by(|a, b| a.total_cmp(b));
     let p99 = ticks.get(((ticks.len() as f64) * 0.99) as usize).or(ticks.last()).copied().unwrap_or(0.0);
     let status = ctrl.status();
+    let segments = seg_starts
+        .iter()
+        .enumerate()
+        .map(|(i, &(from, v, x, y, yaw))| {
+            let (to, (xe, ye)) = match seg_starts.get(i + 1) {
+                Some(next) => (next.0, (next.2, next.3)),
+                None => (t, (x1, y1)),
+            };
+            let along = (xe - x) * yaw.cos() + (ye - y) * yaw.sin();
+            SegmentSummary {
+                from,
+                to,
+                commanded_speed: v,
+                mean_speed: if to > from { along / (to - from) } else { 0.0 },
+            }
+        })
+        .collect();
     Ok(ControlSummary {
         env: opts.env.clone(),
         gait: opts.gait.name().to_string(),
@@ -268,7 +385,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         mean_speed: if t > t0 { distance / (t - t0) } else { 0.0 },
         distance,
         fell,
-        yaw_drift: centaur_mpc::wrap_pi(yaw1 - yaw0).abs(),
+        yaw_drift: (yaw_turned - opts.yaw_rate * (t - t0)).abs(),
         lateral_drift: lateral,
         mean_tick_us: ticks.iter().sum::<f64>() / ticks.len().max(1) as f64,
         p99_tick_us: p99,
@@ -292,6 +409,12 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         }
         .into(),
         mpc_blocking_ticks: blocking,
+        commanded_yaw_rate: opts.yaw_rate,
+        mean_yaw_rate: if t > t0 { yaw_turned / (t - t0) } else { 0.0 },
+        mean_forward_speed: if t > t0 { forward_path / (t - t0) } else { 0.0 },
+        action_noise: opts.action_noise,
+        unrated: opts.unrated,
+        segments,
     })
 }
 

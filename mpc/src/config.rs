@@ -46,11 +46,47 @@ pub enum ControlMode {
     Cheap,
 }
 
+/// A gait a configuration offers ([`ControllerConfig::gaits`]): the controller runs it at
+/// its own period, up to its rated speed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GaitOffer {
+    /// The gait.
+    pub gait: Gait,
+    /// Multiplies the gait's table period, on top of [`ControllerConfig::gait_period_scale`]
+    /// (default: 1).
+    pub period_scale: f64,
+    /// Largest commanded planar speed (m/s) the gait is rated for: the speed it was measured
+    /// to hold over seeds, or `f64::INFINITY` where a preset's gait is not rated (no
+    /// closed-loop simulation of that robot). The controller clamps faster commands to it
+    /// and counts them in [`crate::ControllerStatus::clamped_commands`]; `centaur control`
+    /// refuses them. Ignored for [`Gait::Stand`], whose speed command only shifts the body
+    /// over its planted feet (within `position_leash`).
+    pub max_speed: f64,
+}
+
+impl GaitOffer {
+    /// `gait` at its table period, rated to `max_speed`.
+    pub fn new(gait: Gait, max_speed: f64) -> Self {
+        GaitOffer { gait, period_scale: 1.0, max_speed }
+    }
+
+    /// The same offer at `scale` times its table period.
+    pub fn period(self, scale: f64) -> Self {
+        GaitOffer { period_scale: scale, ..self }
+    }
+}
+
 /// Everything the [`crate::LocomotionController`] needs besides the model.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ControllerConfig {
     /// The robot description.
     pub robot: RobotSpec,
+    /// The gaits this robot runs, with their periods and rated speeds. A command for a gait
+    /// not listed is answered by standing still (and counted in
+    /// [`crate::ControllerStatus::refused_gaits`]); [`ControllerConfig::offer`] says why
+    /// before a run. Stand must be listed. (Default: every gait defined for the number of
+    /// legs, unrated; the presets list what was measured on their robot.)
+    pub gaits: Vec<GaitOffer>,
     /// Convex MPC.
     pub mpc: MpcConfig,
     /// Whole-body QP.
@@ -143,7 +179,13 @@ const FIRM_FORCE_WEIGHT: f64 = 1e-4;
 
 impl ControllerConfig {
     fn with_robot(robot: RobotSpec) -> Self {
+        let n_legs = robot.n_legs;
         Self {
+            gaits: Gait::ALL
+                .iter()
+                .filter(|g| g.supported(n_legs))
+                .map(|&g| GaitOffer::new(g, if g == Gait::Stand { 0.0 } else { f64::INFINITY }))
+                .collect(),
             robot,
             mpc: MpcConfig::trot(),
             wbc: WbcConfig::default(),
@@ -264,6 +306,12 @@ impl ControllerConfig {
         c.touchdown_detection = false;
         c.wbc.w_force = 1.0;
         c.mpc.force_weight = FIRM_FORCE_WEIGHT;
+        // Rated to the speed it tracks within 15 % over seeds 0–4 (0.28–0.30 m/s at 0.3):
+        // commanded 0.6 and 1.0 m/s it stays up but makes only 0.34–0.60 and 0.24–0.41 m/s
+        // (its feet land up to 0.2 m off their footholds at 20 Hz). Its walk, pace, bound,
+        // pronk and gallop stay up but make 0.03–0.22 m/s at 0.3, some turning 2 rad, so they
+        // are not offered.
+        c.gaits = vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Trot, 0.3)];
         c
     }
 
@@ -297,6 +345,8 @@ impl ControllerConfig {
         // A stiffer body-velocity task: at the default 20 the walk lags its command by a
         // third (0.35 m/s for 0.5); at 80 it makes 0.42 (0.45 after the first second).
         c.body_kd_vel = [80.0; 3];
+        // Rated to 0.5 m/s (0.45–0.46 over seeds 0–4); commanded 1.0 it stays up at 0.67–0.73.
+        c.gaits = vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Walk, 0.5)];
         c
     }
 
@@ -335,6 +385,8 @@ impl ControllerConfig {
         c.position_leash = 0.5;
         // Walking (welcome, not required) starts more reliably from a slower speed ramp.
         c.max_acceleration = 0.3;
+        // Walking is rated to 0.3 m/s, where it holds on most seeds but not all (see the README).
+        c.gaits = vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Walk, 0.3)];
         c
     }
 
@@ -387,6 +439,29 @@ impl ControllerConfig {
         c.body_kp_ori = c.body_kp_ori.map(|k| 2.0 * k);
         c.wbc.w_force = 10.0;
         c.touchdown_detection = false;
+        // Every leg also gets motor PD targets, 4 N·m/rad and 0.2 N·m·s/rad: stance legs
+        // towards the IK of the body carried along its reference over the planted feet
+        // (`controller/contacts.rs`), swing legs towards the IK of the swing curve. Without
+        // them the trot fell above 0.3 m/s on every seed (0.6 m/s after ≈ 2 s, 1.0 after
+        // ≈ 1.5 s): the whole-body torques alone, recomputed at 100 Hz through a motor model
+        // that saturates at 3.5 N·m, let the body fall behind its feet and pitch and roll
+        // grow. With them (measured over seeds 0–4 with the env's randomisation,
+        // `tools/closed_loop_table.py`) it trots 0.3–1.5 m/s (speed within 1 %, yaw drift
+        // < 0.03 rad over 10 s), survives 3 N·s side pushes at 0.3 and 1.0 m/s, and keeps
+        // trotting under Gaussian action noise of 10 % of the action range; with stance
+        // gains alone (4, 0.1) it fell under that noise on 2 of 5 seeds.
+        c.stance_joint_gains = (4.0, 0.2);
+        c.swing_joint_gains = (4.0, 0.2);
+        // Only the gaits measured to work on the Minitaur are offered (`tools/closed_loop_table.py`):
+        // the static walk needs a 0.6 s cycle (at the table's 0.8 s it fell on every seed);
+        // pace, bound, pronk and gallop fell within 0.2–4 s at 0.3–1 m/s on seeds 0–2 with
+        // periods 0.7–1 × the table's, so they are refused: without abduction the
+        // Minitaur balances sideways only through a diagonal support.
+        c.gaits = vec![
+            GaitOffer::new(Gait::Stand, 0.0),
+            GaitOffer::new(Gait::Trot, 1.5),
+            GaitOffer::new(Gait::Walk, 0.5).period(0.75),
+        ];
         c
     }
 
@@ -400,6 +475,52 @@ impl ControllerConfig {
             "minitaur" => Some(Self::minitaur()),
             _ => None,
         }
+    }
+
+    /// The offer of `gait`, or why it is refused ([`ConfigError::GaitNotOffered`], naming the
+    /// gaits that are offered with their rated speeds).
+    pub fn offer(&self, gait: Gait) -> Result<&GaitOffer, ConfigError> {
+        self.gaits
+            .iter()
+            .find(|o| o.gait == gait)
+            .ok_or_else(|| ConfigError::GaitNotOffered { gait: gait.name(), offered: self.offered_gaits() })
+    }
+
+    /// Checks that `gait` is offered and `speed` (m/s, planar) within its rating.
+    pub fn check_command(&self, gait: Gait, speed: f64) -> Result<(), ConfigError> {
+        let offer = self.offer(gait)?;
+        if gait != Gait::Stand && speed.abs() > offer.max_speed + 1e-12 {
+            return Err(ConfigError::SpeedAboveRating {
+                gait: gait.name(),
+                speed,
+                max_speed: offer.max_speed,
+            });
+        }
+        Ok(())
+    }
+
+    /// The offered gaits with their speed ranges, for messages: `"stand, trot (0–1.5 m/s)"`.
+    pub fn offered_gaits(&self) -> String {
+        let list: Vec<String> = self
+            .gaits
+            .iter()
+            .map(|o| match o.max_speed {
+                _ if o.gait == Gait::Stand => o.gait.name().to_string(),
+                m if m.is_infinite() => format!("{} (unrated)", o.gait.name()),
+                m => format!("{} (0–{m} m/s)", o.gait.name()),
+            })
+            .collect();
+        list.join(", ")
+    }
+
+    /// Period scale of each gait ([`Gait::index`]) for the gait scheduler: 0 for a gait not
+    /// offered.
+    pub fn period_scales(&self) -> [f64; Gait::ALL.len()] {
+        let mut scales = [0.0; Gait::ALL.len()];
+        for o in &self.gaits {
+            scales[o.gait.index()] = self.gait_period_scale * o.period_scale;
+        }
+        scales
     }
 
     /// The gait the controller runs for a commanded `gait` once on the ground: the walk
@@ -467,6 +588,42 @@ impl ControllerConfig {
                 value: self.fallback_decay,
                 range: "0..=1",
             });
+        }
+        if self.robot.n_legs != 2 && self.robot.n_legs != 4 {
+            return Err(ConfigError::OutOfRange {
+                field: "robot.n_legs",
+                value: self.robot.n_legs as f64,
+                range: "2 or 4",
+            });
+        }
+        if !self.gaits.iter().any(|o| o.gait == Gait::Stand) {
+            return Err(ConfigError::Inconsistent("gaits: stand must be offered".into()));
+        }
+        for (i, o) in self.gaits.iter().enumerate() {
+            if !o.gait.supported(self.robot.n_legs) {
+                return Err(ConfigError::Inconsistent(format!(
+                    "gaits: {} is not defined for a robot with {} legs",
+                    o.gait.name(),
+                    self.robot.n_legs
+                )));
+            }
+            if self.gaits[..i].iter().any(|p| p.gait == o.gait) {
+                return Err(ConfigError::Inconsistent(format!("gaits: {} is listed twice", o.gait.name())));
+            }
+            if !(o.period_scale.is_finite() && o.period_scale > 0.0) {
+                return Err(ConfigError::OutOfRange {
+                    field: "gaits.period_scale",
+                    value: o.period_scale,
+                    range: "> 0",
+                });
+            }
+            if !(o.max_speed >= 0.0) {
+                return Err(ConfigError::OutOfRange {
+                    field: "gaits.max_speed",
+                    value: o.max_speed,
+                    range: ">= 0",
+                });
+            }
         }
         if self.robot.n_legs != 2 && self.robot.n_legs != 4 {
             return Err(ConfigError::OutOfRange {

@@ -22,6 +22,24 @@ pub enum ConfigError {
         /// The name.
         name: String,
     },
+    /// A gait the robot's configuration does not offer ([`crate::ControllerConfig::gaits`]).
+    #[error("the gait '{gait}' is not offered for this robot; it offers {offered}")]
+    GaitNotOffered {
+        /// The gait asked for.
+        gait: &'static str,
+        /// The gaits it offers, with their speed ranges (`"stand, trot (0–1.5 m/s)"`).
+        offered: String,
+    },
+    /// A speed above the gait's rated maximum ([`crate::GaitOffer::max_speed`]).
+    #[error("{gait} at {speed} m/s is above this robot's rated {max_speed} m/s for that gait")]
+    SpeedAboveRating {
+        /// The gait.
+        gait: &'static str,
+        /// The speed asked for (m/s).
+        speed: f64,
+        /// The gait's rated speed (m/s).
+        max_speed: f64,
+    },
     /// Fields that do not fit together.
     #[error("inconsistent configuration: {0}")]
     Inconsistent(String),

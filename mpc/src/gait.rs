@@ -60,6 +60,19 @@ impl Gait {
         Gait::ALL.iter().copied().find(|g| g.name() == name)
     }
 
+    /// Position in [`Gait::ALL`].
+    pub fn index(&self) -> usize {
+        match self {
+            Gait::Stand => 0,
+            Gait::Walk => 1,
+            Gait::Trot => 2,
+            Gait::Pace => 3,
+            Gait::Bound => 4,
+            Gait::Pronk => 5,
+            Gait::Gallop => 6,
+        }
+    }
+
     /// Whether the gait is defined for a robot with `n_legs` legs (2 or 4).
     pub fn supported(&self, n_legs: usize) -> bool {
         GaitPattern::new(*self, n_legs).is_some()
@@ -169,7 +182,8 @@ pub fn ramp(current: f64, target: f64, max_step: f64) -> f64 {
 #[derive(Clone, Debug)]
 pub struct GaitScheduler {
     n_legs: usize,
-    period_scale: f64,
+    /// Period scale per gait ([`Gait::index`]); 0: the gait is not run.
+    period_scales: [f64; Gait::ALL.len()],
     pattern: GaitPattern,
     pending: Option<GaitPattern>,
     phase: f64,
@@ -184,10 +198,26 @@ impl GaitScheduler {
     /// If `n_legs` is neither 2 nor 4 (a programming error; the controller validates it).
     #[track_caller]
     pub fn new(n_legs: usize, period_scale: f64) -> Self {
+        Self::with_period_scales(n_legs, [period_scale; Gait::ALL.len()])
+    }
+
+    /// A scheduler whose gait `g` runs at `period_scales[g.index()]` times its table period;
+    /// a gait whose scale is 0 (or not positive) is not run: requests for it are ignored as
+    /// for a gait not defined for this number of legs. Stand is always run (at scale 1 if
+    /// its entry is 0).
+    ///
+    /// # Panics
+    /// If `n_legs` is neither 2 nor 4 (a programming error; the controller validates it).
+    #[track_caller]
+    pub fn with_period_scales(n_legs: usize, mut period_scales: [f64; Gait::ALL.len()]) -> Self {
         let mut pattern = GaitPattern::new(Gait::Stand, n_legs)
             .unwrap_or_else(|| panic!("GaitScheduler: {n_legs} legs (expected 2 or 4)"));
-        pattern.period *= period_scale;
-        Self { n_legs, period_scale, pattern, pending: None, phase: 0.0, last_t: None }
+        let stand = Gait::Stand.index();
+        if !(period_scales[stand] > 0.0) {
+            period_scales[stand] = 1.0;
+        }
+        pattern.period *= period_scales[stand];
+        Self { n_legs, period_scales, pattern, pending: None, phase: 0.0, last_t: None }
     }
 
     /// The pattern in force.
@@ -212,11 +242,11 @@ impl GaitScheduler {
 
     /// Back to standing at phase 0 and forget the clock.
     pub fn reset(&mut self) {
-        *self = Self::new(self.n_legs, self.period_scale);
+        *self = Self::with_period_scales(self.n_legs, self.period_scales);
     }
 
     /// Advances the phase to time `t` and requests `gait`. A gait not defined for this
-    /// number of legs is ignored (the current one continues). Time going backwards or
+    /// number of legs, or not run by this scheduler, is ignored (the current one continues). Time going backwards or
     /// jumping more than 0.1 s restarts the clock without advancing. Returns whether the
     /// gait in force changed.
     pub fn update(&mut self, t: f64, gait: Gait) -> bool {
@@ -226,8 +256,11 @@ impl GaitScheduler {
         };
         self.last_t = Some(t);
         if gait != self.pattern.gait {
-            if let Some(mut p) = GaitPattern::new(gait, self.n_legs) {
-                p.period *= self.period_scale;
+            let scale = self.period_scales[gait.index()];
+            if scale > 0.0
+                && let Some(mut p) = GaitPattern::new(gait, self.n_legs)
+            {
+                p.period *= scale;
                 self.pending = Some(p);
             }
         } else {
@@ -383,6 +416,26 @@ mod tests {
         }
         assert!((s.stance_time_left(0) - 0.15).abs() < 1e-12);
         assert!((s.time_to_touchdown(1) - 0.15).abs() < 1e-12);
+    }
+
+    #[test]
+    fn gaits_scale_their_own_periods_and_unrun_gaits_are_ignored() {
+        let mut scales = [0.0; Gait::ALL.len()];
+        scales[Gait::Trot.index()] = 1.0;
+        scales[Gait::Walk.index()] = 0.75;
+        let mut s = GaitScheduler::with_period_scales(4, scales);
+        assert_eq!(s.pattern().period, 0.5, "stand runs at scale 1 when its entry is 0");
+        assert!(!s.update(0.0, Gait::Bound), "bound is not run");
+        assert_eq!(s.pattern().gait, Gait::Stand);
+        assert!(s.update(0.01, Gait::Walk));
+        // The walk's table period 0.8 s at 0.75.
+        assert!((s.pattern().period - 0.6).abs() < 1e-12);
+        s.reset();
+        assert!(s.update(0.0, Gait::Trot));
+        assert_eq!(s.pattern().period, 0.3);
+        for (i, g) in Gait::ALL.iter().enumerate() {
+            assert_eq!(g.index(), i);
+        }
     }
 
     #[test]

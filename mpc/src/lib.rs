@@ -104,7 +104,7 @@ mod robot;
 mod swing;
 mod wbc;
 
-pub use config::{Command, ControlMode, ControllerConfig, MpcExecution};
+pub use config::{Command, ControlMode, ControllerConfig, GaitOffer, MpcExecution};
 pub use controller::{
     ControllerStatus, Fallback, JointCommand, LANDING_HEIGHT, LocomotionController, wrap_pi,
 };

@@ -77,7 +77,10 @@ struct ControlArgs {
     /// humanoid.
     #[arg(long)]
     env: String,
-    /// Gait: stand, walk, trot, pace, bound, pronk or gallop (bipeds: stand or walk).
+    /// Gait: stand, walk, trot, pace, bound, pronk or gallop; each robot offers some of them
+    /// up to a rated speed (minitaur: stand, trot to 1.5 m/s, walk to 0.5; ant: stand, trot
+    /// to 0.3; walker2d: stand, walk to 0.5; humanoid: stand, walk to 0.3) and refuses the
+    /// others with an error naming what it offers.
     #[arg(long, value_parser = parse_gait_arg, default_value = "trot")]
     gait: Gait,
     /// Commanded forward speed (m/s).
@@ -111,6 +114,36 @@ struct ControlArgs {
     /// The MPC's solver: structured (the default) or clarabel.
     #[arg(long, value_parser = parse_mpc_solver, default_value = "structured")]
     mpc_solver: MpcSolver,
+    /// Commanded yaw rate (rad/s, positive turns left).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    yaw_rate: f64,
+    /// Speed steps within the run: `T:V,T:V,…` commands V m/s from T s on (`--speed`
+    /// before the first), e.g. `0:0,1:1.5,6:0`; the summary gives each segment's mean speed.
+    #[arg(long, value_parser = parse_speed_schedule)]
+    speed_schedule: Option<SpeedSchedule>,
+    /// Gaussian noise added to every action entry each control step, as a fraction of the
+    /// entry's half-range (0.1: 10 %), as a learner's exploration perturbs the controller.
+    #[arg(long, default_value_t = 0.0)]
+    action_noise: f64,
+    /// Run a gait the robot does not offer, or faster than its rating, to measure it (the
+    /// controller's speed clamp is lifted too).
+    #[arg(long)]
+    unrated: bool,
+}
+
+/// `--speed-schedule`'s pairs (a newtype, so that clap takes the list as one value).
+#[derive(Clone, Debug)]
+struct SpeedSchedule(Vec<(f64, f64)>);
+
+fn parse_speed_schedule(s: &str) -> Result<SpeedSchedule, String> {
+    s.split(',')
+        .map(|pair| {
+            let (t, v) = pair.split_once(':').ok_or_else(|| format!("`{pair}`: expected TIME:SPEED"))?;
+            let num = |x: &str| x.trim().parse::<f64>().map_err(|e| format!("`{x}`: {e}"));
+            Ok((num(t)?, num(v)?))
+        })
+        .collect::<Result<_, String>>()
+        .map(SpeedSchedule)
 }
 
 #[derive(Args)]
@@ -252,6 +285,10 @@ fn control(args: ControlArgs) -> ExitCode {
         measure_from: args.measure_from,
         background_mpc: args.background_mpc,
         mpc_solver: args.mpc_solver,
+        yaw_rate: args.yaw_rate,
+        speed_schedule: args.speed_schedule.map(|s| s.0).unwrap_or_default(),
+        action_noise: args.action_noise,
+        unrated: args.unrated,
     };
     let result = run_control(&opts).and_then(|s| write_summary(&args.out, &s).map(|path| (s, path)));
     match result {

@@ -132,13 +132,21 @@ impl Contacts {
                 }
             };
             out.stance[ci] = contact;
-            // Hip reference: nominal contact under the body, rotated by yaw.
+            // Hip reference: nominal contact under the body, rotated by the yaw the body will
+            // have at the middle of the coming stance, `turn` after now (the commanded yaw
+            // rate turns the footholds: the legs on the outside of the turn step further).
             let nb = robot.nominal_contacts_body[ci];
-            let mut hip = body + Vector3::new(c * nb.x - s * nb.y, s * nb.x + c * nb.y, 0.0);
-            if cfg.mpc.planar {
-                hip.y = est.p_contact[ci].y;
-            }
+            let hip_at = |turn: f64| {
+                let (c, s) = if turn == 0.0 { (c, s) } else { ((yaw + turn).cos(), (yaw + turn).sin()) };
+                let mut hip = body + Vector3::new(c * nb.x - s * nb.y, s * nb.x + c * nb.y, 0.0);
+                if cfg.mpc.planar {
+                    hip.y = est.p_contact[ci].y;
+                }
+                hip
+            };
             let t_td = gait.time_to_touchdown(leg);
+            let w = reference.yaw_rate_cmd;
+            let mut hip = hip_at(w * (t_td + 0.5 * pat.stance_duration(leg)));
             hip += v_cmd * t_td;
             let mut fh = raibert_foothold(
                 &hip,
@@ -162,7 +170,8 @@ impl Contacts {
             // uses it, fell after a 4 N·s push from behind that it survives without.
             out.next_foothold[ci] = if stance && !late {
                 let t_next = gait.stance_time_left(leg) + pat.swing_duration(leg);
-                let mut p = hip + v_cmd * (t_next + 0.5 * pat.stance_duration(leg));
+                let t_mid = t_next + 0.5 * pat.stance_duration(leg);
+                let mut p = hip_at(w * t_mid) + v_cmd * t_td + v_cmd * t_mid;
                 p.z = est.p_contact[ci].z;
                 if cfg.mpc.planar {
                     p.y = est.p_contact[ci].y;

@@ -80,7 +80,7 @@ impl LocomotionController {
             command.q_des[i] = robot.q_nominal[iq];
         }
         Ok(Self {
-            gait: GaitScheduler::new(robot.n_legs, config.gait_period_scale),
+            gait: GaitScheduler::with_period_scales(robot.n_legs, config.period_scales()),
             data: Data::new(&robot.model),
             estimate: Estimate::new(&robot),
             reference: Reference::new(),
@@ -232,6 +232,8 @@ impl LocomotionController {
             self.reference.hold_at(est);
         }
         let shaped = self.reference.shape(cfg, est, command, dt, airborne, self.robot.nominal_com_height);
+        self.status.refused_gaits += u64::from(shaped.refused);
+        self.status.clamped_commands += u64::from(shaped.clamped);
         let gait_changed = self.gait.update(t, shaped.gait);
         let standing = self.gait.pattern().gait == Gait::Stand;
         self.reference.update_position(cfg, est, dt, &shaped.target_velocity, standing);
@@ -271,6 +273,7 @@ mod tests {
     use centaur_dynamics::{BaseKind, Model};
 
     use super::*;
+    use crate::config::GaitOffer;
     use crate::qp::QpStatus;
 
     #[test]
@@ -314,6 +317,51 @@ mod tests {
             }
         }
         (swung, c.status().gait)
+    }
+
+    #[test]
+    fn gaits_not_offered_are_refused_and_speeds_above_the_rating_clamped() {
+        let cfg = ControllerConfig::minitaur();
+        let e = cfg.offer(Gait::Bound).unwrap_err();
+        assert!(matches!(e, ConfigError::GaitNotOffered { gait: "bound", .. }));
+        let msg = e.to_string();
+        assert!(msg.contains("stand") && msg.contains("trot (0–1.5 m/s)") && msg.contains("walk"), "{msg}");
+        assert!(cfg.check_command(Gait::Trot, 1.5).is_ok());
+        assert!(matches!(cfg.check_command(Gait::Trot, -1.6), Err(ConfigError::SpeedAboveRating { .. })));
+        assert!(cfg.check_command(Gait::Stand, 1.0).is_ok(), "a stand's speed shifts the body, unrated");
+        // The walk runs at 0.75 of its table period; bound is not run.
+        let scales = cfg.period_scales();
+        assert_eq!(scales[Gait::Walk.index()], 0.75);
+        assert_eq!(scales[Gait::Bound.index()], 0.0);
+        // Validation: stand must be offered, once; scales positive; gaits defined for the legs.
+        let bad =
+            |gaits: Vec<GaitOffer>| ControllerConfig { gaits, ..ControllerConfig::minitaur() }.validate();
+        assert!(bad(vec![GaitOffer::new(Gait::Trot, 1.0)]).is_err());
+        assert!(bad(vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Stand, 0.0)]).is_err());
+        assert!(
+            bad(vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Trot, 1.0).period(0.0)]).is_err()
+        );
+        assert!(bad(vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Trot, f64::NAN)]).is_err());
+        let biped = ControllerConfig {
+            gaits: vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Trot, 1.0)],
+            ..ControllerConfig::humanoid()
+        };
+        assert!(biped.validate().is_err());
+
+        // In the controller: the Humanoid offers stand and walk to 0.3 m/s.
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/mujoco/humanoid.urdf");
+        let model = Model::from_urdf_file(path, BaseKind::Floating).unwrap();
+        let mut c = LocomotionController::new(&model, ControllerConfig::humanoid()).unwrap();
+        let s = c.nominal_state();
+        c.tick(&s, &Command::forward(0.2, Gait::Pronk), 0.0);
+        assert_eq!((c.status().refused_gaits, c.status().clamped_commands), (1, 0));
+        c.tick(&s, &Command::forward(1.0, Gait::Walk), 0.015);
+        assert_eq!((c.status().refused_gaits, c.status().clamped_commands), (1, 1));
+        // The clamped command ramps towards 0.3 m/s, not 1.0: after 2 s at 0.3 m/s² it is 0.3.
+        for k in 2..140 {
+            c.tick(&s, &Command::forward(1.0, Gait::Walk), k as f64 * 0.015);
+        }
+        assert!((c.reference.v_cmd.norm() - 0.3).abs() < 1e-9, "{}", c.reference.v_cmd.norm());
     }
 
     #[test]

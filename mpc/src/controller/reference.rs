@@ -30,6 +30,10 @@ pub(crate) struct Shaped {
     pub target_velocity: Vector3<f64>,
     /// Body (CoM) height.
     pub height: f64,
+    /// The commanded gait is not offered: the robot stands instead.
+    pub refused: bool,
+    /// The commanded speed was above the gait's rating and was clamped to it.
+    pub clamped: bool,
 }
 
 impl Reference {
@@ -50,7 +54,9 @@ impl Reference {
     }
 
     /// Rate-limits the command over `dt` and integrates the yaw reference. `airborne`: the
-    /// robot has not landed yet, it is held standing.
+    /// robot has not landed yet, it is held standing. A gait the configuration does not offer
+    /// is answered by standing; a planar speed above the gait's rated maximum is scaled down
+    /// to it (the yaw rate is not limited).
     pub(crate) fn shape(
         &mut self,
         cfg: &ControllerConfig,
@@ -61,12 +67,27 @@ impl Reference {
         nominal_height: f64,
     ) -> Shaped {
         let command = if airborne { &Command::stand() } else { command };
-        let gait = if airborne { command.gait } else { cfg.gait_for(command.gait) };
+        // A gait that is not offered: stand still. A speed above the gait's rating: clamped
+        // (a stand command's speed only shifts the body over its planted feet, within
+        // `position_leash`, and is not rated).
+        let (command_gait, max_speed, refused) = match cfg.gaits.iter().find(|o| o.gait == command.gait) {
+            Some(o) if o.gait == Gait::Stand => (o.gait, f64::INFINITY, false),
+            Some(o) => (o.gait, o.max_speed, false),
+            None => (Gait::Stand, 0.0, true),
+        };
+        let gait = if airborne { command_gait } else { cfg.gait_for(command_gait) };
         let (c, s) = (self.yaw_ref.cos(), self.yaw_ref.sin());
         let planar = cfg.mpc.planar;
         let lat = if planar { 0.0 } else { command.lateral_velocity };
-        let target =
-            Vector3::new(c * command.forward_velocity - s * lat, s * command.forward_velocity + c * lat, 0.0);
+        let (mut fwd, mut lat) = (command.forward_velocity, lat);
+        let speed = fwd.hypot(lat);
+        let clamped = speed > max_speed && !refused;
+        if speed > max_speed {
+            let k = if speed > 0.0 { max_speed / speed } else { 0.0 };
+            fwd *= k;
+            lat *= k;
+        }
+        let target = Vector3::new(c * fwd - s * lat, s * fwd + c * lat, 0.0);
         let step = cfg.max_acceleration * dt;
         self.v_cmd.x = ramp(self.v_cmd.x, target.x, step);
         self.v_cmd.y = ramp(self.v_cmd.y, target.y, step);
@@ -76,7 +97,13 @@ impl Reference {
         // Keep the yaw reference within reach of the measured yaw (after a push or a spin).
         let e = wrap_pi(self.yaw_ref - est.rpy.z);
         self.yaw_ref = est.rpy.z + e.clamp(-0.3, 0.3);
-        Shaped { gait, target_velocity: target, height: command.body_height.unwrap_or(nominal_height) }
+        Shaped {
+            gait,
+            target_velocity: target,
+            height: command.body_height.unwrap_or(nominal_height),
+            refused,
+            clamped,
+        }
     }
 
     /// The horizontal position reference `p_ref`: the integral of the (rate-limited)

@@ -122,6 +122,12 @@ pub struct ControllerStatus {
     pub wbc_limit_relaxations: u64,
     /// Ticks with a non-finite state since construction.
     pub invalid_states: u64,
+    /// Ticks whose commanded gait the configuration does not offer (the robot stood
+    /// instead), since construction.
+    pub refused_gaits: u64,
+    /// Ticks whose commanded speed was above the gait's rating and was clamped to it, since
+    /// construction.
+    pub clamped_commands: u64,
     /// Planned CoM positions over the horizon (world).
     pub planned_com: Vec<[f64; 3]>,
     /// Contact forces the MPC plan (or its fallback) gives for this tick (world, N).
@@ -172,6 +178,8 @@ impl ControllerStatus {
             wbc_failures: 0,
             wbc_limit_relaxations: 0,
             invalid_states: 0,
+            refused_gaits: 0,
+            clamped_commands: 0,
             planned_com: vec![[0.0; 3]; horizon],
             mpc_forces: vec![[0.0; 3]; nc],
             forces: vec![[0.0; 3]; nc],
