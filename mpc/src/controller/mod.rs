@@ -348,10 +348,14 @@ mod tests {
         };
         assert!(biped.validate().is_err());
 
-        // In the controller: the Humanoid offers stand and walk to 0.3 m/s.
+        // In the controller: a Humanoid offered stand and walk to 0.3 m/s.
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/mujoco/humanoid.urdf");
         let model = Model::from_urdf_file(path, BaseKind::Floating).unwrap();
-        let mut c = LocomotionController::new(&model, ControllerConfig::humanoid()).unwrap();
+        let cfg = ControllerConfig {
+            gaits: vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Walk, 0.3)],
+            ..ControllerConfig::humanoid()
+        };
+        let mut c = LocomotionController::new(&model, cfg).unwrap();
         let s = c.nominal_state();
         c.tick(&s, &Command::forward(0.2, Gait::Pronk), 0.0);
         assert_eq!((c.status().refused_gaits, c.status().clamped_commands), (1, 0));
