@@ -155,7 +155,7 @@ fn main() {
         (v[0], v[1], v[2], v[3])
     });
     let noise_frac: f64 = flag("--action-noise").and_then(|s| s.parse().ok()).unwrap_or(0.0);
-    let mut noise = centaur::gym::Rng::seed_from_u64(seed ^ 0x6e6f_6973_65);
+    let mut noise = centaur::gym::Rng::seed_from_u64(seed ^ 0x006e_6f69_7365);
     let dt = env.dt();
     let mut t = 0.0;
     let mut x0 = env.robot_state().q[0];

@@ -280,7 +280,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     let mut max_tilt = 0.0f64;
     let mut command = Command { yaw_rate: opts.yaw_rate, ..Command::forward(opts.speed, opts.gait) };
     let space = env.action_space().clone();
-    let mut noise = Rng::seed_from_u64(opts.seed ^ 0x6e6f_6973_65);
+    let mut noise = Rng::seed_from_u64(opts.seed ^ 0x006e_6f69_7365);
     let (mut x_prev, mut y_prev, mut yaw_prev) = (x0, y0, yaw0);
     let mut yaw_turned = 0.0;
     let mut forward_path = 0.0;

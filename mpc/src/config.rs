@@ -623,7 +623,7 @@ impl ControllerConfig {
                     range: "> 0",
                 });
             }
-            if !(o.max_speed >= 0.0) {
+            if o.max_speed.is_nan() || o.max_speed < 0.0 {
                 return Err(ConfigError::OutOfRange {
                     field: "gaits.max_speed",
                     value: o.max_speed,

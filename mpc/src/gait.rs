@@ -213,7 +213,7 @@ impl GaitScheduler {
         let mut pattern = GaitPattern::new(Gait::Stand, n_legs)
             .unwrap_or_else(|| panic!("GaitScheduler: {n_legs} legs (expected 2 or 4)"));
         let stand = Gait::Stand.index();
-        if !(period_scales[stand] > 0.0) {
+        if period_scales[stand].is_nan() || period_scales[stand] <= 0.0 {
             period_scales[stand] = 1.0;
         }
         pattern.period *= period_scales[stand];
