@@ -183,11 +183,7 @@ fn main() {
         };
         mapping.action(env.as_ref(), cmd, &mut action);
         if noise_frac > 0.0 {
-            let space = env.action_space();
-            for ((a, lo), hi) in action.iter_mut().zip(&space.low).zip(&space.high) {
-                let half = 0.5 * (hi - lo) as f64;
-                *a = (*a as f64 + noise_frac * half * noise.normal()).clamp(*lo as f64, *hi as f64) as f32;
-            }
+            centaur::control::perturb_action(&mut action, env.action_space(), noise_frac, &mut noise);
         }
         if let Some((amp, lift, period, sign)) = cpg {
             // Open-loop joint-space trot for the Ant (simulator check): diagonal pairs,

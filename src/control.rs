@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use centaur_dynamics::nalgebra::Vector3;
 use centaur_envs::RobotEnv;
-use centaur_gym::{EnvError, Rng};
+use centaur_gym::{BoxSpace, EnvError, Rng};
 use centaur_mpc::{Command, ConfigError, Gait, GaitOffer, LocomotionController, MpcExecution, MpcSolver};
 
 use crate::hybrid::{ActionMapping, HybridError};
@@ -324,11 +324,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         ticks.push(start.elapsed().as_secs_f64() * 1e6);
         mapping.action(env.as_ref(), cmd, &mut action);
         if opts.action_noise > 0.0 {
-            for ((a, lo), hi) in action.iter_mut().zip(&space.low).zip(&space.high) {
-                let half = 0.5 * (hi - lo) as f64;
-                *a = (*a as f64 + opts.action_noise * half * noise.normal()).clamp(*lo as f64, *hi as f64)
-                    as f32;
-            }
+            perturb_action(&mut action, &space, opts.action_noise, &mut noise);
         }
         let status = ctrl.status();
         max_tilt = max_tilt.max(status.rpy[0].abs()).max(status.rpy[1].abs());
@@ -416,6 +412,16 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         unrated: opts.unrated,
         segments,
     })
+}
+
+/// Adds independent Gaussian noise of `fraction` × each entry's half-range `(high − low)/2`
+/// to `action` and clips it to the bounds (`--action-noise`: what a learner's exploration
+/// does to the controller's actions).
+pub fn perturb_action(action: &mut [f32], space: &BoxSpace, fraction: f64, rng: &mut Rng) {
+    for ((a, lo), hi) in action.iter_mut().zip(&space.low).zip(&space.high) {
+        let half = 0.5 * (hi - lo) as f64;
+        *a = (*a as f64 + fraction * half * rng.normal()).clamp(*lo as f64, *hi as f64) as f32;
+    }
 }
 
 /// Writes `summary` as `dir/summary.json` (pretty-printed), creating `dir`.

@@ -481,10 +481,13 @@ impl ControllerConfig {
     /// The offer of `gait`, or why it is refused ([`ConfigError::GaitNotOffered`], naming the
     /// gaits that are offered with their rated speeds).
     pub fn offer(&self, gait: Gait) -> Result<&GaitOffer, ConfigError> {
-        self.gaits
-            .iter()
-            .find(|o| o.gait == gait)
+        self.find_offer(gait)
             .ok_or_else(|| ConfigError::GaitNotOffered { gait: gait.name(), offered: self.offered_gaits() })
+    }
+
+    /// The offer of `gait`, if any (allocation-free: the controller looks it up every tick).
+    pub fn find_offer(&self, gait: Gait) -> Option<&GaitOffer> {
+        self.gaits.iter().find(|o| o.gait == gait)
     }
 
     /// Checks that `gait` is offered and `speed` (m/s, planar) within its rating.

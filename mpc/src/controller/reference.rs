@@ -70,7 +70,7 @@ impl Reference {
         // A gait that is not offered: stand still. A speed above the gait's rating: clamped
         // (a stand command's speed only shifts the body over its planted feet, within
         // `position_leash`, and is not rated).
-        let (command_gait, max_speed, refused) = match cfg.gaits.iter().find(|o| o.gait == command.gait) {
+        let (command_gait, max_speed, refused) = match cfg.find_offer(command.gait) {
             Some(o) if o.gait == Gait::Stand => (o.gait, f64::INFINITY, false),
             Some(o) => (o.gait, o.max_speed, false),
             None => (Gait::Stand, 0.0, true),
