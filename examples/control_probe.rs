@@ -118,6 +118,7 @@ fn main() {
                 "swing_joint_kd" => cfg.swing_joint_gains.1 = x,
                 "stance_joint_kp" => cfg.stance_joint_gains.0 = x,
                 "stance_joint_kd" => cfg.stance_joint_gains.1 = x,
+                "rating" => cfg.gaits.iter_mut().for_each(|o| o.max_speed = x),
                 "mu" => {
                     cfg.mpc.mu = x;
                     cfg.wbc.mu = x

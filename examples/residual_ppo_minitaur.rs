@@ -18,7 +18,6 @@
 use std::process::ExitCode;
 
 use centaur::cli::{ExampleArgs, ExampleDefaults, run_example};
-use centaur_mpc::{Command, Gait};
 use centaur_rl::AlgoKind;
 use clap::Parser;
 
@@ -34,12 +33,6 @@ struct Cli {
     /// Environment: minitaur (MinitaurBulletEnv-v0 with its randomisation) or minitaur-fast
     #[arg(long, default_value = "minitaur", value_parser = ["minitaur", "minitaur-fast"])]
     env: String,
-    /// Residual scale, one value for every action dimension [default: the env's]
-    #[arg(long)]
-    residual_scale: Option<f64>,
-    /// Forward speed the controller is commanded, m/s [default: 0.3]
-    #[arg(long, allow_negative_numbers = true)]
-    speed: Option<f64>,
 }
 
 fn main() -> ExitCode {
@@ -51,18 +44,12 @@ fn main() -> ExitCode {
         steps: 300_000,
         envs: 4,
     };
-    let mut opts = match cli.run.options(&defaults) {
+    let opts = match cli.run.options(&defaults) {
         Ok(opts) => opts,
         Err(e) => {
             eprintln!("{}: {e}", defaults.name);
             return ExitCode::from(2);
         }
     };
-    if let Some(s) = cli.residual_scale {
-        opts.residual.scale = vec![s];
-    }
-    if let Some(v) = cli.speed {
-        opts.residual.command = Command::forward(v, Gait::Trot);
-    }
     run_example(defaults.name, &opts)
 }

@@ -10,6 +10,7 @@ use centaur_rl::{AlgoKind, UpdateMetrics};
 use crate::experiment::{
     ExperimentError, ExperimentOptions, ExperimentResult, Phase, run_experiment, tuned_config,
 };
+use crate::hybrid::{Exploration, ResidualConfig, Steering};
 use crate::registry::residual_config;
 use crate::train::parse_algo_config;
 
@@ -77,6 +78,79 @@ pub fn run_experiment_with_progress(
     result
 }
 
+/// Which parts of the hybrid's action are on (`--parts`), for the ablation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum HybridParts {
+    /// The joint residual and the command steering the robot's preset has.
+    #[default]
+    Both,
+    /// The joint residual only (steering off).
+    Residual,
+    /// The command steering only (no joint residual).
+    Command,
+}
+
+/// The hybrid's setup on the command line, over the robot's preset
+/// ([`crate::registry::residual_config`]); flattened into the examples' and `centaur`'s
+/// parsers.
+#[derive(Clone, Debug, Default, clap::Args)]
+pub struct HybridArgs {
+    /// Bound of the joint residual (action units), one value for every action [default: the robot's]
+    #[arg(long)]
+    pub residual_scale: Option<f64>,
+    /// Forward speed the controller is commanded at zero steering, m/s [default: the robot's]
+    #[arg(long, allow_negative_numbers = true)]
+    pub speed: Option<f64>,
+    /// Span of the policy's forward-speed steering, m/s (0: off) [default: the robot's]
+    #[arg(long)]
+    pub steer_speed: Option<f64>,
+    /// Span of the policy's yaw-rate steering, rad/s (0: off) [default: the robot's]
+    #[arg(long)]
+    pub steer_yaw_rate: Option<f64>,
+    /// Which parts of the hybrid's action are on: both (the default), residual (no
+    /// steering) or command (steering only)
+    #[arg(long, value_enum, default_value = "both")]
+    pub parts: HybridParts,
+    /// Initial exploration σ of the joint residual, in policy units (PPO and A2C) [default: the robot's]
+    #[arg(long)]
+    pub explore_residual: Option<f64>,
+    /// Initial exploration σ of the steering, in policy units (PPO and A2C) [default: the robot's]
+    #[arg(long)]
+    pub explore_steering: Option<f64>,
+}
+
+impl HybridArgs {
+    /// `preset` with what the command line changes; checked against nothing yet (the
+    /// environment checks it with the robot's action dimension).
+    pub fn apply(&self, mut preset: ResidualConfig) -> ResidualConfig {
+        if let Some(s) = self.residual_scale {
+            preset.scale = vec![s];
+        }
+        if let Some(v) = self.speed {
+            preset.command.forward_velocity = v;
+        }
+        if let Some(s) = self.steer_speed {
+            preset.steering.speed = s;
+        }
+        if let Some(s) = self.steer_yaw_rate {
+            preset.steering.yaw_rate = s;
+        }
+        match self.parts {
+            HybridParts::Both => {}
+            HybridParts::Residual => preset.steering = Steering::OFF,
+            HybridParts::Command => preset.joint_residual = false,
+        }
+        if self.explore_residual.is_some() || self.explore_steering.is_some() {
+            let e = preset.exploration.unwrap_or(Exploration { residual: 1.0, steering: 1.0 });
+            preset.exploration = Some(Exploration {
+                residual: self.explore_residual.unwrap_or(e.residual),
+                steering: self.explore_steering.unwrap_or(e.steering),
+            });
+        }
+        preset
+    }
+}
+
 /// The command line shared by the experiment examples (`residual_ppo_minitaur`,
 /// `residual_sac_walker2d`, `residual_td3_ant`); flatten it into an example's own parser.
 #[derive(Clone, Debug, Default, clap::Args)]
@@ -107,6 +181,9 @@ pub struct ExampleArgs {
     /// Do not write the MCAP recordings
     #[arg(long)]
     pub no_record: bool,
+    /// The hybrid's setup.
+    #[command(flatten)]
+    pub hybrid: HybridArgs,
 }
 
 /// A count of at least 1 (`--envs`, `--threads`).
@@ -144,7 +221,7 @@ impl ExampleArgs {
             }
             None => tuned_config(defaults.env, defaults.algo),
         };
-        let residual = residual_config(defaults.env).map_err(|e| e.to_string())?;
+        let residual = self.hybrid.apply(residual_config(defaults.env).map_err(|e| e.to_string())?);
         let n_envs = self.envs.unwrap_or(defaults.envs).max(1);
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         Ok(ExperimentOptions {
@@ -158,6 +235,7 @@ impl ExampleArgs {
             eval_episodes: self.eval_episodes,
             residual,
             record: !self.no_record,
+            eval_every: None,
         })
     }
 }

@@ -1,14 +1,16 @@
-//! `centaur compare`: pure RL against the hybrid over several seeds, reported as mean ± std
-//! across seeds with learning curves and confidence bands — several seeds and their
-//! variance, not the best run.
+//! `centaur compare`: pure RL against the hybrid over several seeds, reported as the
+//! interquartile mean over seeds with its 95 % stratified-bootstrap confidence interval
+//! (Agarwal et al. 2021, [`crate::stats`]) and as mean ± std, with learning curves and
+//! bands — several seeds and their variance, not the best run.
 //!
 //! Each seed `k` runs a full [`run_experiment`] in `DIR/seed_k/` (the MCAP recordings only
 //! for seed 0). The output directory also gets:
 //!
 //! | file | content |
 //! |---|---|
-//! | `compare.json` | per agent: the across-seed mean and std of the evaluation return, speed, falls and cost of transport, and every seed's numbers |
+//! | `compare.json` | per agent: the across-seed IQM (with its 95 % CI), mean and std of the evaluation return, speed, falls and cost of transport, and every seed's numbers |
 //! | `learning_curves.png`, `.svg` | mean training return across seeds against steps, with a band of ± one standard deviation across seeds |
+//! | `eval_curves.png`, `.svg`; `eval_curves_wall.png`, `.svg` | the deterministic evaluations at each budget (`--eval-every`): IQM over seeds with its 95 % CI, against steps and against training wall-clock seconds |
 
 use std::path::PathBuf;
 
@@ -16,10 +18,12 @@ use centaur_rl::{AlgoConfig, UpdateMetrics};
 use serde::Serialize;
 
 use crate::experiment::{
-    AgentStats, Curve, ExperimentError, ExperimentOptions, ExperimentSummary, Phase, run_experiment,
+    AgentStats, BudgetEval, Curve, ExperimentError, ExperimentOptions, ExperimentSummary, Phase,
+    run_experiment,
 };
 use crate::hybrid::ResidualConfig;
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
+use crate::stats::{Interval, iqm_with_ci};
 
 /// What to compare.
 #[derive(Clone, Debug)]
@@ -43,11 +47,18 @@ pub struct CompareOptions {
     pub eval_episodes: usize,
     /// The hybrid's residual setup.
     pub residual: ResidualConfig,
+    /// Deterministic evaluations during training every this many steps (see
+    /// [`ExperimentOptions::eval_every`]).
+    pub eval_every: Option<u64>,
 }
 
 /// Across-seed statistics of one agent.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct Aggregate {
+    /// Interquartile mean over seeds of the mean evaluation return ([`crate::stats::iqm`]).
+    pub return_iqm: f64,
+    /// Its 95 % stratified-bootstrap confidence interval (2,000 resamples of the seeds).
+    pub return_iqm_ci95: Option<Interval>,
     /// Mean over seeds of the mean evaluation return.
     pub return_mean: f64,
     /// Standard deviation over seeds of the mean evaluation return.
@@ -83,21 +94,108 @@ pub struct CompareSummary {
     pub pure_rl: Aggregate,
     /// The controller alone.
     pub controller: Aggregate,
+    /// Both learners' deterministic evaluations at each training budget, across seeds.
+    pub budgets: Vec<BudgetRow>,
+}
+
+/// Both learners at one training budget, across seeds.
+#[derive(Clone, Debug, Serialize)]
+pub struct BudgetRow {
+    /// Training environment steps (per agent and seed).
+    pub env_steps: u64,
+    /// The hybrid's IQM over seeds of the mean evaluation return, and its 95 % CI.
+    pub hybrid_iqm: f64,
+    /// See `hybrid_iqm`.
+    pub hybrid_ci95: Option<Interval>,
+    /// Pure RL's IQM and 95 % CI.
+    pub pure_iqm: f64,
+    /// See `pure_iqm`.
+    pub pure_ci95: Option<Interval>,
+    /// Mean over seeds of the hybrid's training wall-clock seconds to this budget.
+    pub hybrid_wall_seconds: f64,
+    /// Mean over seeds of pure RL's training wall-clock seconds to this budget.
+    pub pure_wall_seconds: f64,
+    /// The hybrid's falls / episodes over all seeds.
+    pub hybrid_falls: (usize, usize),
+    /// Pure RL's falls / episodes over all seeds.
+    pub pure_falls: (usize, usize),
+}
+
+/// Across-seed statistics at every budget all seeds evaluated (seeds share `eval_every`).
+fn budget_rows(runs: &[ExperimentSummary]) -> Vec<BudgetRow> {
+    let n = runs.iter().map(|r| r.hybrid_budgets.len().min(r.pure_budgets.len())).min().unwrap_or(0);
+    (0..n)
+        .map(|k| {
+            let h: Vec<&BudgetEval> = runs.iter().map(|r| &r.hybrid_budgets[k]).collect();
+            let p: Vec<&BudgetEval> = runs.iter().map(|r| &r.pure_budgets[k]).collect();
+            let (hybrid_iqm, hybrid_ci95) = iqm_with_ci(&h.iter().map(|b| b.return_mean).collect::<Vec<_>>());
+            let (pure_iqm, pure_ci95) = iqm_with_ci(&p.iter().map(|b| b.return_mean).collect::<Vec<_>>());
+            let wall = |v: &[&BudgetEval]| mean_std(&v.iter().map(|b| b.wall_seconds).collect::<Vec<_>>()).0;
+            let falls =
+                |v: &[&BudgetEval]| (v.iter().map(|b| b.falls).sum(), v.iter().map(|b| b.episodes).sum());
+            BudgetRow {
+                env_steps: h[0].env_steps.max(p[0].env_steps),
+                hybrid_iqm,
+                hybrid_ci95,
+                pure_iqm,
+                pure_ci95,
+                hybrid_wall_seconds: wall(&h),
+                pure_wall_seconds: wall(&p),
+                hybrid_falls: falls(&h),
+                pure_falls: falls(&p),
+            }
+        })
+        .collect()
 }
 
 impl CompareSummary {
+    /// The learners at each training budget in Markdown: return IQM [95 % CI] over seeds,
+    /// falls and training wall time.
+    pub fn budget_table(&self) -> String {
+        let ci =
+            |c: Option<Interval>| c.map_or("—".to_string(), |i| format!("[{:.2}, {:.2}]", i.low, i.high));
+        let mut t = String::from(
+            "| samples | hybrid IQM [95 % CI] | pure RL IQM [95 % CI] | hybrid falls | pure falls | hybrid / pure wall (s) |\n|---:|---:|---:|---:|---:|---:|\n",
+        );
+        for b in &self.budgets {
+            t += &format!(
+                "| {} | {:.2} {} | {:.2} {} | {}/{} | {}/{} | {:.0} / {:.0} |\n",
+                b.env_steps,
+                b.hybrid_iqm,
+                ci(b.hybrid_ci95),
+                b.pure_iqm,
+                ci(b.pure_ci95),
+                b.hybrid_falls.0,
+                b.hybrid_falls.1,
+                b.pure_falls.0,
+                b.pure_falls.1,
+                b.hybrid_wall_seconds,
+                b.pure_wall_seconds
+            );
+        }
+        t
+    }
+
     /// The across-seed table in Markdown: return (mean ± std over seeds), forward speed,
     /// falls over all evaluation episodes and cost of transport of the three agents.
     pub fn markdown_table(&self) -> String {
         let row = |name: &str, a: &Aggregate| {
             let cot = a.cost_of_transport.map_or("—".to_string(), |c| format!("{c:.2}"));
+            let ci =
+                a.return_iqm_ci95.map_or("—".to_string(), |i| format!("[{:.2}, {:.2}]", i.low, i.high));
             format!(
-                "| {name} | {:.2} ± {:.2} | {:.3} ± {:.3} | {}/{} | {cot} |\n",
-                a.return_mean, a.return_std, a.mean_speed, a.mean_speed_std, a.falls, a.episodes
+                "| {name} | {:.2} {ci} | {:.2} ± {:.2} | {:.3} ± {:.3} | {}/{} | {cot} |\n",
+                a.return_iqm,
+                a.return_mean,
+                a.return_std,
+                a.mean_speed,
+                a.mean_speed_std,
+                a.falls,
+                a.episodes
             )
         };
         let mut t = String::from(
-            "| agent | return (mean ± std over seeds) | forward speed (m/s) | falls | cost of transport |\n|---|---:|---:|---:|---:|\n",
+            "| agent | return IQM [95 % CI] over seeds | return (mean ± std over seeds) | forward speed (m/s) | falls | cost of transport |\n|---|---:|---:|---:|---:|---:|\n",
         );
         t += &row("hybrid (residual RL on the controller)", &self.hybrid);
         t += &row("pure RL", &self.pure_rl);
@@ -117,8 +215,11 @@ fn aggregate(runs: &[ExperimentSummary], pick: impl Fn(&ExperimentSummary) -> &A
     let stats: Vec<AgentStats> = runs.iter().map(|r| pick(r).clone()).collect();
     let (return_mean, return_std) = mean_std(&stats.iter().map(|s| s.return_mean).collect::<Vec<_>>());
     let (mean_speed, mean_speed_std) = mean_std(&stats.iter().map(|s| s.mean_speed).collect::<Vec<_>>());
+    let (return_iqm, return_iqm_ci95) = iqm_with_ci(&stats.iter().map(|s| s.return_mean).collect::<Vec<_>>());
     let cots: Vec<f64> = stats.iter().filter_map(|s| s.cost_of_transport).collect();
     Aggregate {
+        return_iqm,
+        return_iqm_ci95,
         return_mean,
         return_std,
         mean_speed,
@@ -181,6 +282,7 @@ pub fn run_compare(
             eval_episodes: opts.eval_episodes,
             residual: opts.residual.clone(),
             record: seed == 0,
+            eval_every: opts.eval_every,
         };
         let r = run_experiment(&exp, &mut |phase, m| progress(seed, phase, m))?;
         runs.push(r.summary);
@@ -195,6 +297,7 @@ pub fn run_compare(
         hybrid: aggregate(&runs, |r| &r.hybrid),
         pure_rl: aggregate(&runs, |r| &r.pure_rl),
         controller: aggregate(&runs, |r| &r.controller),
+        budgets: budget_rows(&runs),
     };
     let path = opts.out.join("compare.json");
     let text = serde_json::to_string_pretty(&summary)
@@ -214,6 +317,46 @@ pub fn run_compare(
         match plot_curves(&opts.out.join(format!("learning_curves.{ext}")), &labels, &series) {
             Ok(()) | Err(PlotError::Empty { .. }) => {}
             Err(e) => return Err(e.into()),
+        }
+    }
+    // The deterministic evaluations: IQM with its 95 % CI against samples and against
+    // training wall-clock time.
+    let eval_series = |x: &dyn Fn(&BudgetRow, bool) -> f64| {
+        [true, false].map(|hybrid| {
+            let pick = |b: &BudgetRow| {
+                if hybrid { (b.hybrid_iqm, b.hybrid_ci95) } else { (b.pure_iqm, b.pure_ci95) }
+            };
+            let rows = &summary.budgets;
+            Series {
+                label: format!("{} (IQM, 95 % CI over seeds)", if hybrid { "hybrid" } else { "pure RL" }),
+                x: rows.iter().map(|b| x(b, hybrid)).collect(),
+                y: rows.iter().map(|b| pick(b).0).collect(),
+                lower: Some(rows.iter().map(|b| pick(b).1.map_or(pick(b).0, |i| i.low)).collect()),
+                upper: Some(rows.iter().map(|b| pick(b).1.map_or(pick(b).0, |i| i.high)).collect()),
+            }
+        })
+    };
+    let by_steps = eval_series(&|b, _| b.env_steps as f64);
+    let by_wall = eval_series(&|b, hybrid| if hybrid { b.hybrid_wall_seconds } else { b.pure_wall_seconds });
+    for (name, x, series) in [
+        ("eval_curves", "environment steps", by_steps),
+        ("eval_curves_wall", "training wall-clock seconds", by_wall),
+    ] {
+        let labels = PlotLabels {
+            title: format!(
+                "{} on {}: deterministic evaluation, {} seeds",
+                opts.algo.kind().name(),
+                opts.env,
+                summary.seeds
+            ),
+            x: x.into(),
+            y: "evaluation return".into(),
+        };
+        for ext in ["png", "svg"] {
+            match plot_curves(&opts.out.join(format!("{name}.{ext}")), &labels, &series) {
+                Ok(()) | Err(PlotError::Empty { .. }) => {}
+                Err(e) => return Err(e.into()),
+            }
         }
     }
     Ok(summary)

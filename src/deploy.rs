@@ -103,6 +103,8 @@ pub struct HybridStack {
     reference: Vec<f32>,
     residual_out: Vec<f32>,
     command: Vec<f32>,
+    /// The command the controller follows: the configured one, steered by the policy.
+    steered: Command,
     contacts: ContactMap,
 }
 
@@ -119,24 +121,27 @@ impl HybridStack {
         let m = robot.command_space().dim();
         let residual = Residual::new(&config, m)?;
         let obs_dim = residual.obs_dim(robot.sensor_dim());
+        let act_dim = residual.policy_action_dim();
+        let command0 = config.command;
         if let Some(p) = &policy
-            && (p.obs_dim() != obs_dim || p.act_dim() != m)
+            && (p.obs_dim() != obs_dim || p.act_dim() != act_dim)
         {
             return Err(HybridError::PolicyShape {
                 policy: (p.obs_dim(), p.act_dim()),
-                needed: (obs_dim, m),
+                needed: (obs_dim, act_dim),
             });
         }
         Ok(HybridStack {
             torques,
             policy,
-            config,
             residual,
+            config,
             sensors: vec![0.0; robot.sensor_dim()],
             obs: vec![0.0; obs_dim],
             reference: vec![0.0; m],
-            residual_out: vec![0.0; m],
+            residual_out: vec![0.0; act_dim],
             command: vec![0.0; m],
+            steered: command0,
             contacts: ContactMap::new(&controller, robot.contact_frames()),
             controller,
         })
@@ -150,22 +155,26 @@ impl HybridStack {
     /// Restarts the gait clock (call when the robot starts walking).
     pub fn reset(&mut self) {
         self.controller.reset();
+        self.steered = self.config.command;
     }
 
-    /// Sets the velocity command.
+    /// Sets the velocity command (with steering: the command at zero steering output).
     pub fn set_command(&mut self, command: Command) {
         self.config.command = command;
+        self.steered = command;
+    }
+
+    /// The command the controller follows now (the set one, steered by the policy).
+    pub fn command(&self) -> &Command {
+        &self.steered
     }
 
     /// One control period: reads the robot, returns the actuator command.
     pub fn tick(&mut self, robot: &dyn RobotInterface) -> &[f32] {
-        let cmd = self.contacts.tick(
-            &mut self.controller,
-            robot.state(),
-            &self.config.command,
-            robot.time(),
-            |out| robot.contacts(out),
-        );
+        let cmd =
+            self.contacts.tick(&mut self.controller, robot.state(), &self.steered, robot.time(), |out| {
+                robot.contacts(out)
+            });
         let tau = self.torques.torques(robot.state(), cmd);
         robot.command_for_torques(tau, &mut self.reference);
         match self.policy.as_mut() {
@@ -176,7 +185,7 @@ impl HybridStack {
                 self.residual.observation(
                     &self.sensors,
                     phase,
-                    &self.config.command,
+                    &self.steered,
                     &self.reference,
                     &mut self.obs,
                 );
@@ -189,6 +198,7 @@ impl HybridStack {
                     &space.high,
                     &mut self.command,
                 );
+                self.steered = self.residual.steer(&self.config.command, &self.residual_out);
             }
         }
         &self.command

@@ -55,21 +55,79 @@ pub enum HybridError {
         /// What the robot and residual need.
         needed: (usize, usize),
     },
+    /// A steering span or exploration σ out of range.
+    #[error("{part} = {value}: expected {expected}")]
+    BadSetting {
+        /// Which setting.
+        part: &'static str,
+        /// The value.
+        value: f64,
+        /// What it must be.
+        expected: &'static str,
+    },
+    /// Neither a joint residual nor any steering: the policy would have no action.
+    #[error("the hybrid's policy has nothing to act on: turn on the joint residual or a steering span")]
+    NothingToLearn,
     /// The controller's configuration.
     #[error("controller: {0}")]
     Controller(#[from] ConfigError),
 }
 
-/// The residual setup of a hybrid: how large the correction may be, what the policy sees,
-/// and what the controller is commanded.
+/// How the policy may steer the controller's command. Each non-zero span adds one entry
+/// `c ∈ [−1, 1]` to the policy's action, after the joint residual, and the controller
+/// follows `base + span · clip(c, −1, 1)`; zero switches that part off. The controller
+/// still clamps the result to its rating for the gait and ramps towards it at its own
+/// acceleration limit, so a noisy steering output is smoothed, not followed step by step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Steering {
+    /// Forward-speed span (m/s): `v = v₀ + speed · c`.
+    pub speed: f64,
+    /// Yaw-rate span (rad/s): `ω = ω₀ + yaw_rate · c`.
+    pub yaw_rate: f64,
+}
+
+impl Steering {
+    /// No steering: the command is fixed.
+    pub const OFF: Steering = Steering { speed: 0.0, yaw_rate: 0.0 };
+
+    /// Number of action entries the steering adds.
+    pub fn dim(&self) -> usize {
+        usize::from(self.speed != 0.0) + usize::from(self.yaw_rate != 0.0)
+    }
+}
+
+/// The initial exploration of a hybrid's learner, per action part: the standard deviation
+/// of the Gaussian around the policy's (zero) mean, in the policy's [−1, 1] units. A
+/// residual's noise of σ · scale on every joint knocks the controller over long before its
+/// mean learns anything; a steering entry's noise is smoothed by the controller's ramp.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Exploration {
+    /// σ of every joint-residual entry.
+    pub residual: f64,
+    /// σ of every steering entry.
+    pub steering: f64,
+}
+
+/// The residual setup of a hybrid: how large the correction may be, how the policy may
+/// steer the command, what the policy sees, and what the controller is commanded.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ResidualConfig {
     /// Residual scale per action entry (one value: the same for every entry), in the
     /// environment's action units (default: 0.3).
     pub scale: Vec<f64>,
+    /// Whether the policy outputs a joint residual (default: true). Off, the policy only
+    /// steers the command (`steering` must then be on).
+    pub joint_residual: bool,
+    /// How the policy steers the command (default: off).
+    pub steering: Steering,
+    /// The learner's initial exploration per action part (`None`, the default: the
+    /// learner's own, e.g. PPO's `log_std_init`). Only learners with a per-entry Gaussian
+    /// (PPO, A2C) take it.
+    pub exploration: Option<Exploration>,
     /// Append the reference action to the observation (default: true).
     pub include_reference: bool,
-    /// The command the controller follows (default: trot at 0.3 m/s).
+    /// The command the controller follows (default: trot at 0.3 m/s); with steering, the
+    /// command at zero steering output.
     pub command: Command,
 }
 
@@ -77,6 +135,9 @@ impl Default for ResidualConfig {
     fn default() -> Self {
         ResidualConfig {
             scale: vec![0.3],
+            joint_residual: true,
+            steering: Steering::OFF,
+            exploration: None,
             include_reference: true,
             command: Command::forward(0.3, Gait::Trot),
         }
@@ -84,12 +145,21 @@ impl Default for ResidualConfig {
 }
 
 impl ResidualConfig {
-    /// A residual of `scale` around the controller following `command`.
-    pub fn new(scale: f64, command: Command) -> Self {
-        ResidualConfig { scale: vec![scale], include_reference: true, command }
+    /// The learner's initial exploration σ per entry of a policy of `policy_dim` actions
+    /// (joint residual first, then steering), if [`ResidualConfig::exploration`] is set.
+    pub fn initial_exploration(&self, policy_dim: usize) -> Option<Vec<f64>> {
+        let e = self.exploration?;
+        let steer = self.steering.dim().min(policy_dim);
+        Some((0..policy_dim).map(|k| if k < policy_dim - steer { e.residual } else { e.steering }).collect())
     }
 
-    /// Checks the scale against the action dimension.
+    /// A residual of `scale` around the controller following `command`.
+    pub fn new(scale: f64, command: Command) -> Self {
+        ResidualConfig { scale: vec![scale], command, ..ResidualConfig::default() }
+    }
+
+    /// Checks the scale against the action dimension, the steering spans and the
+    /// exploration.
     pub fn validate(&self, action_dim: usize) -> Result<(), HybridError> {
         if !(self.scale.len() == 1 || self.scale.len() == action_dim) {
             return Err(HybridError::ScaleLength { entries: self.scale.len(), action_dim });
@@ -97,30 +167,67 @@ impl ResidualConfig {
         if let Some(&value) = self.scale.iter().find(|s| !(s.is_finite() && **s >= 0.0)) {
             return Err(HybridError::BadScale { value });
         }
+        for (part, value) in
+            [("steering.speed", self.steering.speed), ("steering.yaw_rate", self.steering.yaw_rate)]
+        {
+            if !value.is_finite() || value < 0.0 {
+                return Err(HybridError::BadSetting { part, value, expected: "a finite span ≥ 0" });
+            }
+        }
+        if let Some(e) = self.exploration {
+            for (part, value) in [("exploration.residual", e.residual), ("exploration.steering", e.steering)]
+            {
+                if !value.is_finite() || value <= 0.0 {
+                    return Err(HybridError::BadSetting { part, value, expected: "a finite σ > 0" });
+                }
+            }
+        }
+        if !self.joint_residual && self.steering.dim() == 0 {
+            return Err(HybridError::NothingToLearn);
+        }
         Ok(())
     }
 }
 
-/// The residual law and the policy's observation layout, with the scale resolved per
-/// action entry. See the module docs.
+/// The residual law, the steering of the command and the policy's observation layout,
+/// with the scale resolved per action entry. See the module docs.
+///
+/// The policy's action is `[r (the joint residual, one entry per robot action, if on) |
+/// c (the steering entries: speed, then yaw rate, those switched on)]`.
 #[derive(Clone, Debug)]
 pub struct Residual {
     scale: Vec<f32>,
+    joint: bool,
+    steering: Steering,
     include_reference: bool,
 }
 
 impl Residual {
-    /// The law for `action_dim` actions.
+    /// The law for a robot of `action_dim` actions.
     pub fn new(config: &ResidualConfig, action_dim: usize) -> Result<Residual, HybridError> {
         config.validate(action_dim)?;
         let scale =
             (0..action_dim).map(|k| *config.scale.get(k).unwrap_or(&config.scale[0]) as f32).collect();
-        Ok(Residual { scale, include_reference: config.include_reference })
+        Ok(Residual {
+            scale,
+            joint: config.joint_residual,
+            steering: config.steering,
+            include_reference: config.include_reference,
+        })
     }
 
-    /// Number of actions.
-    pub fn action_dim(&self) -> usize {
+    /// Number of the robot's actions.
+    pub fn robot_action_dim(&self) -> usize {
         self.scale.len()
+    }
+
+    /// Number of the policy's action entries (joint residual, if on, then steering).
+    pub fn policy_action_dim(&self) -> usize {
+        self.joint_dim() + self.steering.dim()
+    }
+
+    fn joint_dim(&self) -> usize {
+        if self.joint { self.scale.len() } else { 0 }
     }
 
     /// Dimension of the policy's observation over a robot observation of `robot_obs_dim`.
@@ -133,8 +240,10 @@ impl Residual {
         self.include_reference
     }
 
-    /// `applied = clip(reference + scale ⊙ clip(output, −1, 1), low, high)`, per entry;
-    /// returns `Σ (scale ⊙ clip(output))²`, the squared size of the correction.
+    /// `applied = clip(reference + scale ⊙ clip(r, −1, 1), low, high)`, per entry, with
+    /// `r` the joint-residual part of the policy's `output` (without a joint residual,
+    /// `applied = reference`); returns `Σ (scale ⊙ clip(r))²`, the squared size of the
+    /// correction.
     #[track_caller]
     pub fn apply(
         &self,
@@ -146,13 +255,18 @@ impl Residual {
     ) -> f64 {
         let m = self.scale.len();
         assert!(
-            reference.len() == m && output.len() == m && applied.len() == m,
-            "Residual::apply: {} actions, got reference {}, output {}, applied {}",
+            reference.len() == m && output.len() == self.policy_action_dim() && applied.len() == m,
+            "Residual::apply: {} actions and {} policy outputs, got reference {}, output {}, applied {}",
             m,
+            self.policy_action_dim(),
             reference.len(),
             output.len(),
             applied.len()
         );
+        if !self.joint {
+            applied.copy_from_slice(reference);
+            return 0.0;
+        }
         let mut sq = 0.0f64;
         for k in 0..m {
             let r = self.scale[k] * output[k].clamp(-1.0, 1.0);
@@ -160,6 +274,25 @@ impl Residual {
             applied[k] = (reference[k] + r).clamp(low[k], high[k]);
         }
         sq
+    }
+
+    /// The command the policy's `output` steers `base` to (`base` itself without
+    /// steering, or for a zero output).
+    pub fn steer(&self, base: &Command, output: &[f32]) -> Command {
+        let mut k = self.joint_dim();
+        let mut next = || {
+            let c = output.get(k).copied().unwrap_or(0.0).clamp(-1.0, 1.0) as f64;
+            k += 1;
+            c
+        };
+        let mut cmd = *base;
+        if self.steering.speed != 0.0 {
+            cmd.forward_velocity = base.forward_velocity + self.steering.speed * next();
+        }
+        if self.steering.yaw_rate != 0.0 {
+            cmd.yaw_rate = base.yaw_rate + self.steering.yaw_rate * next();
+        }
+        cmd
     }
 
     /// The policy's observation: the robot's observation, the gait phase
@@ -366,7 +499,7 @@ mod tests {
         let nan = ResidualConfig { scale: vec![f64::NAN], ..ResidualConfig::default() };
         assert!(matches!(Residual::new(&nan, 3), Err(HybridError::BadScale { .. })));
         let per_entry = ResidualConfig { scale: vec![0.1, 0.2, 0.3], ..ResidualConfig::default() };
-        assert_eq!(Residual::new(&per_entry, 3).unwrap().action_dim(), 3);
+        assert_eq!(Residual::new(&per_entry, 3).unwrap().robot_action_dim(), 3);
     }
 
     #[test]
@@ -380,5 +513,84 @@ mod tests {
         assert!((out[3] - 1.0).abs() < 1e-7 && out[4].abs() < 1e-7);
         assert_eq!(&out[5..8], &[0.5, 0.0, 0.0]);
         assert_eq!(&out[8..], &[0.7, -0.7]);
+    }
+
+    #[test]
+    fn steering_maps_the_policy_output_onto_the_command() {
+        let base = Command::forward(2.0, Gait::Trot);
+        let config = ResidualConfig {
+            steering: Steering { speed: 0.5, yaw_rate: 0.2 },
+            ..ResidualConfig::new(0.25, base)
+        };
+        let r = Residual::new(&config, 3).unwrap();
+        assert_eq!(r.policy_action_dim(), 5);
+        // [r₀ r₁ r₂ | c_speed c_yaw]
+        assert_eq!(r.steer(&base, &[0.0; 5]), base);
+        let c = r.steer(&base, &[9.0, 9.0, 9.0, 1.0, -0.5]);
+        assert_eq!((c.forward_velocity, c.yaw_rate, c.gait), (2.5, -0.1, Gait::Trot));
+        // Outputs beyond ±1 are clipped like the residual's.
+        assert_eq!(r.steer(&base, &[0.0, 0.0, 0.0, -3.0, 0.0]).forward_velocity, 1.5);
+        // The joint residual reads only its own entries.
+        let mut applied = [0.0f32; 3];
+        r.apply(&[0.1, 0.2, 0.3], &[0.0, 0.0, 0.0, 1.0, 1.0], &[-1.0; 3], &[1.0; 3], &mut applied);
+        assert_eq!(applied, [0.1, 0.2, 0.3]);
+    }
+
+    #[test]
+    fn command_only_hybrids_apply_the_reference_and_steer() {
+        let base = Command::forward(1.0, Gait::Trot);
+        let config = ResidualConfig {
+            joint_residual: false,
+            steering: Steering { speed: 0.5, yaw_rate: 0.0 },
+            ..ResidualConfig::new(0.25, base)
+        };
+        let r = Residual::new(&config, 3).unwrap();
+        assert_eq!(r.policy_action_dim(), 1);
+        let mut applied = [0.0f32; 3];
+        assert_eq!(r.apply(&[0.1, 0.2, 0.3], &[1.0], &[-1.0; 3], &[1.0; 3], &mut applied), 0.0);
+        assert_eq!(applied, [0.1, 0.2, 0.3]);
+        assert_eq!(r.steer(&base, &[-1.0]).forward_velocity, 0.5);
+    }
+
+    #[test]
+    fn steering_and_exploration_settings_are_checked() {
+        let nothing = ResidualConfig { joint_residual: false, ..ResidualConfig::default() };
+        assert!(matches!(Residual::new(&nothing, 3), Err(HybridError::NothingToLearn)));
+        let negative =
+            ResidualConfig { steering: Steering { speed: -0.5, yaw_rate: 0.0 }, ..ResidualConfig::default() };
+        assert!(matches!(
+            Residual::new(&negative, 3),
+            Err(HybridError::BadSetting { part: "steering.speed", .. })
+        ));
+        let nan = ResidualConfig {
+            steering: Steering { speed: 0.0, yaw_rate: f64::NAN },
+            ..ResidualConfig::default()
+        };
+        assert!(matches!(
+            Residual::new(&nan, 3),
+            Err(HybridError::BadSetting { part: "steering.yaw_rate", .. })
+        ));
+        let zero_sigma = ResidualConfig {
+            exploration: Some(Exploration { residual: 0.0, steering: 1.0 }),
+            ..ResidualConfig::default()
+        };
+        assert!(matches!(
+            Residual::new(&zero_sigma, 3),
+            Err(HybridError::BadSetting { part: "exploration.residual", .. })
+        ));
+    }
+
+    #[test]
+    fn the_initial_exploration_follows_the_action_layout() {
+        let mut config = ResidualConfig {
+            steering: Steering { speed: 0.5, yaw_rate: 0.0 },
+            exploration: Some(Exploration { residual: 0.2, steering: 0.7 }),
+            ..ResidualConfig::default()
+        };
+        assert_eq!(config.initial_exploration(3), Some(vec![0.2, 0.2, 0.7]));
+        config.joint_residual = false;
+        assert_eq!(config.initial_exploration(1), Some(vec![0.7]));
+        config.exploration = None;
+        assert_eq!(config.initial_exploration(1), None);
     }
 }

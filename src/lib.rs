@@ -31,4 +31,5 @@ pub mod plot;
 pub mod recording;
 pub mod registry;
 pub mod residual;
+pub mod stats;
 pub mod train;

@@ -24,7 +24,7 @@
 
 use centaur_envs::RobotEnv;
 use centaur_gym::{BoxSpace, Env, EnvError, MAX_REWARD_TERMS, Step, check_action, check_observation};
-use centaur_mpc::LocomotionController;
+use centaur_mpc::{Command, LocomotionController};
 
 use crate::hybrid::{ActionMapping, HybridError, Residual, ResidualConfig};
 
@@ -43,6 +43,9 @@ pub struct ResidualEnv {
     env_obs: Vec<f32>,
     reference: Vec<f32>,
     applied: Vec<f32>,
+    /// The command the controller follows now (the base command steered by the policy's
+    /// last action).
+    command: Command,
     name: String,
 }
 
@@ -57,6 +60,7 @@ impl ResidualEnv {
         let mapping = ActionMapping::new(env.as_ref(), &controller)?;
         let m = env.action_space().dim();
         let residual = Residual::new(&config, m)?;
+        let policy_dim = residual.policy_action_dim();
         let base = env.observation_space();
         let mut low = base.low.clone();
         let mut high = base.high.clone();
@@ -71,8 +75,9 @@ impl ResidualEnv {
         Ok(ResidualEnv {
             env_obs: vec![0.0; base.dim()],
             obs_space: BoxSpace::new(low, high),
-            act_space: BoxSpace::symmetric(m, 1.0),
+            act_space: BoxSpace::symmetric(policy_dim, 1.0),
             reference: vec![0.0; m],
+            command: config.command,
             applied: vec![0.0; m],
             residual,
             env,
@@ -113,16 +118,27 @@ impl ResidualEnv {
         &self.config
     }
 
+    /// The command the controller follows now: the configured one, steered by the
+    /// policy's last action (see [`crate::hybrid::Steering`]).
+    pub fn command(&self) -> &Command {
+        &self.command
+    }
+
+    /// The hybrid's law (residual, steering, observation layout).
+    pub fn residual(&self) -> &Residual {
+        &self.residual
+    }
+
     /// Ticks the controller on the current state and stores the next reference action.
     fn update_reference(&mut self) {
         let t = self.env.episode_time();
-        let cmd = self.mapping.tick(&mut self.controller, self.env.as_ref(), &self.config.command, t);
+        let cmd = self.mapping.tick(&mut self.controller, self.env.as_ref(), &self.command, t);
         self.mapping.action(self.env.as_ref(), cmd, &mut self.reference);
     }
 
     fn write_obs(&self, obs: &mut [f32]) {
         let phase = self.controller.status().phase;
-        self.residual.observation(&self.env_obs, phase, &self.config.command, &self.reference, obs);
+        self.residual.observation(&self.env_obs, phase, &self.command, &self.reference, obs);
     }
 }
 
@@ -164,20 +180,24 @@ impl Env for ResidualEnv {
         check_observation(&self.obs_space, obs)?;
         self.env.reset(seed, &mut self.env_obs)?;
         self.controller.reset();
+        self.command = self.config.command;
         self.update_reference();
         self.applied.copy_from_slice(&self.reference);
         self.write_obs(obs);
         Ok(())
     }
 
-    /// Residuals outside [−1, 1] are clipped; NaN or a wrong length is refused.
+    /// Residuals and steering outputs outside [−1, 1] are clipped; NaN or a wrong length
+    /// is refused. The joint residual acts on this step; the steered command on the
+    /// controller's next tick (the policy observes it).
     fn step(&mut self, action: &[f32], obs: &mut [f32]) -> Result<Step, EnvError> {
         check_action(&self.act_space, action)?;
         check_observation(&self.obs_space, obs)?;
         let space = self.env.action_space();
         let sq = self.residual.apply(&self.reference, action, &space.low, &space.high, &mut self.applied);
         let mut step = self.env.step(&self.applied, &mut self.env_obs)?;
-        step.info.reward_terms[RESIDUAL_TERM] = (sq / action.len().max(1) as f64).sqrt();
+        step.info.reward_terms[RESIDUAL_TERM] = (sq / self.applied.len().max(1) as f64).sqrt();
+        self.command = self.residual.steer(&self.config.command, action);
         if !step.done() {
             self.update_reference();
         }

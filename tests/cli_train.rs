@@ -117,10 +117,12 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     let out = out_dir("compare");
     let config = out_dir("compare.toml");
     std::fs::write(&config, "n_steps = 64\nbatch_size = 64\nn_epochs = 2\n").unwrap();
-    let o = compare_minitaur_ppo(&["--seeds", "2", "--steps", "512", "--eval-episodes", "1"], &config, &out);
+    let args = ["--seeds", "2", "--steps", "512", "--eval-episodes", "1", "--eval-every", "256"];
+    let o = compare_minitaur_ppo(&args, &config, &out);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("| hybrid (residual RL on the controller) |"), "{stdout}");
+    assert!(stdout.contains("By training budget"), "{stdout}");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("compare.json")).unwrap()).unwrap();
     assert_eq!((json["env"].as_str(), json["seeds"].as_u64()), (Some("minitaur"), Some(2)));
@@ -130,7 +132,17 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
         let returns: Vec<f64> = per_seed.iter().map(|s| s["return_mean"].as_f64().unwrap()).collect();
         let mean = json[agent]["return_mean"].as_f64().unwrap();
         assert!((mean - (returns[0] + returns[1]) / 2.0).abs() < 1e-9, "{agent}: {mean} vs {returns:?}");
+        // Two seeds: the IQM is their mean, inside its bootstrap interval.
+        let iqm = json[agent]["return_iqm"].as_f64().unwrap();
+        let ci = &json[agent]["return_iqm_ci95"];
+        assert!((iqm - mean).abs() < 1e-9, "{agent}: IQM {iqm} vs mean {mean}");
+        assert!(ci["low"].as_f64().unwrap() <= iqm && iqm <= ci["high"].as_f64().unwrap(), "{agent}: {ci}");
     }
+    // Evaluations at 256 steps and at the end; the last is the final evaluation.
+    let budgets = json["budgets"].as_array().unwrap();
+    assert_eq!(budgets.iter().map(|b| b["env_steps"].as_u64().unwrap()).collect::<Vec<_>>(), [256, 512]);
+    assert_eq!(budgets[1]["hybrid_iqm"].as_f64(), json["hybrid"]["return_iqm"].as_f64());
+    assert!(out.join("eval_curves.png").is_file() && out.join("eval_curves_wall.png").is_file());
     for seed in ["seed_0", "seed_1"] {
         assert!(out.join(seed).join("summary.json").is_file(), "{seed}");
         assert!(out.join(seed).join("hybrid").join("checkpoint").exists(), "{seed}");

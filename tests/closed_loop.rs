@@ -80,14 +80,14 @@ fn the_minitaur_trots_with_the_mpc_on_a_worker_thread() {
     assert_eq!(s.mpc_blocking_ticks, 1);
 }
 
-/// The Minitaur's rated trot (1.5 m/s) over the whole randomisation: seed 0 at 1.0 m/s in
-/// CI (`tools/closed_loop_table.py` runs 0.3–1.5 m/s over seeds 0–4): 10 s after a 1 s
+/// The Minitaur's rated trot (to 2.5 m/s) over the whole randomisation: seed 0 at 2.0 m/s
+/// in CI (`tools/closed_loop_table.py` runs 0.3–2.5 m/s over seeds 0–4): 10 s after the
 /// ramp, speed within 15 %, yaw drift below 0.2 rad.
 #[test]
-fn the_minitaur_trots_at_one_metre_per_second() {
-    let s = run("minitaur", Gait::Trot, 1.0, 1.0, None);
+fn the_minitaur_trots_at_two_metres_per_second() {
+    let s = run("minitaur", Gait::Trot, 2.0, 2.0, None);
     assert!(!s.fell, "fell after {:.2} s", s.seconds);
-    assert!((s.mean_speed - 1.0).abs() < 0.15, "mean speed {:.3} m/s for 1.0", s.mean_speed);
+    assert!((s.mean_speed - 2.0).abs() < 0.3, "mean speed {:.3} m/s for 2.0", s.mean_speed);
     assert!(s.yaw_drift < 0.2, "yaw drift {:.3} rad", s.yaw_drift);
 }
 
@@ -310,8 +310,8 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
         (vec!["--env", "minitaur", "--gait", "moonwalk"], "moonwalk"),
         (vec!["--env", "walker2d", "--gait", "gallop"], "gallop"),
         // Not offered on the Minitaur: the error names the gaits that work.
-        (vec!["--env", "minitaur", "--gait", "bound"], "trot (0–1.5 m/s)"),
-        (vec!["--env", "minitaur", "--gait", "trot", "--speed", "2"], "rated 1.5 m/s"),
+        (vec!["--env", "minitaur", "--gait", "bound"], "trot (0–2.5 m/s)"),
+        (vec!["--env", "minitaur", "--gait", "trot", "--speed", "3"], "rated 2.5 m/s"),
         (vec!["--env", "minitaur", "--speed-schedule", "0:0,1:x"], "x"),
         (vec!["--env", "minitaur", "--action-noise", "nan"], "noise"),
     ] {

@@ -28,6 +28,8 @@ SPEED_ROWS = [
     ("minitaur", "trot", 0.6),
     ("minitaur", "trot", 1.0),
     ("minitaur", "trot", 1.5),
+    ("minitaur", "trot", 2.0),
+    ("minitaur", "trot", 2.5),
     ("minitaur", "walk", 0.3),
     ("minitaur", "walk", 0.5),
     ("ant", "stand", 0.0),
@@ -43,7 +45,7 @@ UNRATED_ROWS = [
     ("ant", "trot", 1.0),
     ("walker2d", "walk", 1.0),
     ("humanoid", "walk", 0.5),
-    ("minitaur", "trot", 2.0),
+    ("minitaur", "trot", 2.75),
     ("minitaur", "bound", 1.0),
     ("minitaur", "gallop", 1.0),
     ("minitaur", "pace", 1.0),
@@ -58,6 +60,7 @@ PUSH_ROWS = [
     ("minitaur", "trot", 0.3, 20), ("minitaur", "trot", 0.3, -20),
     ("minitaur", "trot", 1.0, 10), ("minitaur", "trot", 1.0, -10),
     ("minitaur", "trot", 1.0, 20), ("minitaur", "trot", 1.0, -20),
+    ("minitaur", "trot", 2.0, 20), ("minitaur", "trot", 2.0, -20),
     ("minitaur", "stand", 0.0, 20), ("minitaur", "stand", 0.0, -20),
     ("ant", "trot", 0.3, 40), ("ant", "trot", 0.3, -40),
     ("humanoid", "stand", 0.0, 40), ("humanoid", "stand", 0.0, -40),
@@ -66,6 +69,7 @@ PUSH_ROWS = [
 NOISE_ROWS = [
     ("minitaur", "trot", 0.3, 0.1),
     ("minitaur", "trot", 1.0, 0.1),
+    ("minitaur", "trot", 2.0, 0.1),
     ("ant", "trot", 0.3, 0.1),
     ("ant", "trot", 0.6, 0.1),
 ]
@@ -75,7 +79,7 @@ TURN_ROWS = [
     ("minitaur", "trot", 0.5, 0.5), ("minitaur", "trot", 0.5, -0.5),
 ]
 # (robot, gait, schedule)
-STEP_ROWS = [("minitaur", "trot", "0:0,1:1.5,6:0"), ("minitaur", "trot", "0:0,1:1.0,4:0.3,7:0")]
+STEP_ROWS = [("minitaur", "trot", "0:0,1:1.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:1.0"), ("minitaur", "trot", "0:0,1:1.0,4:0.3,7:0")]
 
 
 class Runner:

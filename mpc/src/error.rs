@@ -27,7 +27,7 @@ pub enum ConfigError {
     GaitNotOffered {
         /// The gait asked for.
         gait: &'static str,
-        /// The gaits it offers, with their speed ranges (`"stand, trot (0–1.5 m/s)"`).
+        /// The gaits it offers, with their speed ranges (`"stand, trot (0–2.5 m/s)"`).
         offered: String,
     },
     /// A speed above the gait's rated maximum ([`crate::GaitOffer::max_speed`]).

@@ -51,4 +51,44 @@ pub trait Algorithm {
     /// actor's output rows (and its target copy): a residual policy then starts as a no-op
     /// on top of its reference controller. Exploration noise is unchanged.
     fn zero_policy_output(&mut self);
+
+    /// Sets the initial exploration, per action entry, as the standard deviation of the
+    /// Gaussian the learner samples around its mean action (in the [−1, 1] action scale):
+    /// a hybrid starts with little noise on the parts that would knock its controller over.
+    /// Learners whose exploration is not a per-entry Gaussian around the policy's mean
+    /// (SAC, TD3, DDPG: a state-dependent or fixed noise and uniform warm-up actions)
+    /// refuse with [`RlError::Incompatible`]. The default refuses.
+    fn set_exploration_std(&mut self, std: &[f64]) -> Result<(), RlError> {
+        let _ = std;
+        Err(RlError::Incompatible {
+            algo: "off-policy",
+            reason:
+                "the learner's exploration is not a per-entry Gaussian; it cannot be set per action entry"
+                    .into(),
+        })
+    }
+}
+
+/// Checks a per-entry exploration std (length `act_dim`, every entry finite and positive) and
+/// returns its logarithms.
+pub(crate) fn exploration_log_std(
+    algo: &'static str,
+    std: &[f64],
+    act_dim: usize,
+) -> Result<Vec<f32>, RlError> {
+    if std.len() != act_dim {
+        return Err(RlError::Incompatible {
+            algo,
+            reason: format!("{} exploration stds for {act_dim} actions", std.len()),
+        });
+    }
+    if let Some(&bad) = std.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+        return Err(RlError::InvalidConfig {
+            algo,
+            field: "exploration std",
+            value: bad.to_string(),
+            reason: "must be finite and positive",
+        });
+    }
+    Ok(std.iter().map(|s| s.ln() as f32).collect())
 }

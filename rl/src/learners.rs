@@ -35,6 +35,12 @@ pub enum AlgoKind {
 }
 
 impl AlgoKind {
+    /// Whether the learner explores with a per-entry Gaussian around its mean action, so
+    /// that [`crate::Algorithm::set_exploration_std`] applies (PPO and A2C).
+    pub fn takes_exploration_std(self) -> bool {
+        matches!(self, AlgoKind::Ppo | AlgoKind::A2c)
+    }
+
     /// All kinds.
     pub const ALL: [AlgoKind; 6] =
         [AlgoKind::Ppo, AlgoKind::A2c, AlgoKind::Sac, AlgoKind::SacV1, AlgoKind::Td3, AlgoKind::Ddpg];
@@ -132,6 +138,22 @@ impl AlgoConfig {
             AlgoConfig::SacV1(c) => c.seed = seed,
             AlgoConfig::Td3(c) => c.seed = seed,
             AlgoConfig::Ddpg(c) => c.seed = seed,
+        }
+        self
+    }
+
+    /// Sets the learning-rate schedule's horizon to `steps` where the settings leave it to
+    /// the first `learn` call (PPO and A2C with `lr_decay_steps` unset), so that training
+    /// in chunks anneals as one call to `steps` would; other settings are unchanged.
+    pub fn with_default_lr_decay_steps(mut self, steps: u64) -> AlgoConfig {
+        match &mut self {
+            AlgoConfig::Ppo(c) => {
+                c.lr_decay_steps.get_or_insert(steps.max(1));
+            }
+            AlgoConfig::A2c(c) => {
+                c.lr_decay_steps.get_or_insert(steps.max(1));
+            }
+            AlgoConfig::Sac(_) | AlgoConfig::SacV1(_) | AlgoConfig::Td3(_) | AlgoConfig::Ddpg(_) => {}
         }
         self
     }

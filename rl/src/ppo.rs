@@ -891,6 +891,11 @@ impl Algorithm for Ppo {
         self.actor.zero_output_rows(0..self.act_space.dim());
     }
 
+    fn set_exploration_std(&mut self, std: &[f64]) -> Result<(), RlError> {
+        self.log_std = crate::algorithm::exploration_log_std("ppo", std, self.act_space.dim())?;
+        Ok(())
+    }
+
     fn steps_done(&self) -> u64 {
         self.steps_done
     }

@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use centaur::cli::{TrainingProgress, progress_style};
+use centaur::cli::{HybridArgs, TrainingProgress, progress_style};
 use centaur::compare::{CompareOptions, run_compare};
 use centaur::control::{ControlOptions, Push, parse_gait, run_control, write_summary};
 use centaur::experiment::{Phase, tuned_config};
@@ -78,7 +78,7 @@ struct ControlArgs {
     #[arg(long)]
     env: String,
     /// Gait: stand, walk, trot, pace, bound, pronk or gallop; each robot offers some of them
-    /// up to a rated speed (minitaur: stand, trot to 1.5 m/s, walk to 0.5; ant: stand, trot
+    /// up to a rated speed (minitaur: stand, trot to 2.5 m/s, walk to 0.5; ant: stand, trot
     /// to 0.3; walker2d: stand, walk to 0.5; humanoid: stand, by stepping in place) and refuses the
     /// others with an error naming what it offers.
     #[arg(long, value_parser = parse_gait_arg, default_value = "trot")]
@@ -177,9 +177,13 @@ struct CompareArgs {
     /// Evaluation episodes per agent and seed.
     #[arg(long, default_value_t = 10)]
     eval_episodes: usize,
-    /// Bound of the residual (fraction of the action range), default per robot.
-    #[arg(long)]
-    residual_scale: Option<f64>,
+    /// Evaluate both learners deterministically every this many training steps (and at
+    /// the end); 0: at the end only.
+    #[arg(long, default_value_t = 100_000)]
+    eval_every: u64,
+    /// The hybrid's setup.
+    #[command(flatten)]
+    hybrid: HybridArgs,
 }
 
 /// `centaur compare`: pure RL against the hybrid over several seeds.
@@ -200,16 +204,13 @@ fn compare(args: CompareArgs) -> ExitCode {
         },
         None => tuned_config(&args.env, args.algo),
     };
-    let mut residual = match residual_config(&args.env) {
-        Ok(r) => r,
+    let residual = match residual_config(&args.env) {
+        Ok(r) => args.hybrid.apply(r),
         Err(e) => {
             eprintln!("error: {e}");
             return ExitCode::FAILURE;
         }
     };
-    if let Some(s) = args.residual_scale {
-        residual.scale = vec![s];
-    }
     let on_policy = matches!(args.algo, AlgoKind::Ppo | AlgoKind::A2c);
     let opts = CompareOptions {
         env: args.env,
@@ -221,6 +222,7 @@ fn compare(args: CompareArgs) -> ExitCode {
         threads: args.threads,
         eval_episodes: args.eval_episodes,
         residual,
+        eval_every: (args.eval_every > 0).then_some(args.eval_every),
     };
     let seeds = opts.seeds.max(1);
     let bar = ProgressBar::new(seeds * 2 * opts.steps);
@@ -247,6 +249,10 @@ fn compare(args: CompareArgs) -> ExitCode {
                 summary.algo, summary.env, summary.seeds, summary.steps, opts.eval_episodes
             );
             print!("{}", summary.markdown_table());
+            if summary.budgets.len() > 1 {
+                println!("\nBy training budget (deterministic evaluation):\n");
+                print!("{}", summary.budget_table());
+            }
             println!("\nwrote {}", opts.out.join("compare.json").display());
             ExitCode::SUCCESS
         }

@@ -55,6 +55,14 @@ impl Driver {
         }
     }
 
+    /// The robot's action dimension (the hybrid's policy may also steer the command).
+    fn robot_act_dim(&self) -> usize {
+        match self {
+            Driver::Controller { env, .. } | Driver::Pure { env, .. } => env.action_space().dim(),
+            Driver::Hybrid { env, .. } => env.inner().action_space().dim(),
+        }
+    }
+
     fn reset(&mut self, seed: u64, obs: &mut [f32]) -> Result<(), ExperimentError> {
         match self {
             Driver::Controller { env, controller, .. } => {
@@ -135,7 +143,7 @@ pub(crate) fn evaluate(
 ) -> Result<AgentStats, ExperimentError> {
     let mut obs = vec![0.0f32; driver.obs_dim()];
     let mut action = vec![0.0f32; driver.act_dim()];
-    let m = driver.act_dim();
+    let m = driver.robot_act_dim();
     let mut rec = StepRecord {
         reference: vec![0.0; m],
         residual: vec![0.0; m],

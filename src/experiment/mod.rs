@@ -40,4 +40,4 @@ mod summary;
 pub use options::{Curve, ExperimentError, ExperimentOptions, ExperimentResult, Phase};
 pub use presets::tuned_config;
 pub use runner::run_experiment;
-pub use summary::{AgentStats, ExperimentSummary};
+pub use summary::{AgentStats, BudgetEval, ExperimentSummary};

@@ -74,6 +74,10 @@ pub struct ExperimentOptions {
     pub residual: ResidualConfig,
     /// Write an MCAP recording per agent.
     pub record: bool,
+    /// Evaluate both learners deterministically (`eval_episodes` episodes) every this many
+    /// training steps as well as at the end (`None`: at the end only). Training runs in
+    /// chunks between the evaluations, with the learning-rate schedule of the whole budget.
+    pub eval_every: Option<u64>,
 }
 
 /// Training curve of one agent: `(env steps, mean training episode return)` per update.

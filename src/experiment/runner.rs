@@ -12,7 +12,7 @@ use centaur_rl::{Algorithm, MetricsCsv, Policy, RlError, UpdateMetrics};
 
 use super::evaluation::{Driver, evaluate};
 use super::options::{ExperimentError, ExperimentOptions, ExperimentResult, Phase, io_err};
-use super::summary::ExperimentSummary;
+use super::summary::{AgentStats, BudgetEval, ExperimentSummary};
 use crate::hybrid::{ActionMapping, HybridError};
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
 use crate::registry::{controller_config, make_residual_env, make_robot_env};
@@ -26,7 +26,25 @@ fn vec_env_of(
     Ok(VecEnv::new(envs, threads)?)
 }
 
-/// Trains one agent; returns its checkpoint path, metrics and wall time.
+/// What training one agent produced.
+struct Trained {
+    checkpoint: PathBuf,
+    rows: Vec<UpdateMetrics>,
+    wall: f64,
+    steps: u64,
+    budgets: Vec<BudgetEval>,
+}
+
+/// The budgets at which training pauses for an evaluation (before the final one).
+fn budgets(opts: &ExperimentOptions) -> Vec<u64> {
+    match opts.eval_every {
+        Some(k) if k > 0 => (1..).map(|i| i * k).take_while(|&b| b < opts.steps).collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// Trains one agent; returns its checkpoint path, metrics, wall time and the evaluations
+/// at the intermediate budgets.
 fn train_one(
     opts: &ExperimentOptions,
     dir: &Path,
@@ -34,31 +52,69 @@ fn train_one(
     phase: Phase,
     progress: &mut dyn FnMut(Phase, &UpdateMetrics),
     stop: &AtomicBool,
-) -> Result<(PathBuf, Vec<UpdateMetrics>, f64, u64), ExperimentError> {
+) -> Result<Trained, ExperimentError> {
     std::fs::create_dir_all(dir).map_err(io_err(dir))?;
-    let mut algo: Box<dyn Algorithm> = opts.algo.clone().with_seed(opts.seed).build(env)?;
+    let pauses = budgets(opts);
+    let mut config = opts.algo.clone().with_seed(opts.seed);
+    if !pauses.is_empty() {
+        // Chunks of training with the schedule of the whole budget.
+        config = config.with_default_lr_decay_steps(opts.steps);
+    }
+    let mut algo: Box<dyn Algorithm> = config.build(env)?;
     if phase == Phase::TrainHybrid {
         // Zero mean residual at the start: the untrained hybrid is the controller.
         algo.zero_policy_output();
+        // A gentle start: the exploration per action part the residual setup asks for.
+        let policy_dim = env.action_space().dim();
+        if let Some(std) = opts.residual.initial_exploration(policy_dim)
+            && opts.algo.kind().takes_exploration_std()
+        {
+            algo.set_exploration_std(&std)?;
+        }
     }
     let csv_path = dir.join("metrics.csv");
     let mut csv = MetricsCsv::create(&csv_path).map_err(io_err(&csv_path))?;
     let mut rows = Vec::new();
     let mut csv_error = None;
+    let mut evals = Vec::new();
+    let mut eval_time = 0.0;
     let t0 = Instant::now();
-    algo.learn(env, opts.steps, &mut |m| {
-        if stop.load(Ordering::Relaxed) {
-            return ControlFlow::Break(());
+    for target in pauses.iter().copied().chain(std::iter::once(opts.steps)) {
+        algo.learn(env, target, &mut |m| {
+            if stop.load(Ordering::Relaxed) {
+                return ControlFlow::Break(());
+            }
+            if let Err(e) = csv.write(m) {
+                csv_error = Some(e);
+                return ControlFlow::Break(());
+            }
+            rows.push(*m);
+            progress(phase, m);
+            ControlFlow::Continue(())
+        })?;
+        if stop.load(Ordering::Relaxed) || csv_error.is_some() || target == opts.steps {
+            break;
         }
-        if let Err(e) = csv.write(m) {
-            csv_error = Some(e);
-            return ControlFlow::Break(());
-        }
-        rows.push(*m);
-        progress(phase, m);
-        ControlFlow::Continue(())
-    })?;
-    let wall = t0.elapsed().as_secs_f64();
+        let t_eval = Instant::now();
+        let wall_seconds = t0.elapsed().as_secs_f64() - eval_time;
+        let mut driver = match phase {
+            Phase::TrainHybrid => Driver::Hybrid {
+                env: Box::new(make_residual_env(&opts.env, opts.residual.clone())?),
+                policy: algo.policy(),
+            },
+            _ => Driver::Pure { env: make_robot_env(&opts.env, None)?, policy: algo.policy() },
+        };
+        let stats = evaluate(&mut driver, opts.eval_episodes, 1_000_000 + opts.seed, None)?;
+        evals.push(BudgetEval {
+            env_steps: algo.steps_done(),
+            wall_seconds,
+            return_mean: stats.return_mean,
+            falls: stats.falls,
+            episodes: stats.episodes,
+        });
+        eval_time += t_eval.elapsed().as_secs_f64();
+    }
+    let wall = t0.elapsed().as_secs_f64() - eval_time;
     if stop.load(Ordering::Relaxed) {
         return Err(ExperimentError::Stopped);
     }
@@ -66,9 +122,9 @@ fn train_one(
         return Err(ExperimentError::Io { path: csv_path, source: e });
     }
     csv.flush().map_err(io_err(&csv_path))?;
-    let ckpt = dir.join("checkpoint");
-    algo.save(&ckpt)?;
-    Ok((ckpt, rows, wall, algo.steps_done()))
+    let checkpoint = dir.join("checkpoint");
+    algo.save(&checkpoint)?;
+    Ok(Trained { checkpoint, rows, wall, steps: algo.steps_done(), budgets: evals })
 }
 
 /// Runs the experiment (see the module docs) and writes the output directory.
@@ -137,8 +193,20 @@ pub fn run_experiment(
     };
     // The first real error (not the other training's `Stopped`).
     let (
-        (pure_ckpt, pure_rows, pure_wall, pure_steps),
-        (hybrid_ckpt, hybrid_rows, hybrid_wall, hybrid_steps),
+        Trained {
+            checkpoint: pure_ckpt,
+            rows: pure_rows,
+            wall: pure_wall,
+            steps: pure_steps,
+            budgets: mut pure_budgets,
+        },
+        Trained {
+            checkpoint: hybrid_ckpt,
+            rows: hybrid_rows,
+            wall: hybrid_wall,
+            steps: hybrid_steps,
+            budgets: mut hybrid_budgets,
+        },
     ) = match (pure, hybrid) {
         (Ok(p), Ok(h)) => (p, h),
         (Err(ExperimentError::Stopped), Err(e)) | (Err(e), _) | (Ok(_), Err(e)) => return Err(e),
@@ -194,7 +262,22 @@ pub fn run_experiment(
     (pure_stats.env_steps, pure_stats.wall_seconds) = (pure_steps, pure_wall);
     (hybrid_stats.env_steps, hybrid_stats.wall_seconds) = (hybrid_steps, hybrid_wall);
 
-    let summary = ExperimentSummary { hybrid: hybrid_stats, pure_rl: pure_stats, controller: ctrl_stats };
+    let last = |s: &AgentStats| BudgetEval {
+        env_steps: s.env_steps,
+        wall_seconds: s.wall_seconds,
+        return_mean: s.return_mean,
+        falls: s.falls,
+        episodes: s.episodes,
+    };
+    pure_budgets.push(last(&pure_stats));
+    hybrid_budgets.push(last(&hybrid_stats));
+    let summary = ExperimentSummary {
+        hybrid: hybrid_stats,
+        pure_rl: pure_stats,
+        controller: ctrl_stats,
+        hybrid_budgets,
+        pure_budgets,
+    };
     write_outputs(opts, &summary, &pure_rows, &hybrid_rows)?;
     let points = |rows: &[UpdateMetrics]| rows.iter().map(|m| (m.env_steps, m.episode_return_mean)).collect();
     Ok(ExperimentResult { summary, pure_curve: points(&pure_rows), hybrid_curve: points(&hybrid_rows) })

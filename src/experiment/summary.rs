@@ -30,6 +30,21 @@ pub struct AgentStats {
     pub wall_seconds: f64,
 }
 
+/// A deterministic evaluation of a learner at a training budget.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct BudgetEval {
+    /// Training environment steps done.
+    pub env_steps: u64,
+    /// Training wall-clock seconds so far (evaluations excluded).
+    pub wall_seconds: f64,
+    /// Mean evaluation return.
+    pub return_mean: f64,
+    /// Evaluation episodes that ended by a fall.
+    pub falls: usize,
+    /// Evaluation episodes.
+    pub episodes: usize,
+}
+
 /// The three agents of an experiment.
 #[derive(Clone, Debug, Serialize)]
 pub struct ExperimentSummary {
@@ -39,6 +54,10 @@ pub struct ExperimentSummary {
     pub pure_rl: AgentStats,
     /// The controller alone.
     pub controller: AgentStats,
+    /// The hybrid's evaluations during training, the final one last.
+    pub hybrid_budgets: Vec<BudgetEval>,
+    /// Pure RL's evaluations during training, the final one last.
+    pub pure_budgets: Vec<BudgetEval>,
 }
 
 impl ExperimentSummary {

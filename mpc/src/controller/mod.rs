@@ -325,13 +325,14 @@ mod tests {
         let e = cfg.offer(Gait::Bound).unwrap_err();
         assert!(matches!(e, ConfigError::GaitNotOffered { gait: "bound", .. }));
         let msg = e.to_string();
-        assert!(msg.contains("stand") && msg.contains("trot (0–1.5 m/s)") && msg.contains("walk"), "{msg}");
-        assert!(cfg.check_command(Gait::Trot, 1.5).is_ok());
-        assert!(matches!(cfg.check_command(Gait::Trot, -1.6), Err(ConfigError::SpeedAboveRating { .. })));
+        assert!(msg.contains("stand") && msg.contains("trot (0–2.5 m/s)") && msg.contains("walk"), "{msg}");
+        assert!(cfg.check_command(Gait::Trot, 2.5).is_ok());
+        assert!(matches!(cfg.check_command(Gait::Trot, -2.6), Err(ConfigError::SpeedAboveRating { .. })));
         assert!(cfg.check_command(Gait::Stand, 1.0).is_ok(), "a stand's speed shifts the body, unrated");
-        // The walk runs at 0.75 of its table period; bound is not run.
+        // The walk runs at 0.75 of its table period, the trot at 0.7; bound is not run.
         let scales = cfg.period_scales();
         assert_eq!(scales[Gait::Walk.index()], 0.75);
+        assert_eq!(scales[Gait::Trot.index()], 0.7);
         assert_eq!(scales[Gait::Bound.index()], 0.0);
         // Validation: stand must be offered, once; scales positive; gaits defined for the legs.
         let bad =
