@@ -150,6 +150,34 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     // MCAP recordings for the first seed only.
     assert!(out.join("seed_0").join("hybrid.mcap").is_file());
     assert!(!out.join("seed_1").join("hybrid.mcap").exists());
+
+    // The robustness study on seed 0's run: one episode per agent and condition.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["robustness", "--episodes", "1", "--run"])
+        .arg(out.join("seed_0"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rows: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("seed_0").join("robustness.json")).unwrap())
+            .unwrap();
+    let labels: Vec<&str> = rows.as_array().unwrap().iter().map(|r| r["label"].as_str().unwrap()).collect();
+    assert_eq!(labels.len(), 10);
+    assert!(
+        labels.contains(&"push 4 N·s")
+            && labels.contains(&"friction 0.5")
+            && labels.contains(&"base mass +20 %")
+    );
+    for r in rows.as_array().unwrap() {
+        assert_eq!(r["controller"]["episodes"].as_u64(), Some(1));
+    }
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["robustness", "--env", "walker2d", "--run"])
+        .arg(out.join("seed_0"))
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("walker2d"));
     std::fs::remove_dir_all(&out).unwrap();
 
     // A robot without a controller is refused with its name.

@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use centaur::cli::{HybridArgs, TrainingProgress, progress_style};
 use centaur::compare::{CompareOptions, run_compare};
 use centaur::control::{ControlOptions, Push, parse_gait, run_control, write_summary};
+use centaur::experiment::{Condition, RobustnessOptions, robustness_table, run_robustness};
 use centaur::experiment::{Phase, tuned_config};
 use centaur::registry::{env_names, residual_config};
 use centaur::train::{TrainOptions, parse_algo_config, train};
@@ -68,6 +69,63 @@ enum Command {
     /// Run the model-based controller (convex MPC + whole-body QP) alone on a robot
     /// environment; writes summary.json into --out.
     Control(ControlArgs),
+    /// Evaluate a run's three agents (the hybrid, pure RL, the controller alone) under
+    /// lateral pushes, base-mass, friction and motor-strength changes; prints the table and
+    /// writes robustness.json into the run directory.
+    Robustness(RobustnessArgs),
+}
+
+/// Arguments of `centaur robustness`.
+#[derive(Args)]
+struct RobustnessArgs {
+    /// Robot environment the run trained on (the study covers minitaur).
+    #[arg(long, default_value = "minitaur")]
+    env: String,
+    /// Run directory (of `residual_ppo_minitaur` or one seed of `centaur compare`).
+    #[arg(long)]
+    run: PathBuf,
+    /// Deterministic episodes per agent and condition.
+    #[arg(long, default_value_t = 10)]
+    episodes: usize,
+    /// The hybrid's setup the run was trained with (the robot's preset by default).
+    #[command(flatten)]
+    hybrid: HybridArgs,
+}
+
+/// `centaur robustness`.
+fn robustness(args: RobustnessArgs) -> ExitCode {
+    let residual = match residual_config(&args.env) {
+        Ok(r) => args.hybrid.apply(r),
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let opts = RobustnessOptions {
+        env: args.env,
+        run: args.run.clone(),
+        residual,
+        episodes: args.episodes.max(1),
+        seed: 2_000_000,
+        conditions: Condition::standard(),
+    };
+    match run_robustness(&opts) {
+        Ok(rows) => {
+            print!("{}", robustness_table(&rows));
+            let path = args.run.join("robustness.json");
+            let text = serde_json::to_string_pretty(&rows).expect("rows serialise");
+            if let Err(e) = std::fs::write(&path, text + "\n") {
+                eprintln!("error: {}: {e}", path.display());
+                return ExitCode::FAILURE;
+            }
+            println!("\nwrote {}", path.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
 }
 
 /// Arguments of `centaur control`.
@@ -336,6 +394,7 @@ fn main() -> ExitCode {
         }
         Command::Control(args) => return control(args),
         Command::Compare(args) => return compare(args),
+        Command::Robustness(args) => return robustness(args),
     };
     let opts = TrainOptions { env, algo, steps, seed, out, config, threads, n_envs: envs, eval_episodes };
     let bar = ProgressBar::new(steps);

@@ -41,6 +41,13 @@ impl Driver {
         }
     }
 
+    fn robot_mut(&mut self) -> &mut dyn RobotEnv {
+        match self {
+            Driver::Controller { env, .. } | Driver::Pure { env, .. } => env.as_mut(),
+            Driver::Hybrid { env, .. } => env.inner_mut(),
+        }
+    }
+
     fn obs_dim(&self) -> usize {
         match self {
             Driver::Controller { env, .. } | Driver::Pure { env, .. } => env.observation_space().dim(),
@@ -141,6 +148,28 @@ pub(crate) fn evaluate(
     seed: u64,
     record: Option<&Path>,
 ) -> Result<AgentStats, ExperimentError> {
+    evaluate_pushed(driver, episodes, seed, record, None)
+}
+
+/// A lateral push during every evaluation episode.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct EpisodePush {
+    /// Episode time at which it starts (s).
+    pub at: f64,
+    /// Force (N) along world y; episodes alternate its sign (even episodes +y, odd −y).
+    pub force: f64,
+    /// Duration (s).
+    pub duration: f64,
+}
+
+/// [`evaluate`], with `push` applied in every episode.
+pub(crate) fn evaluate_pushed(
+    driver: &mut Driver,
+    episodes: usize,
+    seed: u64,
+    record: Option<&Path>,
+    push: Option<EpisodePush>,
+) -> Result<AgentStats, ExperimentError> {
     let mut obs = vec![0.0f32; driver.obs_dim()];
     let mut action = vec![0.0f32; driver.act_dim()];
     let m = driver.robot_act_dim();
@@ -164,7 +193,16 @@ pub(crate) fn evaluate(
         driver.reset(seed + ep as u64, &mut obs)?;
         let x0 = base_x(driver.robot());
         let (mut ret, mut n) = (0.0, 0usize);
+        let mut pushed = false;
         loop {
+            if let Some(p) = push
+                && !pushed
+                && driver.robot().episode_time() >= p.at - 1e-9
+            {
+                let sign = if ep % 2 == 0 { 1.0 } else { -1.0 };
+                driver.robot_mut().push(Vector3::new(0.0, sign * p.force, 0.0), p.duration);
+                pushed = true;
+            }
             let s = driver.step(&mut obs, &mut action, &mut rec)?;
             ret += s.reward;
             n += 1;

@@ -34,10 +34,12 @@
 mod evaluation;
 mod options;
 mod presets;
+mod robustness;
 mod runner;
 mod summary;
 
 pub use options::{Curve, ExperimentError, ExperimentOptions, ExperimentResult, Phase};
 pub use presets::tuned_config;
+pub use robustness::{Condition, RobustnessOptions, RobustnessRow, robustness_table, run_robustness};
 pub use runner::run_experiment;
 pub use summary::{AgentStats, BudgetEval, ExperimentSummary};

@@ -40,6 +40,19 @@ pub enum ExperimentError {
         /// Cause.
         source: std::io::Error,
     },
+    /// A robot environment a study does not cover.
+    #[error("{study} is defined for {supported}, not for '{env}'")]
+    NotCovered {
+        /// The study.
+        study: &'static str,
+        /// The environments it covers.
+        supported: &'static str,
+        /// The one asked for.
+        env: String,
+    },
+    /// A robot environment error (building a perturbed robot).
+    #[error("robot: {0}")]
+    Robot(#[from] centaur_envs::RobotEnvError),
     /// A training stopped because the other agent's, running side by side, failed.
     #[error("stopped: the other agent's training failed")]
     Stopped,
