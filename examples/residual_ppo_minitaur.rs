@@ -11,9 +11,11 @@
 //! ```
 //! Options (`--help` lists them): `--steps N` (per agent), `--seed S`, `--out DIR`,
 //! `--env minitaur|minitaur-fast`, `--envs N` (parallel environments per agent),
-//! `--threads T`, `--eval-episodes K`, `--residual-scale X`, `--speed V` (the controller's
-//! commanded speed), `--config FILE` (TOML hyperparameters for both agents instead of the
-//! tuned Minitaur set), `--no-record`.
+//! `--threads T`, `--eval-episodes K`, `--config FILE` (TOML hyperparameters for both agents
+//! instead of the tuned Minitaur set), `--no-record`, and the hybrid's setup over the
+//! Minitaur preset (a 2 m/s trot whose speed the policy steers within ±1 m/s, residual
+//! scale 0.25): `--speed V`, `--steer-speed S`, `--steer-yaw-rate S`, `--residual-scale X`,
+//! `--parts both|residual|command`, `--explore-residual σ`, `--explore-steering σ`.
 
 use std::process::ExitCode;
 
