@@ -11,6 +11,7 @@
 use std::path::PathBuf;
 
 use centaur_envs::{MinitaurConfig, MinitaurEnv, RobotEnv, minitaur::MinitaurRandomization};
+use centaur_gym::Env;
 use centaur_mpc::LocomotionController;
 use centaur_rl::{Policy, RlError};
 use serde::Serialize;
@@ -142,11 +143,12 @@ pub fn run_robustness(opts: &RobustnessOptions) -> Result<Vec<RobustnessRow>, Ex
             let run = |mut d: Driver| evaluate_pushed(&mut d, opts.episodes, opts.seed, None, c.push());
             let env = robot(c)?;
             let ctrl = controller(env.as_ref())?;
-            let hybrid = run(Driver::Hybrid {
-                env: Box::new(ResidualEnv::new(env, ctrl, opts.residual.clone())?),
-                policy: hybrid_policy.clone(),
-            })?;
-            let pure_rl = run(Driver::Pure { env: robot(c)?, policy: pure_policy.clone() })?;
+            let hybrid_env = ResidualEnv::new(env, ctrl, opts.residual.clone())?;
+            fits(&hybrid_policy, &hybrid_env)?;
+            let hybrid = run(Driver::Hybrid { env: Box::new(hybrid_env), policy: hybrid_policy.clone() })?;
+            let pure_env = robot(c)?;
+            fits(&pure_policy, pure_env.as_ref())?;
+            let pure_rl = run(Driver::Pure { env: pure_env, policy: pure_policy.clone() })?;
             let env = robot(c)?;
             let ctrl = controller(env.as_ref())?;
             let mapping = ActionMapping::new(env.as_ref(), &ctrl)?;
@@ -159,6 +161,16 @@ pub fn run_robustness(opts: &RobustnessOptions) -> Result<Vec<RobustnessRow>, Ex
             Ok(RobustnessRow { condition: *c, label: c.label(), hybrid, pure_rl, controller })
         })
         .collect()
+}
+
+/// Refuses a policy trained for other dimensions (e.g. a hybrid trained with another
+/// `--parts` or steering than the study is given).
+fn fits(policy: &Policy, env: &dyn Env) -> Result<(), ExperimentError> {
+    let needed = (env.observation_space().dim(), env.action_space().dim());
+    if (policy.obs_dim(), policy.act_dim()) != needed {
+        return Err(HybridError::PolicyShape { policy: (policy.obs_dim(), policy.act_dim()), needed }.into());
+    }
+    Ok(())
 }
 
 /// The study's table in Markdown: survival (episodes without a fall) and mean return of the
