@@ -25,8 +25,29 @@
 use centaur_envs::RobotEnv;
 use centaur_gym::{BoxSpace, Env, EnvError, MAX_REWARD_TERMS, Step, check_action, check_observation};
 use centaur_mpc::{Command, LocomotionController};
+use centaur_rl::{AlgoKind, Algorithm, RlError};
 
 use crate::hybrid::{ActionMapping, HybridError, Residual, ResidualConfig};
+
+/// Makes a freshly built learner of kind `kind` start a hybrid as its controller: its mean
+/// output zero (the untrained hybrid acts exactly like the controller) and, for learners
+/// that explore with a per-entry Gaussian (PPO, A2C), the initial exploration per action
+/// part that `config` asks for (a gentle start). `policy_dim` is the hybrid env's action
+/// dimension. Used by the experiment runner and `centaur train` on `<robot>-residual`.
+pub fn start_as_controller(
+    algo: &mut dyn Algorithm,
+    kind: AlgoKind,
+    config: &ResidualConfig,
+    policy_dim: usize,
+) -> Result<(), RlError> {
+    algo.zero_policy_output();
+    if let Some(std) = config.initial_exploration(policy_dim)
+        && kind.takes_exploration_std()
+    {
+        algo.set_exploration_std(&std)?;
+    }
+    Ok(())
+}
 
 /// Index of the residual size in [`StepInfo::reward_terms`](centaur_gym::StepInfo).
 pub const RESIDUAL_TERM: usize = MAX_REWARD_TERMS - 1;
@@ -122,11 +143,6 @@ impl ResidualEnv {
     /// policy's last action (see [`crate::hybrid::Steering`]).
     pub fn command(&self) -> &Command {
         &self.command
-    }
-
-    /// The hybrid's law (residual, steering, observation layout).
-    pub fn residual(&self) -> &Residual {
-        &self.residual
     }
 
     /// Ticks the controller on the current state and stores the next reference action.

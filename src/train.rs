@@ -26,6 +26,7 @@ use serde::Serialize;
 
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
 use crate::registry::{RegistryError, make_env, make_vec_env};
+use crate::residual::start_as_controller;
 
 /// What to train.
 #[derive(Clone, Debug, PartialEq)]
@@ -132,14 +133,8 @@ pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> R
     let mut env = make_vec_env(&opts.env, opts.n_envs, opts.threads)?;
     let mut algo = config.with_seed(opts.seed).build(&env)?;
     if let Some(robot) = opts.env.strip_suffix("-residual") {
-        // A hybrid starts as its controller, with the preset's gentle exploration.
-        algo.zero_policy_output();
-        let policy_dim = env.action_space().dim();
-        if let Some(std) = crate::registry::residual_config(robot)?.initial_exploration(policy_dim)
-            && opts.algo.takes_exploration_std()
-        {
-            algo.set_exploration_std(&std)?;
-        }
+        let preset = crate::registry::residual_config(robot)?;
+        start_as_controller(algo.as_mut(), opts.algo, &preset, env.action_space().dim())?;
     }
     std::fs::create_dir_all(&opts.out).map_err(io(&opts.out))?;
 

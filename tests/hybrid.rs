@@ -31,6 +31,26 @@ fn controller_alone(env_name: &str, command: Command, steps: usize) -> Vec<u64> 
     trace
 }
 
+/// Robot observations and rewards (as bits) of `env` under a zero policy output for
+/// `steps` steps from reset seed 3 (the same trace as [`controller_alone`]).
+fn zero_output_trace(env: &mut centaur::residual::ResidualEnv, steps: usize) -> Vec<u64> {
+    let n_env = env.inner().observation_space().dim();
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    env.reset(Some(3), &mut obs).unwrap();
+    let mut trace: Vec<u64> = obs[..n_env].iter().map(|x| x.to_bits() as u64).collect();
+    let zero = vec![0.0f32; env.action_space().dim()];
+    for _ in 0..steps {
+        let s = env.step(&zero, &mut obs).unwrap();
+        assert_eq!(s.info.reward_terms[RESIDUAL_TERM], 0.0);
+        trace.extend(obs[..n_env].iter().map(|x| x.to_bits() as u64));
+        trace.push(s.reward.to_bits());
+        if s.done() {
+            break;
+        }
+    }
+    trace
+}
+
 #[test]
 fn a_zero_residual_acts_exactly_like_the_controller() {
     for env_name in ["minitaur", "walker2d"] {
@@ -38,20 +58,7 @@ fn a_zero_residual_acts_exactly_like_the_controller() {
         let reference = controller_alone(env_name, command, 80);
         let mut env =
             make_residual_env(env_name, ResidualConfig { command, ..ResidualConfig::default() }).unwrap();
-        let n_env = env.inner().observation_space().dim();
-        let mut obs = vec![0.0f32; env.observation_space().dim()];
-        env.reset(Some(3), &mut obs).unwrap();
-        let mut trace: Vec<u64> = obs[..n_env].iter().map(|x| x.to_bits() as u64).collect();
-        let zero = vec![0.0f32; env.action_space().dim()];
-        for _ in 0..80 {
-            let s = env.step(&zero, &mut obs).unwrap();
-            assert_eq!(s.info.reward_terms[RESIDUAL_TERM], 0.0);
-            trace.extend(obs[..n_env].iter().map(|x| x.to_bits() as u64));
-            trace.push(s.reward.to_bits());
-            if s.done() {
-                break;
-            }
-        }
+        let trace = zero_output_trace(&mut env, 80);
         assert_eq!(trace, reference, "{env_name}: a zero residual changed the trajectory");
     }
 }
@@ -279,18 +286,9 @@ fn a_zero_output_with_steering_on_acts_exactly_like_the_controller() {
     assert!(config.steering.speed > 0.0, "the Minitaur preset steers the speed");
     let reference = controller_alone("minitaur", config.command, 80);
     let mut env = make_residual_env("minitaur", config.clone()).unwrap();
-    let n_env = env.inner().observation_space().dim();
     assert_eq!(env.action_space().dim(), env.inner().action_space().dim() + 1);
-    let mut obs = vec![0.0f32; env.observation_space().dim()];
-    env.reset(Some(3), &mut obs).unwrap();
-    let mut trace: Vec<u64> = obs[..n_env].iter().map(|x| x.to_bits() as u64).collect();
-    let zero = vec![0.0f32; env.action_space().dim()];
-    for _ in 0..80 {
-        let s = env.step(&zero, &mut obs).unwrap();
-        trace.extend(obs[..n_env].iter().map(|x| x.to_bits() as u64));
-        trace.push(s.reward.to_bits());
-        assert_eq!(*env.command(), config.command);
-    }
+    let trace = zero_output_trace(&mut env, 80);
+    assert_eq!(*env.command(), config.command);
     assert_eq!(trace, reference, "a zero output with steering on changed the trajectory");
 }
 
@@ -327,8 +325,9 @@ fn steering_the_speed_up_makes_the_robot_run_faster() {
 /// the controller alone on the same reset seeds.
 #[test]
 fn an_untrained_hybrid_explores_gently() {
+    use centaur::residual::start_as_controller;
     use centaur_gym::VecEnv;
-    use centaur_rl::{Algorithm, Ppo, PpoConfig};
+    use centaur_rl::{AlgoKind, Algorithm, Ppo, PpoConfig};
     use std::ops::ControlFlow;
     let config = residual_config("minitaur").unwrap();
     let n_envs = 3;
@@ -338,9 +337,8 @@ fn an_untrained_hybrid_explores_gently() {
     let mut venv = VecEnv::new(envs, 1).unwrap();
     let ppo_config = PpoConfig { n_steps: 1000, batch_size: 500, seed: 0, ..PpoConfig::default() };
     let mut ppo = Ppo::for_env(ppo_config, &venv).unwrap();
-    ppo.zero_policy_output();
-    let std = config.initial_exploration(venv.action_space().dim()).unwrap();
-    ppo.set_exploration_std(&std).unwrap();
+    assert!(config.exploration.is_some(), "the Minitaur preset sets a gentle start");
+    start_as_controller(&mut ppo, AlgoKind::Ppo, &config, venv.action_space().dim()).unwrap();
     let mut first = None;
     ppo.learn(&mut venv, 3000, &mut |m| {
         first = Some(*m);

@@ -16,6 +16,7 @@ use super::summary::{AgentStats, BudgetEval, ExperimentSummary};
 use crate::hybrid::{ActionMapping, HybridError};
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
 use crate::registry::{controller_config, make_residual_env, make_robot_env};
+use crate::residual::start_as_controller;
 
 fn vec_env_of(
     make: &mut dyn FnMut() -> Result<Box<dyn Env>, ExperimentError>,
@@ -62,15 +63,7 @@ fn train_one(
     }
     let mut algo: Box<dyn Algorithm> = config.build(env)?;
     if phase == Phase::TrainHybrid {
-        // Zero mean residual at the start: the untrained hybrid is the controller.
-        algo.zero_policy_output();
-        // A gentle start: the exploration per action part the residual setup asks for.
-        let policy_dim = env.action_space().dim();
-        if let Some(std) = opts.residual.initial_exploration(policy_dim)
-            && opts.algo.kind().takes_exploration_std()
-        {
-            algo.set_exploration_std(&std)?;
-        }
+        start_as_controller(algo.as_mut(), opts.algo.kind(), &opts.residual, env.action_space().dim())?;
     }
     let csv_path = dir.join("metrics.csv");
     let mut csv = MetricsCsv::create(&csv_path).map_err(io_err(&csv_path))?;
