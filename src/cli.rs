@@ -8,7 +8,8 @@ use std::time::Instant;
 use centaur_rl::{AlgoKind, UpdateMetrics};
 
 use crate::experiment::{
-    ExperimentError, ExperimentOptions, ExperimentResult, Phase, run_experiment, tuned_config,
+    EXPERIMENT_FILES, ExperimentError, ExperimentOptions, ExperimentResult, Phase, run_experiment,
+    tuned_config,
 };
 use crate::hybrid::{Exploration, ResidualConfig, Steering};
 use crate::registry::residual_config;
@@ -161,9 +162,13 @@ pub struct ExampleArgs {
     /// Seed of both agents' training (the evaluation seeds follow from it)
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Run directory [default: runs/EXAMPLE, the example's name]
+    /// Run directory, refused if it already holds a run unless --overwrite [default:
+    /// runs/EXAMPLE, the example's name, or runs/EXAMPLE-2, -3, … if that holds a run]
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Replace the run already in --out (its run files only)
+    #[arg(long)]
+    pub overwrite: bool,
     /// Parallel environments per agent [default: the example's]
     #[arg(long, value_parser = positive_count)]
     pub envs: Option<usize>,
@@ -184,6 +189,25 @@ pub struct ExampleArgs {
     /// The hybrid's setup.
     #[command(flatten)]
     pub hybrid: HybridArgs,
+}
+
+/// `base` if it holds no run, else the first of `base-2`, `base-3`, … that holds none: an
+/// example run again never replaces the previous run.
+pub fn free_run_dir(base: &Path) -> PathBuf {
+    let holds_run = |d: &Path| EXPERIMENT_FILES.iter().any(|f| d.join(f).exists());
+    if !holds_run(base) {
+        return base.to_path_buf();
+    }
+    let mut name = base.as_os_str().to_owned();
+    name.push("-");
+    (2u64..)
+        .map(|k| {
+            let mut n = name.clone();
+            n.push(k.to_string());
+            PathBuf::from(n)
+        })
+        .find(|d| !holds_run(d))
+        .expect("some numbered directory is free")
 }
 
 /// A count of at least 1 (`--envs`, `--threads`).
@@ -229,13 +253,14 @@ impl ExampleArgs {
             algo,
             steps: self.steps.unwrap_or(defaults.steps),
             seed: self.seed,
-            out: self.out.clone().unwrap_or_else(|| Path::new("runs").join(defaults.name)),
+            out: self.out.clone().unwrap_or_else(|| free_run_dir(&Path::new("runs").join(defaults.name))),
             n_envs,
             threads: self.threads.unwrap_or(cores).clamp(1, n_envs),
             eval_episodes: self.eval_episodes,
             residual,
             record: !self.no_record,
             eval_every: None,
+            overwrite: self.overwrite,
         })
     }
 }

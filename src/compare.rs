@@ -19,7 +19,7 @@ use serde::Serialize;
 
 use crate::experiment::{
     AgentStats, BudgetEval, Curve, ExperimentError, ExperimentOptions, ExperimentSummary, Phase,
-    run_experiment,
+    finished_experiment, run_experiment,
 };
 use crate::hybrid::ResidualConfig;
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
@@ -50,6 +50,11 @@ pub struct CompareOptions {
     /// Deterministic evaluations during training every this many steps (see
     /// [`ExperimentOptions::eval_every`]).
     pub eval_every: Option<u64>,
+    /// Keep the seeds already finished in `out` with the same options (their
+    /// `experiment.json` fingerprint), run the others (replacing a seed's partial run).
+    pub resume: bool,
+    /// Replace a comparison already in `out` (its files only) instead of refusing.
+    pub overwrite: bool,
 }
 
 /// Across-seed statistics of one agent.
@@ -269,6 +274,17 @@ pub fn run_compare(
     opts: &CompareOptions,
     progress: &mut dyn FnMut(u64, Phase, &UpdateMetrics),
 ) -> Result<CompareSummary, ExperimentError> {
+    if opts.out.exists() && !opts.out.is_dir() {
+        let source =
+            std::io::Error::new(std::io::ErrorKind::AlreadyExists, "--out is a file, not a directory");
+        return Err(ExperimentError::Io { path: opts.out.clone(), source });
+    }
+    if !opts.resume && !opts.overwrite {
+        let taken = |f: &str| opts.out.join(f).exists();
+        if let Some(file) = ["compare.json", "seed_0"].into_iter().find(|f| taken(f)) {
+            return Err(ExperimentError::RunExists { dir: opts.out.clone(), file });
+        }
+    }
     let (mut runs, mut pure_curves, mut hybrid_curves) = (Vec::new(), Vec::new(), Vec::new());
     for seed in 0..opts.seeds.max(1) {
         let exp = ExperimentOptions {
@@ -283,8 +299,17 @@ pub fn run_compare(
             residual: opts.residual.clone(),
             record: seed == 0,
             eval_every: opts.eval_every,
+            // A seed's partial run (killed before its summary) is replaced on resume.
+            overwrite: opts.resume || opts.overwrite,
         };
-        let r = run_experiment(&exp, &mut |phase, m| progress(seed, phase, m))?;
+        let kept = if opts.resume { finished_experiment(&exp) } else { None };
+        let r = match kept {
+            Some(r) => {
+                progress(seed, Phase::Evaluate, &UpdateMetrics::default());
+                r
+            }
+            None => run_experiment(&exp, &mut |phase, m| progress(seed, phase, m))?,
+        };
         runs.push(r.summary);
         pure_curves.push(r.pure_curve);
         hybrid_curves.push(r.hybrid_curve);
@@ -302,7 +327,7 @@ pub fn run_compare(
     let path = opts.out.join("compare.json");
     let text = serde_json::to_string_pretty(&summary)
         .map_err(|e| ExperimentError::Io { path: path.clone(), source: e.into() })?;
-    std::fs::write(&path, text + "\n")
+    crate::rundir::write_atomic(&path, &(text + "\n"))
         .map_err(|source| ExperimentError::Io { path: path.clone(), source })?;
     let series = [
         band("pure RL (mean ± std over seeds)", &pure_curves, opts.steps, 60),

@@ -13,7 +13,7 @@
 //! | `gecko`, `modular-ant`, `spider` | Revolve2's modular robots of those names ([`centaur_envs::ModularEnv`]) | — | — |
 //! | `modular:FILE.json` | a modular robot described in a JSON file ([`centaur_envs::Body::from_json`]) | — | — |
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use centaur_envs::{
     Body, LocomotionConfig, LocomotionEnv, MinitaurConfig, MinitaurEnv, ModularConfig, ModularEnv,
@@ -242,14 +242,99 @@ pub fn modular_config(name: &str) -> Result<Option<ModularConfig>, RegistryError
     }
 }
 
+/// The largest body file `modular:FILE.json` reads (16 MiB): a larger file (or an endless
+/// one such as `/dev/zero`) is refused before it fills memory.
+pub const MAX_BODY_BYTES: u64 = 16 << 20;
+
+/// The text of a body file, bounded by [`MAX_BODY_BYTES`].
+fn read_body_file(path: &Path) -> Result<String, RegistryError> {
+    use std::io::Read;
+    let io = |source| RegistryError::Io { path: path.to_path_buf(), source };
+    let mut text = String::new();
+    std::fs::File::open(path).map_err(io)?.take(MAX_BODY_BYTES + 1).read_to_string(&mut text).map_err(io)?;
+    if text.len() as u64 > MAX_BODY_BYTES {
+        return Err(io(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("body file larger than {} MiB", MAX_BODY_BYTES >> 20),
+        )));
+    }
+    Ok(text)
+}
+
+/// The configuration of a modular body given as JSON `text` (from `path`, which names it).
+fn modular_text_config(path: &Path, text: &str) -> Result<ModularConfig, RegistryError> {
+    let body =
+        Body::from_json(text).map_err(|source| RegistryError::Body { path: path.to_path_buf(), source })?;
+    let stem = path.file_stem().map_or("modular".to_string(), |s| s.to_string_lossy().into_owned());
+    Ok(ModularConfig::new(&stem, body))
+}
+
 /// The configuration of `modular:FILE.json`: the body read from `file`, named after it.
 fn modular_file_config(file: &str) -> Result<ModularConfig, RegistryError> {
     let path = PathBuf::from(file);
-    let text =
-        std::fs::read_to_string(&path).map_err(|source| RegistryError::Io { path: path.clone(), source })?;
-    let body = Body::from_json(&text).map_err(|source| RegistryError::Body { path: path.clone(), source })?;
-    let stem = path.file_stem().map_or("modular".to_string(), |s| s.to_string_lossy().into_owned());
-    Ok(ModularConfig::new(&stem, body))
+    modular_text_config(&path, &read_body_file(&path)?)
+}
+
+/// An environment name with everything it needs from disk read once, at the start: a run
+/// builds all its environments (training, evaluation) from this, so changing or deleting a
+/// `modular:FILE.json` mid-run changes nothing, and the body travels with the run record
+/// and the checkpoint.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EnvSource {
+    name: String,
+    body: Option<String>,
+}
+
+impl EnvSource {
+    /// Reads what `name` needs (the body file of `modular:FILE.json`, checked) and checks
+    /// that the name exists by making one environment.
+    pub fn read(name: &str) -> Result<EnvSource, RegistryError> {
+        let body = match name.strip_prefix("modular:") {
+            Some(file) => Some(read_body_file(Path::new(file))?),
+            None => None,
+        };
+        let source = EnvSource { name: name.to_string(), body };
+        source.make()?;
+        Ok(source)
+    }
+
+    /// A source whose body text was read before (a run record's); `body` is ignored for
+    /// names other than `modular:FILE.json`, which requires it.
+    pub fn with_body(name: &str, body: Option<String>) -> EnvSource {
+        let body = if name.starts_with("modular:") { body } else { None };
+        EnvSource { name: name.to_string(), body }
+    }
+
+    /// The environment's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The body text of `modular:FILE.json` as read at the start.
+    pub fn body(&self) -> Option<&str> {
+        self.body.as_deref()
+    }
+
+    /// A fresh environment (as [`make_env`], with the body read at the start).
+    pub fn make(&self) -> Result<Box<dyn Env>, RegistryError> {
+        match (self.name.strip_prefix("modular:"), &self.body) {
+            (Some(file), Some(text)) => Ok(modular(modular_text_config(Path::new(file), text)?, None)?),
+            (Some(file), None) => Err(RegistryError::Io {
+                path: PathBuf::from(file),
+                source: std::io::Error::new(
+                    std::io::ErrorKind::NotFound,
+                    "the run records no body for this file",
+                ),
+            }),
+            (None, _) => make_env(&self.name),
+        }
+    }
+
+    /// `n` fresh environments stepped on `threads` threads.
+    pub fn make_vec(&self, n: usize, threads: usize) -> Result<VecEnv, RegistryError> {
+        let envs = (0..n).map(|_| self.make()).collect::<Result<Vec<_>, _>>()?;
+        VecEnv::new(envs, threads).map_err(|source| RegistryError::Env { name: self.name.clone(), source })
+    }
 }
 
 /// A robot environment by name; `max_episode_steps` overrides the default length.
@@ -372,6 +457,34 @@ mod tests {
             }
             Err(other) => panic!("{other}"),
             Ok(_) => panic!("a brick has no back face"),
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// Regression (reliability probe, data loss 3): the body file was read three times in
+    /// a run; an `EnvSource` reads it once, and an endless file is refused.
+    #[test]
+    fn an_env_source_reads_its_body_once() {
+        let dir = std::env::temp_dir().join(format!("centaur-source-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("snake.json");
+        let snake = include_str!("../assets/modular/snake.json");
+        std::fs::write(&file, snake).unwrap();
+        let name = format!("modular:{}", file.display());
+        let source = EnvSource::read(&name).unwrap();
+        assert_eq!(source.body(), Some(snake));
+        std::fs::remove_file(&file).unwrap();
+        let env = source.make().unwrap();
+        assert_eq!(env.action_space().dim(), 4);
+        assert_eq!(source.make_vec(2, 1).unwrap().len(), 2);
+        assert!(matches!(EnvSource::with_body(&name, None).make(), Err(RegistryError::Io { .. })));
+        assert!(EnvSource::with_body("pendulum", Some("ignored".into())).body().is_none());
+        assert!(matches!(EnvSource::read("gecko-typo"), Err(RegistryError::UnknownEnv { .. })));
+        if Path::new("/dev/zero").exists() {
+            match EnvSource::read("modular:/dev/zero") {
+                Err(RegistryError::Io { source, .. }) => assert!(source.to_string().contains("larger than")),
+                other => panic!("{other:?}"),
+            }
         }
         std::fs::remove_dir_all(&dir).ok();
     }

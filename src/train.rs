@@ -1,32 +1,58 @@
 //! `centaur train`: build a learner from a name and a TOML file, train it on a registered
-//! environment, and write the run's artefacts.
+//! environment, and write the run's artefacts — a run that can be killed at any moment and
+//! resumed to the same result.
 //!
 //! Output directory:
 //!
 //! | file | content |
 //! |---|---|
-//! | `metrics.csv` | one [`UpdateMetrics`] row per update / log interval |
-//! | `checkpoint` | the learner ([`centaur_rl::Checkpoint`] format, plus the env name under `env`): act with `Policy::load`, resume with `centaur_rl::learners::load` |
+//! | `run.json` | the run's record ([`RunRecord`]), written first: every option, the config file's text and a modular body's text, so that `--resume` needs nothing else |
+//! | `metrics.csv` | one [`UpdateMetrics`] row per update / log interval; flushed and `fsync`ed at every checkpoint |
+//! | `checkpoint` | the learner ([`centaur_rl::Checkpoint`] format, plus the env name under `env`): act with `Policy::load`, resume with `centaur train --resume DIR`; rewritten atomically every `checkpoint_every` steps and at the end |
+//! | `summary.json` | `{"env", "algo", "seed", "steps", "wall_seconds", "steps_per_second", "final_return_mean", "final_return_std"}`, written (atomically) before the plots |
 //! | `learning_curve.svg`, `learning_curve.png` | mean training episode return (± std band) against environment steps |
-//! | `summary.json` | `{"env", "algo", "seed", "steps", "wall_seconds", "steps_per_second", "final_return_mean", "final_return_std"}` |
 //!
 //! The final return is the mean over `eval_episodes` (≥ 10 by default) deterministic
 //! episodes of the policy **loaded back from the checkpoint** (the deployment path), on a
 //! fresh environment reset with seeds `1_000_000 + seed + k`.
+//!
+//! ## Checkpoints and resume
+//! Training runs in segments of `checkpoint_every` environment steps (on-policy learners end
+//! a segment at the first update boundary at or past it). Each segment starts on fresh
+//! environments reset with seed `seed + steps done` — the episodes in flight at a checkpoint
+//! are cut there, as a time limit would — so that a resumed run, which cannot restore the
+//! simulator's state, continues exactly as the uninterrupted run does: with the same seed,
+//! `--resume` ends with the same metrics, checkpoint and evaluation bit for bit (thread
+//! counts do not change results). `checkpoint_every = 0` trains in one segment.
+//!
+//! A directory that already holds a run is refused unless the run is resumed or
+//! `overwrite` is set (which removes the run's files, and only those).
 
+use std::io::Read;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use centaur_rl::{
-    A2cConfig, AlgoConfig, AlgoKind, DdpgConfig, MetricsCsv, Policy, PpoConfig, RlError, SacConfig,
-    SacV1Config, Td3Config, UpdateMetrics, evaluate,
+    A2cConfig, AlgoConfig, AlgoKind, Algorithm, Checkpoint, DdpgConfig, MetricsCsv, Policy, PpoConfig,
+    RlError, SacConfig, SacV1Config, Td3Config, UpdateMetrics, evaluate,
 };
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
-use crate::registry::{RegistryError, make_env, make_vec_env};
+use crate::registry::{EnvSource, RegistryError};
 use crate::residual::start_as_controller;
+use crate::rundir::{Claim, claim, write_atomic};
+
+/// The default checkpoint period of `centaur train`, in environment steps.
+pub const DEFAULT_CHECKPOINT_EVERY: u64 = 100_000;
+
+/// The largest config file read (1 MiB): `--config /dev/zero` is refused, not read forever.
+pub const MAX_CONFIG_BYTES: u64 = 1 << 20;
+
+/// The files of a run directory, in the order a run writes them.
+pub const RUN_FILES: [&str; 6] =
+    ["run.json", "metrics.csv", "checkpoint", "summary.json", "learning_curve.svg", "learning_curve.png"];
 
 /// What to train.
 #[derive(Clone, Debug, PartialEq)]
@@ -37,22 +63,54 @@ pub struct TrainOptions {
     pub algo: AlgoKind,
     /// Environment steps.
     pub steps: u64,
-    /// Seed (overrides the config file's `seed`).
-    pub seed: u64,
+    /// Seed; `None` keeps the config file's `seed` (the algorithm's default without one).
+    pub seed: Option<u64>,
     /// Output directory (created if missing).
     pub out: PathBuf,
     /// TOML file with the algorithm's hyperparameters (its config struct's fields).
     pub config: Option<PathBuf>,
-    /// Threads stepping the environments.
+    /// Threads stepping the environments (≥ 1; results do not depend on it).
     pub threads: usize,
-    /// Number of environments.
+    /// Number of environments (≥ 1).
     pub n_envs: usize,
     /// Deterministic evaluation episodes at the end (at least 10 are run).
     pub eval_episodes: usize,
+    /// Environment steps between periodic checkpoints (0: only at the end).
+    pub checkpoint_every: u64,
+    /// Replace a run already in `out` (its files only) instead of refusing.
+    pub overwrite: bool,
+}
+
+/// `run.json`: everything a run was started with, so that `--resume` rebuilds it exactly.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunRecord {
+    /// Environment name.
+    pub env: String,
+    /// Algorithm name.
+    pub algo: String,
+    /// Environment steps of the whole run.
+    pub steps: u64,
+    /// The learner's seed (the option's, or the config file's).
+    pub seed: u64,
+    /// Number of environments.
+    pub n_envs: usize,
+    /// Deterministic evaluation episodes at the end.
+    pub eval_episodes: usize,
+    /// Environment steps between periodic checkpoints (0: only at the end).
+    pub checkpoint_every: u64,
+    /// The config file as given.
+    pub config_file: Option<PathBuf>,
+    /// Its text as read at the start.
+    pub config: Option<String>,
+    /// The body of `modular:FILE.json` as read at the start.
+    pub body: Option<String>,
+    /// The version of Centaur that started the run.
+    pub centaur_version: String,
 }
 
 /// The `summary.json` record.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
     /// Environment name.
     pub env: String,
@@ -62,7 +120,7 @@ pub struct Summary {
     pub seed: u64,
     /// Environment steps taken.
     pub steps: u64,
-    /// Wall-clock seconds of training (evaluation excluded).
+    /// Wall-clock seconds of training (evaluation excluded; summed over resumed sessions).
     pub wall_seconds: f64,
     /// `steps / wall_seconds`.
     pub steps_per_second: f64,
@@ -82,6 +140,34 @@ pub enum TrainError {
         path: PathBuf,
         /// What is wrong.
         message: String,
+    },
+    /// A numeric option is out of its range.
+    #[error("--{option} {value}: {reason}")]
+    BadOption {
+        /// The option.
+        option: &'static str,
+        /// Its value.
+        value: String,
+        /// The range it must be in.
+        reason: &'static str,
+    },
+    /// The output directory already holds a run.
+    #[error(
+        "{dir} already holds a run ({file}); resume it with `--resume {dir}`, replace it with `--overwrite`, or choose another --out"
+    )]
+    RunExists {
+        /// The directory.
+        dir: PathBuf,
+        /// The run file found there.
+        file: &'static str,
+    },
+    /// The directory to resume holds no run, or one that does not fit together.
+    #[error("cannot resume {dir}: {reason}")]
+    Resume {
+        /// The directory.
+        dir: PathBuf,
+        /// Why.
+        reason: String,
     },
     /// The environment could not be made.
     #[error(transparent)]
@@ -119,95 +205,293 @@ pub fn parse_algo_config(kind: AlgoKind, text: &str, path: &Path) -> Result<Algo
     })
 }
 
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> TrainError + '_ {
+    move |source| TrainError::Io { path: path.to_path_buf(), source }
+}
+
+/// Reads a config file once, bounded by [`MAX_CONFIG_BYTES`].
+pub fn read_config_file(path: &Path) -> Result<String, TrainError> {
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_CONFIG_BYTES + 1).read_to_end(&mut bytes))
+        .map_err(io_err(path))?;
+    if bytes.len() as u64 > MAX_CONFIG_BYTES {
+        return Err(TrainError::Config {
+            path: path.to_path_buf(),
+            message: format!("larger than {} KiB; not a config file", MAX_CONFIG_BYTES >> 10),
+        });
+    }
+    String::from_utf8(bytes)
+        .map_err(|_| TrainError::Config { path: path.to_path_buf(), message: "not UTF-8 text".into() })
+}
+
+/// Makes `dir` ready for a new run: creates it, refuses one that already holds a run unless
+/// `overwrite` (then removes the run's files, nothing else).
+fn prepare_new_run_dir(dir: &Path, overwrite: bool) -> Result<(), TrainError> {
+    claim(dir, &RUN_FILES, overwrite).map_err(|c| match c {
+        Claim::Taken(file) => TrainError::RunExists { dir: dir.to_path_buf(), file },
+        Claim::Io(path, source) => TrainError::Io { path, source },
+    })
+}
+
+/// Checks the numeric options (no silent `0 → 1`).
+fn validate(opts: &TrainOptions) -> Result<(), TrainError> {
+    let bad = |option, value: usize, reason| {
+        Err(TrainError::BadOption { option, value: value.to_string(), reason })
+    };
+    if opts.n_envs == 0 || opts.n_envs > 4096 {
+        return bad("envs", opts.n_envs, "must be 1 to 4096");
+    }
+    if opts.threads == 0 || opts.threads > 1024 {
+        return bad("threads", opts.threads, "must be 1 to 1024");
+    }
+    if opts.eval_episodes == 0 || opts.eval_episodes > 100_000 {
+        return bad("eval-episodes", opts.eval_episodes, "must be 1 to 100000 (at least 10 are run)");
+    }
+    Ok(())
+}
+
+/// The learner a run starts with: `config` with `seed`, its learning-rate schedule over the
+/// whole budget (so that training in segments anneals as one call would), and for a hybrid
+/// env the controller's start (zero mean output, the preset's exploration).
+fn new_learner(
+    config: AlgoConfig,
+    seed: u64,
+    steps: u64,
+    source: &EnvSource,
+    n_envs: usize,
+) -> Result<Box<dyn Algorithm>, TrainError> {
+    let kind = config.kind();
+    let probe = source.make_vec(n_envs, 1)?;
+    let mut algo = config.with_seed(seed).with_default_lr_decay_steps(steps).build(&probe)?;
+    if let Some(robot) = source.name().strip_suffix("-residual") {
+        let preset = crate::registry::residual_config(robot)?;
+        start_as_controller(algo.as_mut(), kind, &preset, probe.action_space().dim())?;
+    }
+    Ok(algo)
+}
+
 /// Trains as `opts` says and writes the output directory; `progress` sees every metrics
 /// record (the CLI draws its progress bar from it).
 pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> Result<Summary, TrainError> {
-    let io = |path: &Path| {
-        let path = path.to_path_buf();
-        move |source| TrainError::Io { path, source }
+    validate(opts)?;
+    let config_text = opts.config.as_deref().map(read_config_file).transpose()?;
+    let config = match (&opts.config, &config_text) {
+        (Some(p), Some(text)) => parse_algo_config(opts.algo, text, p)?,
+        _ => AlgoConfig::default_for(opts.algo),
     };
-    let config = match &opts.config {
-        Some(p) => parse_algo_config(opts.algo, &std::fs::read_to_string(p).map_err(io(p))?, p)?,
-        None => AlgoConfig::default_for(opts.algo),
+    let source = EnvSource::read(&opts.env)?;
+    let seed = opts.seed.unwrap_or(config.seed());
+    // The learner is built (its settings checked) before anything is written.
+    let algo = new_learner(config, seed, opts.steps, &source, opts.n_envs)?;
+    prepare_new_run_dir(&opts.out, opts.overwrite)?;
+    let record = RunRecord {
+        env: opts.env.clone(),
+        algo: opts.algo.name().to_string(),
+        steps: opts.steps,
+        seed,
+        n_envs: opts.n_envs,
+        eval_episodes: opts.eval_episodes,
+        checkpoint_every: opts.checkpoint_every,
+        config_file: opts.config.clone(),
+        config: config_text,
+        body: source.body().map(str::to_string),
+        centaur_version: env!("CARGO_PKG_VERSION").to_string(),
     };
-    let mut env = make_vec_env(&opts.env, opts.n_envs, opts.threads)?;
-    let mut algo = config.with_seed(opts.seed).build(&env)?;
-    if let Some(robot) = opts.env.strip_suffix("-residual") {
-        let preset = crate::registry::residual_config(robot)?;
-        start_as_controller(algo.as_mut(), opts.algo, &preset, env.action_space().dim())?;
-    }
-    std::fs::create_dir_all(&opts.out).map_err(io(&opts.out))?;
-
+    let run_json = opts.out.join("run.json");
+    write_atomic(&run_json, &(serde_json::to_string_pretty(&record).expect("the record serialises") + "\n"))
+        .map_err(io_err(&run_json))?;
     let csv_path = opts.out.join("metrics.csv");
-    let mut csv = MetricsCsv::create(&csv_path).map_err(io(&csv_path))?;
-    let mut rows: Vec<UpdateMetrics> = Vec::new();
-    let mut csv_error = None;
-    let t0 = Instant::now();
-    algo.learn(&mut env, opts.steps, &mut |m| {
-        if let Err(e) = csv.write(m) {
-            csv_error = Some(e);
-            return ControlFlow::Break(());
-        }
-        rows.push(*m);
-        progress(m);
-        ControlFlow::Continue(())
-    })?;
-    let wall_seconds = t0.elapsed().as_secs_f64();
-    if let Some(e) = csv_error {
-        return Err(TrainError::Io { path: csv_path, source: e });
-    }
-    csv.flush().map_err(io(&csv_path))?;
+    let csv = MetricsCsv::create(&csv_path).map_err(io_err(&csv_path))?;
+    run_segments(&record, &source, &opts.out, opts.threads, algo, csv, Vec::new(), 0.0, progress)
+}
 
-    let ckpt = opts.out.join("checkpoint");
+/// The record (`run.json`) of the run in `dir`.
+pub fn read_run_record(dir: &Path) -> Result<RunRecord, TrainError> {
+    let fail = |reason: String| TrainError::Resume { dir: dir.to_path_buf(), reason };
+    let run_json = dir.join("run.json");
+    let text = std::fs::read_to_string(&run_json)
+        .map_err(|e| fail(format!("no run record ({}: {e})", run_json.display())))?;
+    serde_json::from_str(&text).map_err(|e| fail(format!("{}: {e}", run_json.display())))
+}
+
+/// Continues the run in `dir` from its last checkpoint (or from the start if it was killed
+/// before its first one), with `threads` threads; a finished run returns its summary.
+pub fn resume(
+    dir: &Path,
+    threads: usize,
+    progress: &mut dyn FnMut(&UpdateMetrics),
+) -> Result<Summary, TrainError> {
+    let fail = |reason: String| TrainError::Resume { dir: dir.to_path_buf(), reason };
+    if threads == 0 || threads > 1024 {
+        return Err(TrainError::BadOption {
+            option: "threads",
+            value: threads.to_string(),
+            reason: "must be 1 to 1024",
+        });
+    }
+    let record = read_run_record(dir)?;
+    let summary_path = dir.join("summary.json");
+    if let Ok(text) = std::fs::read_to_string(&summary_path) {
+        return serde_json::from_str(&text).map_err(|e| fail(format!("{}: {e}", summary_path.display())));
+    }
+    let kind = AlgoKind::from_name(&record.algo)
+        .ok_or_else(|| fail(format!("unknown algorithm `{}`", record.algo)))?;
+    let source = EnvSource::with_body(&record.env, record.body.clone());
+    let ckpt_path = dir.join("checkpoint");
+    let csv_path = dir.join("metrics.csv");
+    if !ckpt_path.exists() {
+        // Killed before its first checkpoint: start again, exactly as the run began.
+        let config_file = record.config_file.clone().unwrap_or_else(|| PathBuf::from("run.json"));
+        let config = match &record.config {
+            Some(text) => parse_algo_config(kind, text, &config_file)?,
+            None => AlgoConfig::default_for(kind),
+        };
+        let algo = new_learner(config, record.seed, record.steps, &source, record.n_envs)?;
+        let csv = MetricsCsv::create(&csv_path).map_err(io_err(&csv_path))?;
+        return run_segments(&record, &source, dir, threads, algo, csv, Vec::new(), 0.0, progress);
+    }
+    let checkpoint = Checkpoint::read(&ckpt_path).map_err(RlError::from)?;
+    let env: String = checkpoint.get_meta("env").map_err(RlError::from)?;
+    if env != record.env || checkpoint.algo != record.algo {
+        return Err(fail(format!(
+            "the checkpoint is a `{}` learner on `{env}`, the run record says `{}` on `{}`",
+            checkpoint.algo, record.algo, record.env
+        )));
+    }
+    let rows_done: usize = checkpoint.get_meta("run_metrics_rows").map_err(RlError::from)?;
+    let wall_done: f64 = checkpoint.get_meta("run_wall_seconds").map_err(RlError::from)?;
+    let algo = centaur_rl::learners::from_checkpoint(&checkpoint)?;
+    let mut rows = MetricsCsv::read(&csv_path).map_err(io_err(&csv_path))?;
+    if rows.len() < rows_done {
+        return Err(fail(format!(
+            "{} holds {} rows, the checkpoint was taken after {rows_done}",
+            csv_path.display(),
+            rows.len()
+        )));
+    }
+    // Rows past the checkpoint were trained by the killed session; they are trained again.
+    rows.truncate(rows_done);
+    let mut text = UpdateMetrics::csv_header() + "\n";
+    for m in &rows {
+        text += &(m.csv_row() + "\n");
+    }
+    write_atomic(&csv_path, &text).map_err(io_err(&csv_path))?;
+    let csv = MetricsCsv::append(&csv_path).map_err(io_err(&csv_path))?;
+    run_segments(&record, &source, dir, threads, algo, csv, rows, wall_done, progress)
+}
+
+/// Writes the learner as the run's checkpoint, with the run's position in its metadata.
+fn write_checkpoint(
+    algo: &dyn Algorithm,
+    record: &RunRecord,
+    path: &Path,
+    rows: usize,
+    wall: f64,
+) -> Result<(), TrainError> {
     let mut checkpoint = algo.to_checkpoint();
-    checkpoint.set_meta("env", &opts.env);
-    if let Some(path) = opts.env.strip_prefix("modular:") {
+    checkpoint.set_meta("env", &record.env);
+    if let Some(body) = &record.body {
         // The body itself, so that the policy stays tied to it if the file changes.
-        if let Ok(body) = std::fs::read_to_string(path) {
-            checkpoint.set_meta("body", body);
-        }
+        checkpoint.set_meta("body", body);
     }
-    checkpoint.write(&ckpt).map_err(RlError::from)?;
-    let mut policy = Policy::load(&ckpt).map_err(RlError::from)?;
-    let mut eval_env = make_env(&opts.env)?;
-    let eval = evaluate(&mut policy, eval_env.as_mut(), opts.eval_episodes.max(10), 1_000_000 + opts.seed)?;
+    checkpoint.set_meta("run_metrics_rows", rows);
+    checkpoint.set_meta("run_wall_seconds", wall);
+    checkpoint.write(path).map_err(RlError::from)?;
+    Ok(())
+}
 
-    let curve = Series {
-        label: format!("{} seed {}", algo.name(), opts.seed),
-        x: rows.iter().map(|m| m.env_steps as f64).collect(),
-        y: rows.iter().map(|m| m.episode_return_mean).collect(),
-        lower: Some(rows.iter().map(|m| m.episode_return_mean - m.episode_return_std).collect()),
-        upper: Some(rows.iter().map(|m| m.episode_return_mean + m.episode_return_std).collect()),
+/// Trains `algo` from where it is to the record's budget in checkpointed segments, then
+/// evaluates, writes the summary and plots.
+#[allow(clippy::too_many_arguments)]
+fn run_segments(
+    record: &RunRecord,
+    source: &EnvSource,
+    dir: &Path,
+    threads: usize,
+    mut algo: Box<dyn Algorithm>,
+    mut csv: MetricsCsv,
+    mut rows: Vec<UpdateMetrics>,
+    mut wall_seconds: f64,
+    progress: &mut dyn FnMut(&UpdateMetrics),
+) -> Result<Summary, TrainError> {
+    let csv_path = dir.join("metrics.csv");
+    let ckpt = dir.join("checkpoint");
+    let every = record.checkpoint_every;
+    let mut targets: Vec<u64> = if every > 0 {
+        (1..)
+            .map_while(|i: u64| i.checked_mul(every))
+            .take_while(|&b| b < record.steps)
+            .filter(|&b| b > algo.steps_done())
+            .collect()
+    } else {
+        Vec::new()
     };
-    let labels = PlotLabels {
-        title: format!("{} on {}", algo.name(), opts.env),
-        x: "environment steps".into(),
-        y: "episode return (training, mean ± std)".into(),
-    };
-    for ext in ["svg", "png"] {
-        match plot_curves(
-            &opts.out.join(format!("learning_curve.{ext}")),
-            &labels,
-            std::slice::from_ref(&curve),
-        ) {
-            Ok(()) | Err(PlotError::Empty { .. }) => {}
-            Err(e) => return Err(e.into()),
+    targets.push(record.steps);
+    for target in targets {
+        if algo.steps_done() >= target {
+            continue;
         }
+        let mut env = source.make_vec(record.n_envs, threads)?;
+        let mut csv_error = None;
+        let t0 = Instant::now();
+        algo.learn(&mut env, target, &mut |m| {
+            if let Err(e) = csv.write(m) {
+                csv_error = Some(e);
+                return ControlFlow::Break(());
+            }
+            rows.push(*m);
+            progress(m);
+            ControlFlow::Continue(())
+        })?;
+        wall_seconds += t0.elapsed().as_secs_f64();
+        if let Some(e) = csv_error {
+            return Err(TrainError::Io { path: csv_path, source: e });
+        }
+        csv.sync().map_err(io_err(&csv_path))?;
+        write_checkpoint(algo.as_ref(), record, &ckpt, rows.len(), wall_seconds)?;
     }
+    if algo.steps_done() == 0 || !ckpt.exists() {
+        // A zero-step run still leaves its (untrained) checkpoint.
+        write_checkpoint(algo.as_ref(), record, &ckpt, rows.len(), wall_seconds)?;
+    }
+    let mut policy = Policy::load(&ckpt).map_err(RlError::from)?;
+    let mut eval_env = source.make()?;
+    let eval =
+        evaluate(&mut policy, eval_env.as_mut(), record.eval_episodes.max(10), 1_000_000 + record.seed)?;
 
     let steps = algo.steps_done();
     let summary = Summary {
-        env: opts.env.clone(),
+        env: record.env.clone(),
         algo: algo.name().to_string(),
-        seed: opts.seed,
+        seed: record.seed,
         steps,
         wall_seconds,
         steps_per_second: steps as f64 / wall_seconds.max(1e-9),
         final_return_mean: eval.mean,
         final_return_std: eval.std,
     };
-    let path = opts.out.join("summary.json");
     let json = serde_json::to_string_pretty(&summary).expect("summary serialises");
-    std::fs::write(&path, json + "\n").map_err(io(&path))?;
+    let summary_path = dir.join("summary.json");
+    write_atomic(&summary_path, &(json + "\n")).map_err(io_err(&summary_path))?;
+
+    let curve = Series {
+        label: format!("{} seed {}", algo.name(), record.seed),
+        x: rows.iter().map(|m| m.env_steps as f64).collect(),
+        y: rows.iter().map(|m| m.episode_return_mean).collect(),
+        lower: Some(rows.iter().map(|m| m.episode_return_mean - m.episode_return_std).collect()),
+        upper: Some(rows.iter().map(|m| m.episode_return_mean + m.episode_return_std).collect()),
+    };
+    let labels = PlotLabels {
+        title: format!("{} on {}", algo.name(), record.env),
+        x: "environment steps".into(),
+        y: "episode return (training, mean ± std)".into(),
+    };
+    for ext in ["svg", "png"] {
+        match plot_curves(&dir.join(format!("learning_curve.{ext}")), &labels, std::slice::from_ref(&curve)) {
+            Ok(()) | Err(PlotError::Empty { .. }) => {}
+            Err(e) => return Err(e.into()),
+        }
+    }
     Ok(summary)
 }

@@ -4,8 +4,8 @@
 
 use std::path::PathBuf;
 
-use centaur::train::{TrainError, TrainOptions, train};
-use centaur_rl::{AlgoKind, Policy};
+use centaur::train::{Summary, TrainError, TrainOptions, resume, train};
+use centaur_rl::{AlgoKind, MetricsCsv, Policy};
 
 fn out_dir(name: &str) -> PathBuf {
     std::env::temp_dir().join(format!("centaur-cli-{}-{name}", std::process::id()))
@@ -24,19 +24,23 @@ fn train_writes_every_artefact() {
         env: "pendulum".into(),
         algo: AlgoKind::Ppo,
         steps: 2048,
-        seed: 3,
+        seed: Some(3),
         out: out.clone(),
         config: Some(config),
         threads: 2,
         n_envs: 2,
         eval_episodes: 10,
+        checkpoint_every: 0,
+        overwrite: false,
     };
     let mut records = 0;
     let s = train(&opts, &mut |_| records += 1).unwrap();
     assert_eq!(records, 4); // 2048 / (256 × 2)
     assert_eq!((s.env.as_str(), s.algo.as_str(), s.seed, s.steps), ("pendulum", "ppo", 3, 2048));
     assert!(s.final_return_mean.is_finite() && s.final_return_std >= 0.0 && s.wall_seconds > 0.0);
-    for f in ["metrics.csv", "checkpoint", "learning_curve.svg", "learning_curve.png", "summary.json"] {
+    for f in
+        ["run.json", "metrics.csv", "checkpoint", "learning_curve.svg", "learning_curve.png", "summary.json"]
+    {
         assert!(out.join(f).is_file(), "{f} missing");
     }
     let csv = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
@@ -77,12 +81,14 @@ fn unknown_config_keys_and_bad_values_are_named() {
         env: "pendulum".into(),
         algo: AlgoKind::Sac,
         steps: 10,
-        seed: 0,
+        seed: Some(0),
         out: out_dir("bad"),
         config: Some(config.clone()),
         threads: 1,
         n_envs: 1,
         eval_episodes: 10,
+        checkpoint_every: 0,
+        overwrite: false,
     };
     match train(&opts, &mut |_| {}) {
         Err(TrainError::Config { message, .. }) => assert!(message.contains("learnin_starts"), "{message}"),
@@ -91,8 +97,186 @@ fn unknown_config_keys_and_bad_values_are_named() {
     std::fs::write(&config, "gamma = 2.0\n").unwrap();
     let e = train(&opts, &mut |_| {}).unwrap_err();
     assert!(e.to_string().contains("gamma"), "{e}");
-    let bad_env = TrainOptions { env: "cartpole".into(), config: None, ..opts };
+    let bad_env = TrainOptions { env: "cartpole".into(), config: None, ..opts.clone() };
     assert!(matches!(train(&bad_env, &mut |_| {}), Err(TrainError::Registry(_))));
+    // Regression (reliability probe): `--envs 0`, `--threads 0` and `--eval-episodes 0`
+    // silently became 1; an endless config file was read forever.
+    for (bad, option) in [
+        (TrainOptions { n_envs: 0, config: None, ..opts.clone() }, "envs"),
+        (TrainOptions { threads: 0, config: None, ..opts.clone() }, "threads"),
+        (TrainOptions { eval_episodes: 0, config: None, ..opts.clone() }, "eval-episodes"),
+    ] {
+        match train(&bad, &mut |_| {}) {
+            Err(e @ TrainError::BadOption { .. }) => {
+                assert!(e.to_string().starts_with(&format!("--{option} 0")), "{e}")
+            }
+            other => panic!("{option}: {other:?}"),
+        }
+    }
+    if std::path::Path::new("/dev/zero").exists() {
+        let endless = TrainOptions { config: Some("/dev/zero".into()), ..opts };
+        match train(&endless, &mut |_| {}) {
+            Err(TrainError::Config { message, .. }) => {
+                assert!(message.contains("not a config file"), "{message}")
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+    assert!(!out_dir("bad").exists(), "a refused run left a directory");
+}
+
+/// Small PPO settings on the Pendulum: 512 steps per update with two envs.
+fn small_ppo_config(name: &str, extra: &str) -> PathBuf {
+    let config = out_dir(name);
+    std::fs::write(
+        &config,
+        format!("n_steps = 256\nbatch_size = 128\nn_epochs = 2\nactor_hidden = [16]\ncritic_hidden = [16]\n{extra}"),
+    )
+    .unwrap();
+    config
+}
+
+/// Every deterministic metric of a run directory's rows, as bits.
+fn metric_bits(dir: &std::path::Path) -> Vec<Vec<u64>> {
+    MetricsCsv::read(&dir.join("metrics.csv")).unwrap().iter().map(|m| m.deterministic_bits()).collect()
+}
+
+/// The summary's deterministic fields.
+fn summary_bits(dir: &std::path::Path) -> (u64, u64, u64, u64) {
+    let s: Summary =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    (s.seed, s.steps, s.final_return_mean.to_bits(), s.final_return_std.to_bits())
+}
+
+/// Reliability probe, data loss 1 and 2: a run directory is never reused silently, and a
+/// run killed with SIGKILL mid-training resumes (`centaur train --resume`) to the metrics,
+/// evaluation and learner state of the uninterrupted run, bit for bit, on another number
+/// of threads.
+#[test]
+fn a_killed_run_resumes_to_the_uninterrupted_result() {
+    let config = small_ppo_config("kill.toml", "seed = 11\n");
+    let whole = out_dir("kill-whole");
+    let opts = TrainOptions {
+        env: "pendulum".into(),
+        algo: AlgoKind::Ppo,
+        steps: 40_960,
+        seed: None,
+        out: whole.clone(),
+        config: Some(config.clone()),
+        threads: 1,
+        n_envs: 2,
+        eval_episodes: 10,
+        checkpoint_every: 4096,
+        overwrite: false,
+    };
+    let uninterrupted = train(&opts, &mut |_| {}).unwrap();
+    assert_eq!(uninterrupted.seed, 11, "without --seed the config file's seed stands");
+
+    // The same run as a process, killed once it has written its second checkpoint.
+    let killed = out_dir("kill-killed");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["train", "--env", "pendulum", "--algo", "ppo", "--steps", "40960", "--envs", "2"])
+        .args(["--checkpoint-every", "4096", "--config"])
+        .arg(&config)
+        .arg("--out")
+        .arg(&killed)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let ckpt = killed.join("checkpoint");
+    let started = std::time::Instant::now();
+    loop {
+        let steps =
+            centaur_rl::Checkpoint::read(&ckpt).ok().and_then(|c| c.get_meta::<u64>("steps_done").ok());
+        if steps.is_some_and(|s| s >= 8192) {
+            break;
+        }
+        assert!(child.try_wait().unwrap().is_none(), "the run ended before it could be killed");
+        assert!(started.elapsed().as_secs() < 120, "no second checkpoint after 120 s");
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    assert!(!killed.join("summary.json").exists(), "the run finished before the kill");
+
+    // Reusing the directory is refused; --resume continues it on two threads.
+    let again = TrainOptions { out: killed.clone(), ..opts.clone() };
+    assert!(matches!(train(&again, &mut |_| {}), Err(TrainError::RunExists { file: "run.json", .. })));
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["train", "--threads", "2", "--resume"])
+        .arg(&killed)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(metric_bits(&killed), metric_bits(&whole));
+    assert_eq!(summary_bits(&killed), summary_bits(&whole));
+    let state = |d: &std::path::Path| {
+        let mut c = centaur_rl::Checkpoint::read(&d.join("checkpoint")).unwrap();
+        for timing in ["wall_time", "run_wall_seconds"] {
+            c.meta.remove(timing);
+        }
+        c.to_bytes()
+    };
+    assert_eq!(state(&killed), state(&whole), "learner states differ after resume");
+    // A finished run resumes to its summary; --overwrite replaces it.
+    assert_eq!(resume(&killed, 1, &mut |_| {}).unwrap().final_return_mean, uninterrupted.final_return_mean);
+    let replaced = TrainOptions { out: killed.clone(), steps: 1024, overwrite: true, ..opts };
+    assert_eq!(train(&replaced, &mut |_| {}).unwrap().steps, 1024);
+    for d in [&whole, &killed] {
+        std::fs::remove_dir_all(d).unwrap();
+    }
+}
+
+/// What a kill leaves (the run files as they are mid-training, metrics rows past the last
+/// checkpoint included), resumed, equals the uninterrupted run: for an off-policy learner
+/// with its replay buffer, and for a run killed before its first checkpoint.
+#[test]
+fn an_off_policy_run_resumes_from_a_mid_run_copy() {
+    let config = out_dir("sac-resume.toml");
+    std::fs::write(&config, "learning_starts = 200\nbatch_size = 32\nactor_hidden = [16]\ncritic_hidden = [16]\nlog_interval = 100\n").unwrap();
+    let whole = out_dir("sac-whole");
+    let copy = out_dir("sac-copy");
+    let early = out_dir("sac-early");
+    let opts = TrainOptions {
+        env: "pendulum".into(),
+        algo: AlgoKind::Sac,
+        steps: 1500,
+        seed: Some(4),
+        out: whole.clone(),
+        config: Some(config),
+        threads: 1,
+        n_envs: 1,
+        eval_episodes: 10,
+        checkpoint_every: 500,
+        overwrite: false,
+    };
+    let snapshot = |to: &std::path::Path| {
+        std::fs::create_dir_all(to).unwrap();
+        for f in ["run.json", "metrics.csv", "checkpoint"] {
+            if whole.join(f).exists() {
+                std::fs::copy(whole.join(f), to.join(f)).unwrap();
+            }
+        }
+    };
+    train(&opts, &mut |m| {
+        if m.env_steps == 300 {
+            snapshot(&early);
+        }
+        if m.env_steps == 800 {
+            snapshot(&copy);
+        }
+    })
+    .unwrap();
+    assert!(!early.join("checkpoint").exists() && copy.join("checkpoint").exists());
+    for dir in [&copy, &early] {
+        resume(dir, 1, &mut |_| {}).unwrap();
+        assert_eq!(metric_bits(dir), metric_bits(&whole), "{}", dir.display());
+        assert_eq!(summary_bits(dir), summary_bits(&whole), "{}", dir.display());
+    }
+    for d in [&whole, &copy, &early] {
+        std::fs::remove_dir_all(d).unwrap();
+    }
 }
 
 /// `centaur compare --env minitaur --algo ppo ARGS --config CONFIG --out OUT`.
@@ -150,6 +334,28 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     // MCAP recordings for the first seed only.
     assert!(out.join("seed_0").join("hybrid.mcap").is_file());
     assert!(!out.join("seed_1").join("hybrid.mcap").exists());
+
+    // Reliability probe, data loss 1: the directory is not reused silently. `--resume`
+    // keeps finished seeds and reruns a seed killed before its summary, to the same figures.
+    let o = compare_minitaur_ppo(&args, &config, &out);
+    assert!(!o.status.success());
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("already holds a run"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let mut first = json.clone();
+    without_wall_times(&mut first);
+    let seed_0_ckpt = std::fs::read(out.join("seed_0").join("hybrid").join("checkpoint")).unwrap();
+    std::fs::remove_file(out.join("seed_1").join("summary.json")).unwrap();
+    let o = compare_minitaur_ppo(&[&args[..], &["--resume"]].concat(), &config, &out);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut resumed: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("compare.json")).unwrap()).unwrap();
+    without_wall_times(&mut resumed);
+    assert_eq!(resumed, first);
+    assert_eq!(std::fs::read(out.join("seed_0").join("hybrid").join("checkpoint")).unwrap(), seed_0_ckpt);
+    assert!(out.join("seed_1").join("summary.json").is_file());
 
     // The robustness study on seed 0's run: one episode per agent and condition.
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))

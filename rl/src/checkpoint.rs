@@ -17,8 +17,9 @@
 //! are blobs. Every algorithm writes a `policy` entry and `policy/…` blobs that
 //! [`crate::Policy::load`] reads alone.
 //!
-//! Files are written to `<name>.tmp` in the same directory, flushed and `fsync`ed, then
-//! renamed over the target, so a crash never leaves a half-written checkpoint.
+//! Files are written to a temporary file unique to the writer (`<name>.<pid>-<n>.tmp`) in
+//! the same directory, flushed and `fsync`ed, then renamed over the target, so a crash never
+//! leaves a half-written checkpoint.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -529,18 +530,30 @@ impl Checkpoint {
         Ok(Checkpoint { algo, meta, blobs, path: p() })
     }
 
-    /// Writes atomically: `<path>.tmp` in the same directory, `fsync`, rename.
+    /// Writes atomically: a temporary file unique to this process and call
+    /// (`<path>.<pid>-<n>.tmp`) in the same directory, `fsync`, rename over `path`. Two
+    /// writers of one path never share a temporary file; the last rename wins whole. On a
+    /// failure the temporary file is removed and the error names it.
     pub fn write(&self, path: &Path) -> Result<(), CheckpointError> {
-        let io = |source| CheckpointError::Io { path: path.to_path_buf(), source };
+        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let mut tmp = path.as_os_str().to_owned();
-        tmp.push(".tmp");
+        tmp.push(format!(".{}-{n}.tmp", std::process::id()));
         let tmp = PathBuf::from(tmp);
-        {
-            let mut f = std::fs::File::create(&tmp).map_err(io)?;
-            f.write_all(&self.to_bytes()).map_err(io)?;
-            f.sync_all().map_err(io)?;
+        let written = (|| {
+            let mut f = std::fs::File::create(&tmp)?;
+            f.write_all(&self.to_bytes())?;
+            f.sync_all()
+        })();
+        if let Err(source) = written {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(CheckpointError::Io { path: tmp, source });
         }
-        std::fs::rename(&tmp, path).map_err(io)?;
+        let io = |source| CheckpointError::Io { path: path.to_path_buf(), source };
+        if let Err(source) = std::fs::rename(&tmp, path) {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(io(source));
+        }
         // Make the rename durable too (best effort: directories cannot be opened everywhere).
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty())
             && let Ok(d) = std::fs::File::open(dir)
@@ -632,7 +645,8 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("model.ckpt");
         sample().write(&path).unwrap();
-        assert!(!dir.join("model.ckpt.tmp").exists());
+        let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(left, [std::ffi::OsString::from("model.ckpt")], "temporary files left behind");
         let d = Checkpoint::read(&path).unwrap();
         assert_eq!(d.f32("w", None).unwrap()[1], -2.5);
         assert!(matches!(Checkpoint::read(&dir.join("missing")), Err(CheckpointError::Io { .. })));

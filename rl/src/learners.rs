@@ -129,6 +129,18 @@ impl AlgoConfig {
         }
     }
 
+    /// The seed of these settings.
+    pub fn seed(&self) -> u64 {
+        match self {
+            AlgoConfig::Ppo(c) => c.seed,
+            AlgoConfig::A2c(c) => c.seed,
+            AlgoConfig::Sac(c) => c.seed,
+            AlgoConfig::SacV1(c) => c.seed,
+            AlgoConfig::Td3(c) => c.seed,
+            AlgoConfig::Ddpg(c) => c.seed,
+        }
+    }
+
     /// The same settings with another seed.
     pub fn with_seed(mut self, seed: u64) -> AlgoConfig {
         match &mut self {

@@ -127,6 +127,50 @@ impl UpdateMetrics {
         Self::COLUMNS.join(",")
     }
 
+    /// Parses a line written by [`UpdateMetrics::csv_row`] (every field back to the same
+    /// bits: finite numbers are written in Rust's shortest round-trip form); `None` for a
+    /// line of another shape.
+    pub fn parse_csv_row(line: &str) -> Option<UpdateMetrics> {
+        let cells: Vec<&str> = line.split(',').collect();
+        if cells.len() != Self::COLUMNS.len() {
+            return None;
+        }
+        let float = |c: &str| -> Option<f64> {
+            match c {
+                "" => Some(f64::NAN),
+                "inf" => Some(f64::INFINITY),
+                "-inf" => Some(f64::NEG_INFINITY),
+                _ => c.parse().ok(),
+            }
+        };
+        let mut v = [0.0; 18];
+        for (i, c) in cells.iter().enumerate() {
+            if !matches!(i, 0 | 1 | 4) {
+                v[i] = float(c)?;
+            }
+        }
+        Some(UpdateMetrics {
+            update: cells[0].parse().ok()?,
+            env_steps: cells[1].parse().ok()?,
+            wall_time: v[2],
+            steps_per_second: v[3],
+            episodes: cells[4].parse().ok()?,
+            episode_return_mean: v[5],
+            episode_return_std: v[6],
+            episode_length_mean: v[7],
+            policy_loss: v[8],
+            value_loss: v[9],
+            q_loss: v[10],
+            entropy: v[11],
+            approx_kl: v[12],
+            clip_fraction: v[13],
+            explained_variance: v[14],
+            mean_q: v[15],
+            alpha: v[16],
+            learning_rate: v[17],
+        })
+    }
+
     /// One CSV line (no newline); `NaN` becomes an empty cell.
     pub fn csv_row(&self) -> String {
         let v = self.values();
@@ -194,6 +238,34 @@ impl MetricsCsv {
         Ok(MetricsCsv { out })
     }
 
+    /// Opens an existing file written by [`MetricsCsv::create`] to append rows to it.
+    pub fn append(path: &Path) -> std::io::Result<MetricsCsv> {
+        let file = std::fs::OpenOptions::new().append(true).open(path)?;
+        Ok(MetricsCsv { out: std::io::BufWriter::new(file) })
+    }
+
+    /// The rows of a file written by [`MetricsCsv::create`], in order; a line that does not
+    /// parse (a row cut by a crash, a file of another kind) is an `InvalidData` error naming
+    /// its line number.
+    pub fn read(path: &Path) -> std::io::Result<Vec<UpdateMetrics>> {
+        let text = std::fs::read_to_string(path)?;
+        let mut lines = text.lines();
+        if lines.next() != Some(UpdateMetrics::csv_header().as_str()) {
+            return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, "not a metrics.csv header"));
+        }
+        lines
+            .enumerate()
+            .map(|(i, l)| {
+                UpdateMetrics::parse_csv_row(l).ok_or_else(|| {
+                    std::io::Error::new(
+                        std::io::ErrorKind::InvalidData,
+                        format!("line {}: not a metrics row", i + 2),
+                    )
+                })
+            })
+            .collect()
+    }
+
     /// Appends a row.
     pub fn write(&mut self, m: &UpdateMetrics) -> std::io::Result<()> {
         writeln!(self.out, "{}", m.csv_row())
@@ -202,6 +274,13 @@ impl MetricsCsv {
     /// Flushes buffered rows.
     pub fn flush(&mut self) -> std::io::Result<()> {
         self.out.flush()
+    }
+
+    /// Flushes buffered rows and `fsync`s the file, so that every row written so far
+    /// survives a crash (done before each periodic checkpoint).
+    pub fn sync(&mut self) -> std::io::Result<()> {
+        self.out.flush()?;
+        self.out.get_ref().sync_data()
     }
 }
 
@@ -226,6 +305,14 @@ mod tests {
         let row = m.csv_row();
         assert_eq!(row.split(',').count(), UpdateMetrics::COLUMNS.len());
         assert!(row.starts_with("3,600,0,0,2,-150,50,150,,"), "{row}");
+        let back = UpdateMetrics::parse_csv_row(&row).unwrap();
+        assert_eq!(back.deterministic_bits(), m.deterministic_bits());
+        let mut odd = m;
+        (odd.wall_time, odd.mean_q, odd.alpha) = (0.1 + 0.2, f64::INFINITY, f64::NEG_INFINITY);
+        let back = UpdateMetrics::parse_csv_row(&odd.csv_row()).unwrap();
+        assert_eq!(back.values().map(f64::to_bits), odd.values().map(f64::to_bits));
+        assert!(UpdateMetrics::parse_csv_row("3,600").is_none());
+        assert!(UpdateMetrics::parse_csv_row(&row.replace("-150", "x")).is_none());
         w.drain_into(&mut m);
         assert_eq!(m.episodes, 0);
         assert!(m.episode_return_mean.is_nan());

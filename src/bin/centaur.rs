@@ -10,8 +10,8 @@ use centaur::compare::{CompareOptions, run_compare};
 use centaur::control::{ControlOptions, Push, parse_gait, run_control, write_summary};
 use centaur::experiment::{Condition, RobustnessOptions, robustness_table, run_robustness};
 use centaur::experiment::{Phase, tuned_config};
-use centaur::registry::{env_names, residual_config};
-use centaur::train::{TrainOptions, parse_algo_config, train};
+use centaur::registry::residual_config;
+use centaur::train::{TrainOptions, parse_algo_config, read_run_record, resume, train};
 use centaur_mpc::{Gait, MpcSolver};
 use centaur_rl::AlgoKind;
 use clap::{Args, Parser, Subcommand};
@@ -30,38 +30,10 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Train a learner on an environment; writes metrics.csv, checkpoint,
-    /// learning_curve.{svg,png} and summary.json into --out.
-    Train {
-        /// Environment name (see `centaur train --env ?` for the list; `modular:FILE.json` for a
-        /// modular robot described in a file).
-        #[arg(long)]
-        env: String,
-        /// Algorithm: ppo, a2c, sac, sac1, td3 or ddpg.
-        #[arg(long, value_parser = parse_algo)]
-        algo: AlgoKind,
-        /// Environment steps to train for.
-        #[arg(long)]
-        steps: u64,
-        /// Seed (overrides `seed` in the config file).
-        #[arg(long, default_value_t = 0)]
-        seed: u64,
-        /// Output directory.
-        #[arg(long)]
-        out: PathBuf,
-        /// TOML file setting any of the algorithm's hyperparameters.
-        #[arg(long)]
-        config: Option<PathBuf>,
-        /// Threads stepping the environments.
-        #[arg(long, default_value_t = 1)]
-        threads: usize,
-        /// Number of parallel environments.
-        #[arg(long, default_value_t = 1)]
-        envs: usize,
-        /// Deterministic evaluation episodes at the end (at least 10).
-        #[arg(long, default_value_t = 10)]
-        eval_episodes: usize,
-    },
+    /// Train a learner on an environment; writes run.json, metrics.csv, checkpoint (also
+    /// every --checkpoint-every steps), summary.json and learning_curve.{svg,png} into --out.
+    /// `--resume DIR` continues a killed run to the same result.
+    Train(TrainArgs),
     /// Train pure RL and the hybrid (residual RL on the controller) with the same budget over
     /// several seeds, evaluate both and the controller alone; writes compare.json,
     /// learning_curves.{png,svg} and one run directory per seed into --out.
@@ -73,6 +45,54 @@ enum Command {
     /// lateral pushes, base-mass, friction and motor-strength changes; prints the table and
     /// writes robustness.json into the run directory.
     Robustness(RobustnessArgs),
+}
+
+/// Arguments of `centaur train`.
+#[derive(Args)]
+struct TrainArgs {
+    /// Environment name (see `centaur train --env ?` for the list; `modular:FILE.json` for a
+    /// modular robot described in a file).
+    #[arg(long, required_unless_present = "resume")]
+    env: Option<String>,
+    /// Algorithm: ppo, a2c, sac, sac1, td3 or ddpg.
+    #[arg(long, value_parser = parse_algo, required_unless_present = "resume")]
+    algo: Option<AlgoKind>,
+    /// Environment steps to train for.
+    #[arg(long, required_unless_present = "resume")]
+    steps: Option<u64>,
+    /// Seed [default: the config file's `seed`, else 0].
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Output directory (refused if it already holds a run, unless --overwrite).
+    #[arg(long, required_unless_present = "resume")]
+    out: Option<PathBuf>,
+    /// TOML file setting any of the algorithm's hyperparameters (read once, kept in run.json).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Threads stepping the environments (results do not depend on it).
+    #[arg(long, default_value_t = 1)]
+    threads: usize,
+    /// Number of parallel environments.
+    #[arg(long, default_value_t = 1)]
+    envs: usize,
+    /// Deterministic evaluation episodes at the end (at least 10).
+    #[arg(long, default_value_t = 10)]
+    eval_episodes: usize,
+    /// Environment steps between checkpoints (0: only at the end); each checkpoint starts
+    /// fresh episodes so that a resumed run continues exactly.
+    #[arg(long, default_value_t = centaur::train::DEFAULT_CHECKPOINT_EVERY)]
+    checkpoint_every: u64,
+    /// Replace the run already in --out (its run files only).
+    #[arg(long, conflicts_with = "resume")]
+    overwrite: bool,
+    /// Continue the run in this directory from its last checkpoint (every setting comes from
+    /// its run.json; only --threads may be given).
+    #[arg(
+        long,
+        value_name = "DIR",
+        conflicts_with_all = ["env", "algo", "steps", "seed", "out", "config", "envs", "eval_episodes", "checkpoint_every"]
+    )]
+    resume: Option<PathBuf>,
 }
 
 /// Arguments of `centaur robustness`.
@@ -239,6 +259,13 @@ struct CompareArgs {
     /// the end); 0: at the end only.
     #[arg(long, default_value_t = 100_000)]
     eval_every: u64,
+    /// Keep the seeds already finished in --out with the same options and run the rest (a
+    /// killed comparison loses at most the seed it was running).
+    #[arg(long, conflicts_with = "overwrite")]
+    resume: bool,
+    /// Replace the comparison already in --out (its run files only).
+    #[arg(long)]
+    overwrite: bool,
     /// The hybrid's setup.
     #[command(flatten)]
     hybrid: HybridArgs,
@@ -281,6 +308,8 @@ fn compare(args: CompareArgs) -> ExitCode {
         eval_episodes: args.eval_episodes,
         residual,
         eval_every: (args.eval_every > 0).then_some(args.eval_every),
+        resume: args.resume,
+        overwrite: args.overwrite,
     };
     let seeds = opts.seeds.max(1);
     let bar = ProgressBar::new(seeds * 2 * opts.steps);
@@ -388,27 +417,62 @@ fn parse_algo(s: &str) -> Result<AlgoKind, String> {
 }
 
 fn main() -> ExitCode {
-    let (env, algo, steps, seed, out, config, threads, envs, eval_episodes) = match Cli::parse().command {
-        Command::Train { env, algo, steps, seed, out, config, threads, envs, eval_episodes } => {
-            (env, algo, steps, seed, out, config, threads, envs, eval_episodes)
-        }
+    let args = match Cli::parse().command {
+        Command::Train(args) => args,
         Command::Control(args) => return control(args),
         Command::Compare(args) => return compare(args),
         Command::Robustness(args) => return robustness(args),
     };
-    let opts = TrainOptions { env, algo, steps, seed, out, config, threads, n_envs: envs, eval_episodes };
+    train_command(args)
+}
+
+/// `centaur train`.
+fn train_command(args: TrainArgs) -> ExitCode {
+    let (steps, eval_episodes, out) = match &args.resume {
+        Some(dir) => match read_run_record(dir) {
+            Ok(r) => (r.steps, r.eval_episodes, dir.clone()),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::FAILURE;
+            }
+        },
+        None => (
+            args.steps.expect("clap requires --steps"),
+            args.eval_episodes,
+            args.out.clone().expect("clap requires --out"),
+        ),
+    };
     let bar = ProgressBar::new(steps);
     bar.set_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} steps {per_sec} {msg}")
             .expect("valid template")
             .progress_chars("=> "),
     );
-    let result = train(&opts, &mut |m| {
+    let mut progress = |m: &centaur_rl::UpdateMetrics| {
         bar.set_position(m.env_steps.min(steps));
         if m.episode_return_mean.is_finite() {
             bar.set_message(format!("return {:.1}", m.episode_return_mean));
         }
-    });
+    };
+    let result = match &args.resume {
+        Some(dir) => resume(dir, args.threads, &mut progress),
+        None => {
+            let opts = TrainOptions {
+                env: args.env.expect("clap requires --env"),
+                algo: args.algo.expect("clap requires --algo"),
+                steps,
+                seed: args.seed,
+                out: out.clone(),
+                config: args.config,
+                threads: args.threads,
+                n_envs: args.envs,
+                eval_episodes,
+                checkpoint_every: args.checkpoint_every,
+                overwrite: args.overwrite,
+            };
+            train(&opts, &mut progress)
+        }
+    };
     bar.finish_and_clear();
     match result {
         Ok(s) => {
@@ -421,19 +485,13 @@ fn main() -> ExitCode {
                 s.steps_per_second,
                 s.final_return_mean,
                 s.final_return_std,
-                opts.eval_episodes.max(10),
-                opts.out.display()
+                eval_episodes.max(10),
+                out.display()
             );
             ExitCode::SUCCESS
         }
         Err(e) => {
             eprintln!("error: {e}");
-            if matches!(
-                e,
-                centaur::train::TrainError::Registry(centaur::registry::RegistryError::UnknownEnv { .. })
-            ) {
-                eprintln!("available environments: {}", env_names().join(", "));
-            }
             ExitCode::FAILURE
         }
     }

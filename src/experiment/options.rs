@@ -53,6 +53,14 @@ pub enum ExperimentError {
     /// A robot environment error (building a perturbed robot).
     #[error("robot: {0}")]
     Robot(#[from] centaur_envs::RobotEnvError),
+    /// The output directory already holds a run.
+    #[error("{dir} already holds a run ({file}); replace it with --overwrite or choose another --out")]
+    RunExists {
+        /// The directory.
+        dir: PathBuf,
+        /// The run file found there.
+        file: &'static str,
+    },
     /// A training stopped because the other agent's, running side by side, failed.
     #[error("stopped: the other agent's training failed")]
     Stopped,
@@ -91,6 +99,29 @@ pub struct ExperimentOptions {
     /// training steps as well as at the end (`None`: at the end only). Training runs in
     /// chunks between the evaluations, with the learning-rate schedule of the whole budget.
     pub eval_every: Option<u64>,
+    /// Replace a run already in `out` (its files only) instead of refusing.
+    pub overwrite: bool,
+}
+
+impl ExperimentOptions {
+    /// Everything that decides the results (not `out`, `threads`, `record` or `overwrite`),
+    /// as Rust's `Debug` writes it (floats in their shortest round-trip form): a finished run
+    /// whose `experiment.json` holds the same text can be kept instead of run again.
+    pub fn fingerprint(&self) -> String {
+        format!(
+            "{:?}",
+            (
+                &self.env,
+                &self.algo,
+                self.steps,
+                self.seed,
+                self.n_envs,
+                self.eval_episodes,
+                &self.residual,
+                self.eval_every
+            )
+        )
+    }
 }
 
 /// Training curve of one agent: `(env steps, mean training episode return)` per update.

@@ -11,12 +11,13 @@ use centaur_mpc::LocomotionController;
 use centaur_rl::{Algorithm, MetricsCsv, Policy, RlError, UpdateMetrics};
 
 use super::evaluation::{Driver, evaluate};
-use super::options::{ExperimentError, ExperimentOptions, ExperimentResult, Phase, io_err};
+use super::options::{Curve, ExperimentError, ExperimentOptions, ExperimentResult, Phase, io_err};
 use super::summary::{AgentStats, BudgetEval, ExperimentSummary};
 use crate::hybrid::{ActionMapping, HybridError};
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
 use crate::registry::{controller_config, make_residual_env, make_robot_env};
 use crate::residual::start_as_controller;
+use crate::rundir::{Claim, claim, write_atomic};
 
 fn vec_env_of(
     make: &mut dyn FnMut() -> Result<Box<dyn Env>, ExperimentError>,
@@ -120,6 +121,68 @@ fn train_one(
     Ok(Trained { checkpoint, rows, wall, steps: algo.steps_done(), budgets: evals })
 }
 
+/// The files and folders an experiment writes into its directory.
+pub const EXPERIMENT_FILES: [&str; 10] = [
+    "experiment.json",
+    "summary.json",
+    "learning_curves.png",
+    "learning_curves.svg",
+    "pure_rl",
+    "hybrid",
+    "pure_rl.mcap",
+    "hybrid.mcap",
+    "controller.mcap",
+    "robustness.json",
+];
+
+/// `experiment.json`: what a run directory was run with.
+#[derive(Debug, serde::Serialize, serde::Deserialize)]
+struct ExperimentRecord {
+    env: String,
+    algo: String,
+    steps: u64,
+    seed: u64,
+    /// [`ExperimentOptions::fingerprint`].
+    fingerprint: String,
+}
+
+/// Creates the run directory, refusing one that already holds a run unless `overwrite`
+/// (which removes the run's files and folders, nothing else), and writes `experiment.json`.
+fn prepare_run_dir(opts: &ExperimentOptions) -> Result<(), ExperimentError> {
+    let dir = &opts.out;
+    claim(dir, &EXPERIMENT_FILES, opts.overwrite).map_err(|c| match c {
+        Claim::Taken(file) => ExperimentError::RunExists { dir: dir.clone(), file },
+        Claim::Io(path, source) => ExperimentError::Io { path, source },
+    })?;
+    let record = ExperimentRecord {
+        env: opts.env.clone(),
+        algo: opts.algo.kind().name().to_string(),
+        steps: opts.steps,
+        seed: opts.seed,
+        fingerprint: opts.fingerprint(),
+    };
+    let path = dir.join("experiment.json");
+    let text = serde_json::to_string_pretty(&record).expect("the record serialises") + "\n";
+    write_atomic(&path, &text).map_err(io_err(&path))
+}
+
+/// The result of a run already finished in `opts.out` with the same options (its
+/// `experiment.json` fingerprint, `summary.json` and both agents' `metrics.csv`), or `None`
+/// if the directory holds no such finished run. `centaur compare --resume` keeps these.
+pub fn finished_experiment(opts: &ExperimentOptions) -> Option<ExperimentResult> {
+    let read = |f: &str| std::fs::read_to_string(opts.out.join(f)).ok();
+    let record: ExperimentRecord = serde_json::from_str(&read("experiment.json")?).ok()?;
+    if record.fingerprint != opts.fingerprint() {
+        return None;
+    }
+    let summary: ExperimentSummary = serde_json::from_str(&read("summary.json")?).ok()?;
+    let curve = |agent: &str| -> Option<Curve> {
+        let rows = MetricsCsv::read(&opts.out.join(agent).join("metrics.csv")).ok()?;
+        Some(rows.iter().map(|m| (m.env_steps, m.episode_return_mean)).collect())
+    };
+    Some(ExperimentResult { summary, pure_curve: curve("pure_rl")?, hybrid_curve: curve("hybrid")? })
+}
+
 /// Runs the experiment (see the module docs) and writes the output directory.
 pub fn run_experiment(
     opts: &ExperimentOptions,
@@ -127,7 +190,7 @@ pub fn run_experiment(
 ) -> Result<ExperimentResult, ExperimentError> {
     // The hybrid needs a controller: refuse a robot without one before training anything.
     controller_config(&opts.env)?;
-    std::fs::create_dir_all(&opts.out).map_err(io_err(&opts.out))?;
+    prepare_run_dir(opts)?;
     // Pure RL on the robot environment, the hybrid on the residual environment.
     // Set when one training fails, to stop the other one running side by side.
     let stop = AtomicBool::new(false);
@@ -286,7 +349,7 @@ fn write_outputs(
     let path = opts.out.join("summary.json");
     let text = serde_json::to_string_pretty(summary)
         .map_err(|e| ExperimentError::Io { path: path.clone(), source: e.into() })?;
-    std::fs::write(&path, text + "\n").map_err(io_err(&path))?;
+    write_atomic(&path, &(text + "\n")).map_err(io_err(&path))?;
     let curve = |label: &str, rows: &[UpdateMetrics]| Series {
         label: label.to_string(),
         x: rows.iter().map(|m| m.env_steps as f64).collect(),

@@ -1,10 +1,10 @@
 //! How the agents did: [`AgentStats`] per agent, [`ExperimentSummary`] for the three, its
 //! Markdown table.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// How an agent did over the evaluation episodes (and its training cost).
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct AgentStats {
     /// Mean episode return.
     pub return_mean: f64,
@@ -31,7 +31,7 @@ pub struct AgentStats {
 }
 
 /// A deterministic evaluation of a learner at a training budget.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct BudgetEval {
     /// Training environment steps done.
     pub env_steps: u64,
@@ -46,7 +46,7 @@ pub struct BudgetEval {
 }
 
 /// The three agents of an experiment.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ExperimentSummary {
     /// Residual RL on the controller.
     pub hybrid: AgentStats,

@@ -1,0 +1,78 @@
+//! Run directories that never lose data: atomic file writes and claiming a directory for a
+//! new run (refused if it holds one, unless the caller replaces it).
+
+use std::path::{Path, PathBuf};
+
+/// Writes `text` to `path` atomically (a temporary file unique to this process in the same
+/// directory, `fsync`, rename): a crash leaves the old file or the new one, never half of one.
+pub fn write_atomic(path: &Path, text: &str) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(format!(".{}.tmp", std::process::id()));
+    let tmp = PathBuf::from(tmp);
+    let written = std::fs::File::create(&tmp).and_then(|mut f| {
+        f.write_all(text.as_bytes())?;
+        f.sync_all()
+    });
+    written.and_then(|()| std::fs::rename(&tmp, path)).inspect_err(|_| {
+        let _ = std::fs::remove_file(&tmp);
+    })
+}
+
+/// Why a directory could not be claimed for a new run.
+#[derive(Debug)]
+pub enum Claim {
+    /// It holds a run: the first of the run's files found there.
+    Taken(&'static str),
+    /// The file system refused (or `dir` is a file).
+    Io(PathBuf, std::io::Error),
+}
+
+/// Claims `dir` for a new run whose files and folders are `files`: creates it; if it holds
+/// any of them, refuses ([`Claim::Taken`]) unless `replace`, which removes those (and
+/// nothing else).
+pub fn claim(dir: &Path, files: &[&'static str], replace: bool) -> Result<(), Claim> {
+    if dir.exists() && !dir.is_dir() {
+        let source =
+            std::io::Error::new(std::io::ErrorKind::AlreadyExists, "--out is a file, not a directory");
+        return Err(Claim::Io(dir.to_path_buf(), source));
+    }
+    if let Some(&file) = files.iter().find(|f| dir.join(f).exists()) {
+        if !replace {
+            return Err(Claim::Taken(file));
+        }
+        for f in files {
+            let path = dir.join(f);
+            let removed =
+                if path.is_dir() { std::fs::remove_dir_all(&path) } else { std::fs::remove_file(&path) };
+            match removed {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(Claim::Io(path, e)),
+                _ => {}
+            }
+        }
+    }
+    std::fs::create_dir_all(dir).map_err(|e| Claim::Io(dir.to_path_buf(), e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_claimed_directory_is_refused_then_replaced_keeping_other_files() {
+        let dir = std::env::temp_dir().join(format!("centaur-rundir-{}", std::process::id()));
+        let files = ["run.json", "agent"];
+        claim(&dir, &files, false).unwrap();
+        write_atomic(&dir.join("run.json"), "{}").unwrap();
+        std::fs::create_dir_all(dir.join("agent")).unwrap();
+        std::fs::write(dir.join("notes.txt"), "mine").unwrap();
+        assert!(matches!(claim(&dir, &files, false), Err(Claim::Taken("run.json"))));
+        claim(&dir, &files, true).unwrap();
+        assert!(!dir.join("run.json").exists() && !dir.join("agent").exists());
+        assert_eq!(std::fs::read_to_string(dir.join("notes.txt")).unwrap(), "mine");
+        let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(left.len(), 1, "temporary files left: {left:?}");
+        assert!(matches!(claim(&dir.join("notes.txt"), &files, true), Err(Claim::Io(..))));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
