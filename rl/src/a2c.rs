@@ -231,6 +231,15 @@ impl A2c {
         n_envs: usize,
     ) -> Result<A2c, RlError> {
         config.validate()?;
+        crate::error::check_sizes(
+            "a2c",
+            ("n_steps", config.n_steps, n_envs),
+            obs_space.dim() + act_space.dim() + 8,
+            &[("actor_hidden", &config.actor_hidden), ("critic_hidden", &config.critic_hidden)],
+            obs_space.dim(),
+            act_space.dim(),
+            config.n_steps.saturating_mul(n_envs),
+        )?;
         if n_envs == 0 {
             return Err(RlError::Incompatible {
                 algo: "a2c",

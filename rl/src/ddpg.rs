@@ -228,6 +228,15 @@ impl Ddpg {
         max_envs: usize,
     ) -> Result<Ddpg, RlError> {
         config.validate()?;
+        crate::error::check_sizes(
+            "ddpg",
+            ("buffer_size", config.buffer_size, 1),
+            2 * obs_space.dim() + act_space.dim() + 2,
+            &[("actor_hidden", &config.actor_hidden), ("critic_hidden", &config.critic_hidden)],
+            obs_space.dim(),
+            act_space.dim(),
+            config.batch_size.max(max_envs),
+        )?;
         if !act_space.is_bounded() {
             return Err(RlError::Incompatible {
                 algo: "ddpg",

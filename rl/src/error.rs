@@ -63,3 +63,68 @@ pub(crate) fn check(
 ) -> Result<(), RlError> {
     if ok { Ok(()) } else { Err(RlError::InvalidConfig { algo, field, value: format!("{value:?}"), reason }) }
 }
+
+/// The most `f32` values one buffer of a learner may hold (2^30, 4 GiB): a rollout or replay
+/// buffer, a batch's activations. Larger settings are refused before anything is allocated.
+pub const MAX_BUFFER_FLOATS: usize = 1 << 30;
+
+/// The most parameters one network may have (2^27: with its gradient and Adam's two moments,
+/// 2 GiB).
+pub const MAX_NET_PARAMS: usize = 1 << 27;
+
+/// Checks, with overflow-checked products, that the buffers a learner is about to allocate
+/// are within [`MAX_BUFFER_FLOATS`] and its networks within [`MAX_NET_PARAMS`]: `rows` is the
+/// storage (`field`, `a`, `b`: `a × b` rows of `row_floats` values each); `nets` the hidden
+/// layers of each network between inputs of at most `obs_dim + act_dim` and outputs of at
+/// most `2 act_dim + 1`; `batch` the largest batch pushed through them.
+pub(crate) fn check_sizes(
+    algo: &'static str,
+    rows: (&'static str, usize, usize),
+    row_floats: usize,
+    nets: &[(&'static str, &[usize])],
+    obs_dim: usize,
+    act_dim: usize,
+    batch: usize,
+) -> Result<(), RlError> {
+    let (field, a, b) = rows;
+    let storage = a.checked_mul(b).and_then(|r| r.checked_mul(row_floats));
+    check(
+        storage.is_some_and(|n| n <= MAX_BUFFER_FLOATS),
+        algo,
+        field,
+        format_args!("{a} × {b} rows × {row_floats} values"),
+        "needs more than 2^30 values (4 GiB) of storage",
+    )?;
+    let io = obs_dim.saturating_add(act_dim).saturating_add(act_dim).saturating_add(1);
+    check(
+        batch.checked_mul(io).is_some_and(|n| n <= MAX_BUFFER_FLOATS),
+        algo,
+        "batch_size",
+        batch,
+        "needs more than 2^30 values (4 GiB) per batch",
+    )?;
+    for &(field, hidden) in nets {
+        let sizes: Vec<usize> =
+            [&[obs_dim.saturating_add(act_dim)][..], hidden, &[act_dim.saturating_mul(2).saturating_add(1)]]
+                .concat();
+        let params = sizes.windows(2).try_fold(0usize, |sum, w| {
+            w[0].checked_add(1).and_then(|i| i.checked_mul(w[1])).and_then(|p| sum.checked_add(p))
+        });
+        check(
+            params.is_some_and(|p| p <= MAX_NET_PARAMS),
+            algo,
+            field,
+            hidden,
+            "gives a network of more than 2^27 parameters",
+        )?;
+        let width = hidden.iter().try_fold(0usize, |s, &h| s.checked_add(h));
+        check(
+            width.and_then(|w| w.checked_mul(batch)).is_some_and(|n| n <= MAX_BUFFER_FLOATS),
+            algo,
+            field,
+            format_args!("{hidden:?} × batch {batch}"),
+            "needs more than 2^30 activation values (4 GiB) per batch",
+        )?;
+    }
+    Ok(())
+}

@@ -338,6 +338,15 @@ impl Ppo {
         n_envs: usize,
     ) -> Result<Ppo, RlError> {
         config.validate()?;
+        crate::error::check_sizes(
+            "ppo",
+            ("n_steps", config.n_steps, n_envs),
+            obs_space.dim() + act_space.dim() + 8,
+            &[("actor_hidden", &config.actor_hidden), ("critic_hidden", &config.critic_hidden)],
+            obs_space.dim(),
+            act_space.dim(),
+            config.batch_size.max(n_envs),
+        )?;
         if n_envs == 0 {
             return Err(RlError::Incompatible {
                 algo: "ppo",

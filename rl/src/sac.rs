@@ -240,6 +240,15 @@ impl Sac {
         max_envs: usize,
     ) -> Result<Sac, RlError> {
         config.validate()?;
+        crate::error::check_sizes(
+            "sac",
+            ("buffer_size", config.buffer_size, 1),
+            2 * obs_space.dim() + act_space.dim() + 2,
+            &[("actor_hidden", &config.actor_hidden), ("critic_hidden", &config.critic_hidden)],
+            obs_space.dim(),
+            act_space.dim(),
+            config.batch_size.max(max_envs),
+        )?;
         if !act_space.is_bounded() {
             return Err(RlError::Incompatible { algo: "sac", reason: "needs a bounded action space".into() });
         }

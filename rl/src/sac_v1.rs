@@ -218,6 +218,15 @@ impl SacV1 {
         max_envs: usize,
     ) -> Result<SacV1, RlError> {
         config.validate()?;
+        crate::error::check_sizes(
+            "sac1",
+            ("buffer_size", config.buffer_size, 1),
+            2 * obs_space.dim() + act_space.dim() + 2,
+            &[("actor_hidden", &config.actor_hidden), ("critic_hidden", &config.critic_hidden)],
+            obs_space.dim(),
+            act_space.dim(),
+            config.batch_size.max(max_envs),
+        )?;
         if !act_space.is_bounded() {
             return Err(RlError::Incompatible {
                 algo: "sac1",

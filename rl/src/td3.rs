@@ -221,6 +221,15 @@ impl Td3 {
         max_envs: usize,
     ) -> Result<Td3, RlError> {
         config.validate()?;
+        crate::error::check_sizes(
+            "td3",
+            ("buffer_size", config.buffer_size, 1),
+            2 * obs_space.dim() + act_space.dim() + 2,
+            &[("actor_hidden", &config.actor_hidden), ("critic_hidden", &config.critic_hidden)],
+            obs_space.dim(),
+            act_space.dim(),
+            config.batch_size.max(max_envs),
+        )?;
         if !act_space.is_bounded() {
             return Err(RlError::Incompatible { algo: "td3", reason: "needs a bounded action space".into() });
         }

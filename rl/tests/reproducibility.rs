@@ -293,6 +293,35 @@ fn bad_files_and_configs_are_typed_errors() {
     }
     let bad = SacConfig { batch_size: 0, ..SacConfig::default() };
     assert!(matches!(Sac::for_env(bad, &env), Err(RlError::InvalidConfig { field: "batch_size", .. })));
+    // Regression (reliability probe, panics and aborts): sizes whose products overflow or
+    // would allocate without bound are refused, naming the field, before allocating.
+    let field = |r: Result<Box<dyn Algorithm>, RlError>| match r {
+        Err(RlError::InvalidConfig { field, .. }) => field,
+        Err(other) => panic!("expected InvalidConfig, got {other}"),
+        Ok(_) => panic!("an absurd size was accepted"),
+    };
+    let four = pendulums(4, 1);
+    let huge = 4_611_686_018_427_387_904;
+    let ppo = |c: PpoConfig| field(AlgoConfig::Ppo(c).build(&four));
+    assert_eq!(ppo(PpoConfig { n_steps: huge, ..small_ppo() }), "n_steps");
+    assert_eq!(ppo(PpoConfig { actor_hidden: vec![100_000, 100_000], ..small_ppo() }), "actor_hidden");
+    assert_eq!(ppo(PpoConfig { batch_size: 6_148_914_691_236_517_206, ..small_ppo() }), "batch_size");
+    let a2c = A2cConfig { n_steps: 1 << 40, ..A2cConfig::default() };
+    assert_eq!(field(AlgoConfig::A2c(a2c).build(&four)), "n_steps");
+    let sac = SacConfig { buffer_size: 1_000_000_000_000, ..small_sac() };
+    assert_eq!(field(AlgoConfig::Sac(sac).build(&env)), "buffer_size");
+    let sac = SacConfig { batch_size: 6_148_914_691_236_517_206, ..small_sac() };
+    assert_eq!(field(AlgoConfig::Sac(sac).build(&env)), "batch_size");
+    for kind in [AlgoKind::SacV1, AlgoKind::Td3, AlgoKind::Ddpg] {
+        let mut config = AlgoConfig::default_for(kind);
+        match &mut config {
+            AlgoConfig::SacV1(c) => c.critic_hidden = vec![1 << 20, 1 << 20],
+            AlgoConfig::Td3(c) => c.critic_hidden = vec![1 << 20, 1 << 20],
+            AlgoConfig::Ddpg(c) => c.critic_hidden = vec![1 << 20, 1 << 20],
+            _ => unreachable!(),
+        }
+        assert_eq!(field(config.build(&env)), "critic_hidden", "{}", kind.name());
+    }
     // A learner refuses an environment with other spaces or a different count.
     let mut algo = Ppo::for_env(small_ppo(), &env).unwrap();
     let mut two = pendulums(2, 1);
