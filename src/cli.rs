@@ -177,7 +177,7 @@ pub struct ExampleArgs {
     #[arg(long, value_parser = positive_count)]
     pub threads: Option<usize>,
     /// Deterministic evaluation episodes per agent
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = 10, value_parser = positive_count)]
     pub eval_episodes: usize,
     /// TOML file of hyperparameters for both agents [default: the tuned set for the robot and
     /// algorithm, see `tuned_config`]
@@ -210,8 +210,9 @@ pub fn free_run_dir(base: &Path) -> PathBuf {
         .expect("some numbered directory is free")
 }
 
-/// A count of at least 1 (`--envs`, `--threads`).
-fn positive_count(text: &str) -> Result<usize, String> {
+/// A count of at least 1 (`--envs`, `--threads`, `--eval-episodes`): clap's value parser
+/// for options where 0 would otherwise silently mean 1 or print a table of nothing.
+pub fn positive_count(text: &str) -> Result<usize, String> {
     match text.parse::<usize>() {
         Ok(n) if n >= 1 => Ok(n),
         _ => Err(format!("expected a whole number of at least 1, got {text:?}")),

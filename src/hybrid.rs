@@ -42,7 +42,7 @@ pub enum HybridError {
         action_dim: usize,
     },
     /// A residual scale that is negative or not finite.
-    #[error("residual scale {value} is not a finite, non-negative number")]
+    #[error("residual scale {value:?} is not a finite, non-negative number")]
     BadScale {
         /// The value.
         value: f64,
@@ -56,7 +56,7 @@ pub enum HybridError {
         needed: (usize, usize),
     },
     /// A steering span or exploration σ out of range.
-    #[error("{part} = {value}: expected {expected}")]
+    #[error("{part} = {value:?}: expected {expected}")]
     BadSetting {
         /// Which setting.
         part: &'static str,

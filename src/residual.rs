@@ -81,6 +81,20 @@ impl ResidualEnv {
         let mapping = ActionMapping::new(env.as_ref(), &controller)?;
         let m = env.action_space().dim();
         let residual = Residual::new(&config, m)?;
+        // A bound wider than the action range clips to the range: a typo such as 1e300 is
+        // refused rather than carried as infinity.
+        let space = env.action_space();
+        for k in 0..m {
+            let scale = config.scale[if config.scale.len() == 1 { 0 } else { k }];
+            let width = f64::from(space.high[k]) - f64::from(space.low[k]);
+            if width.is_finite() && scale > width {
+                return Err(HybridError::BadSetting {
+                    part: "residual scale",
+                    value: scale,
+                    expected: "at most the width of the joint's action range",
+                });
+            }
+        }
         let policy_dim = residual.policy_action_dim();
         let base = env.observation_space();
         let mut low = base.low.clone();

@@ -487,3 +487,35 @@ fn modular_robots_train_from_a_body_file_and_compare_refuses_them_at_once() {
     let stored: String = checkpoint.get_meta("body").unwrap();
     assert_eq!(stored, std::fs::read_to_string(body).unwrap(), "the checkpoint keeps the body");
 }
+
+/// Regression (reliability probe, silent acceptance): counts of 0 silently became 1 or gave
+/// a table of zeros, and `--residual-scale 1e300` was carried as infinity; each is refused,
+/// naming the option, before a directory is made.
+#[test]
+fn numeric_options_are_refused_not_bent() {
+    let out = out_dir("refused");
+    for (args, says) in [
+        (&["--seeds", "0"][..], "--seeds"),
+        (&["--threads", "0"], "--threads"),
+        (&["--envs", "0"], "--envs"),
+        (&["--eval-episodes", "0"], "--eval-episodes"),
+        (&["--residual-scale", "1e300"], "residual scale = 1e300"),
+    ] {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+            .args(["compare", "--env", "minitaur", "--algo", "ppo", "--steps", "64", "--out"])
+            .arg(&out)
+            .args(args)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && stderr.contains(says), "{args:?}: {stderr}");
+        assert!(!out.exists(), "{args:?} left {}", out.display());
+    }
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["train", "--env", "pendulum", "--algo", "ppo", "--steps", "64", "--envs", "0", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("--envs 0"));
+    assert!(!out.exists());
+}

@@ -1,9 +1,10 @@
 //! The residual (hybrid) environment and the MCAP recordings.
 
-use centaur::hybrid::ActionMapping;
-use centaur::hybrid::ResidualConfig;
+use centaur::hybrid::{ActionMapping, HybridError, ResidualConfig};
 use centaur::recording::{Frame, Recorder, TOPICS};
-use centaur::registry::{controller_config, make_residual_env, make_robot_env, residual_config};
+use centaur::registry::{
+    RegistryError, controller_config, make_residual_env, make_robot_env, residual_config,
+};
 use centaur::residual::RESIDUAL_TERM;
 use centaur_gym::{Env, EnvError, Rng};
 use centaur_mpc::{Command, Gait, LocomotionController};
@@ -88,6 +89,15 @@ fn the_residual_is_bounded_by_its_scale_and_the_action_space() {
         assert!(s.info.reward_terms[RESIDUAL_TERM] <= scale + 1e-6, "the RMS residual exceeds the scale");
         if s.done() {
             break;
+        }
+    }
+    // Regression (reliability probe): `--residual-scale 1e300` was accepted as infinity.
+    for bad in [1e300, 1e3] {
+        match make_residual_env("walker2d", ResidualConfig { scale: vec![bad], ..ResidualConfig::default() })
+        {
+            Err(RegistryError::Hybrid(HybridError::BadSetting { part: "residual scale", .. })) => {}
+            Err(other) => panic!("{bad}: {other}"),
+            Ok(_) => panic!("residual scale {bad} accepted"),
         }
     }
 }

@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use centaur::cli::{HybridArgs, TrainingProgress, progress_style};
+use centaur::cli::{HybridArgs, TrainingProgress, positive_count, progress_style};
 use centaur::compare::{CompareOptions, run_compare};
 use centaur::control::{ControlOptions, Push, parse_gait, run_control, write_summary};
 use centaur::experiment::{Condition, RobustnessOptions, robustness_table, run_robustness};
@@ -105,7 +105,7 @@ struct RobustnessArgs {
     #[arg(long)]
     run: PathBuf,
     /// Deterministic episodes per agent and condition.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = 10, value_parser = positive_count)]
     episodes: usize,
     /// The hybrid's setup the run was trained with (the robot's preset by default).
     #[command(flatten)]
@@ -233,7 +233,7 @@ struct CompareArgs {
     #[arg(long, value_parser = parse_algo)]
     algo: AlgoKind,
     /// Number of seeds (0..seeds).
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=10_000))]
     seeds: u64,
     /// Training steps per agent and seed.
     #[arg(long)]
@@ -246,14 +246,14 @@ struct CompareArgs {
     #[arg(long)]
     config: Option<PathBuf>,
     /// Parallel environments per agent (default: 4 for PPO and A2C, 1 otherwise).
-    #[arg(long)]
+    #[arg(long, value_parser = positive_count)]
     envs: Option<usize>,
     /// Threads stepping each agent's environments; with more than one, a seed's two agents
     /// also train side by side (results unchanged).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = positive_count)]
     threads: usize,
     /// Evaluation episodes per agent and seed.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = 10, value_parser = positive_count)]
     eval_episodes: usize,
     /// Evaluate both learners deterministically every this many training steps (and at
     /// the end); 0: at the end only.

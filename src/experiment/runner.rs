@@ -190,6 +190,8 @@ pub fn run_experiment(
 ) -> Result<ExperimentResult, ExperimentError> {
     // The hybrid needs a controller: refuse a robot without one before training anything.
     controller_config(&opts.env)?;
+    // And a residual setup that does not fit the robot, before anything is written.
+    make_residual_env(&opts.env, opts.residual.clone())?;
     prepare_run_dir(opts)?;
     // Pure RL on the robot environment, the hybrid on the residual environment.
     // Set when one training fails, to stop the other one running side by side.
