@@ -84,9 +84,15 @@ struct Primitive {
 }
 
 /// Writes a Foxglove-ready MCAP file, one call to [`Recorder::record`] per control step.
+///
+/// The file is written under a temporary name beside `path` (`<path>.<pid>.tmp`) and renamed
+/// to `path` by [`Recorder::finish`] once complete and `fsync`ed; a recorder dropped
+/// unfinished (an error, a panic) removes its temporary file, so a run never leaves a
+/// truncated recording behind.
 pub struct Recorder {
     path: PathBuf,
-    writer: mcap::Writer<BufWriter<File>>,
+    tmp: PathBuf,
+    writer: Option<mcap::Writer<BufWriter<File>>>,
     channels: [u16; 6],
     model: Model,
     data: Data,
@@ -233,24 +239,49 @@ pub mod schemas {
 pub const TOPICS: [&str; 6] = ["/tf", "/robot", "/contacts", "/plan", "/residual", "/metrics"];
 
 impl Recorder {
-    /// Creates `path` and registers the schemas and channels for `model`.
+    /// Creates the recording of `path` and registers the schemas and channels for `model`.
     pub fn create(path: &Path, model: &Model) -> Result<Recorder, RecordError> {
+        let mut tmp = path.as_os_str().to_owned();
+        tmp.push(format!(".{}.tmp", std::process::id()));
+        let tmp = PathBuf::from(tmp);
         let io = |source| RecordError::Io { path: path.to_path_buf(), source };
-        let mc = |source| RecordError::Mcap { path: path.to_path_buf(), source };
-        let file = BufWriter::new(File::create(path).map_err(io)?);
-        let mut writer = mcap::WriteOptions::new().compression(None).profile("").create(file).map_err(mc)?;
+        let mc = |source| mcap_error(path, source);
+        let file = BufWriter::new(File::create(&tmp).map_err(io)?);
+        // From here on a failure drops `writer` and the file: remove it.
+        let cleanup = |e: RecordError| {
+            let _ = std::fs::remove_file(&tmp);
+            e
+        };
+        let mut writer = mcap::WriteOptions::new()
+            .compression(None)
+            .profile("")
+            .create(file)
+            .map_err(mc)
+            .map_err(cleanup)?;
         let schema = |w: &mut mcap::Writer<BufWriter<File>>, name: &str, s: Value| {
             w.add_schema(name, "jsonschema", s.to_string().as_bytes()).map_err(mc)
         };
-        let tf = schema(&mut writer, "foxglove.FrameTransforms", schemas::frame_transforms())?;
-        let scene = schema(&mut writer, "foxglove.SceneUpdate", schemas::scene_update())?;
-        let residual = schema(&mut writer, "centaur.Residual", schemas::residual())?;
-        let metrics = schema(&mut writer, "centaur.Metrics", schemas::metrics())?;
-        let meta = BTreeMap::new();
-        let mut channels = [0u16; 6];
-        for (k, (topic, sid)) in TOPICS.iter().zip([tf, scene, scene, scene, residual, metrics]).enumerate() {
-            channels[k] = writer.add_channel(sid, topic, "json", &meta).map_err(mc)?;
-        }
+        let registered = (|| {
+            let tf = schema(&mut writer, "foxglove.FrameTransforms", schemas::frame_transforms())?;
+            let scene = schema(&mut writer, "foxglove.SceneUpdate", schemas::scene_update())?;
+            let residual = schema(&mut writer, "centaur.Residual", schemas::residual())?;
+            let metrics = schema(&mut writer, "centaur.Metrics", schemas::metrics())?;
+            let meta = BTreeMap::new();
+            let mut channels = [0u16; 6];
+            for (k, (topic, sid)) in
+                TOPICS.iter().zip([tf, scene, scene, scene, residual, metrics]).enumerate()
+            {
+                channels[k] = writer.add_channel(sid, topic, "json", &meta).map_err(mc)?;
+            }
+            Ok(channels)
+        })();
+        let channels = match registered {
+            Ok(c) => c,
+            Err(e) => {
+                drop(writer);
+                return Err(cleanup(e));
+            }
+        };
         // Per link: its visual shapes, or its collision shapes when no visual is drawable
         // (meshes are not drawn).
         let drawable = |g: &&centaur_dynamics::Geometry| !matches!(g.shape, Shape::Mesh { .. });
@@ -276,7 +307,8 @@ impl Recorder {
         let weight = model.total_mass() * model.gravity.norm();
         Ok(Recorder {
             path: path.to_path_buf(),
-            writer,
+            tmp,
+            writer: Some(writer),
             channels,
             data: Data::new(model),
             model: model.clone(),
@@ -296,9 +328,10 @@ impl Recorder {
             log_time: ns,
             publish_time: ns,
         };
-        self.writer
+        let writer = self.writer.as_mut().ok_or_else(|| finished(&self.path))?;
+        writer
             .write_to_known_channel(&header, msg.to_string().as_bytes())
-            .map_err(|source| RecordError::Mcap { path: self.path.clone(), source })
+            .map_err(|e| mcap_error(&self.path, e))
     }
 
     /// Records one control step.
@@ -398,8 +431,43 @@ impl Recorder {
         Ok(())
     }
 
-    /// Finishes the file (writes the summary section); the file is incomplete without it.
+    /// Finishes the file (writes the summary section), `fsync`s it and renames it to its
+    /// path: only a complete recording ever bears the name.
     pub fn finish(mut self) -> Result<mcap::Summary, RecordError> {
-        self.writer.finish().map_err(|source| RecordError::Mcap { path: self.path.clone(), source })
+        let mut writer = self.writer.take().ok_or_else(|| finished(&self.path))?;
+        let io = |source| RecordError::Io { path: self.path.clone(), source };
+        let done = writer.finish().map_err(|e| mcap_error(&self.path, e)).and_then(|summary| {
+            let file = writer.into_inner().into_inner().map_err(|e| io(e.into_error()))?;
+            file.sync_all().map_err(io)?;
+            std::fs::rename(&self.tmp, &self.path).map_err(io)?;
+            Ok(summary)
+        });
+        if done.is_err() {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+        done
     }
+}
+
+impl Drop for Recorder {
+    /// An unfinished recording (an error or a panic before [`Recorder::finish`]) is removed.
+    fn drop(&mut self) {
+        if let Some(writer) = self.writer.take() {
+            drop(writer);
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+/// A writer error; an I/O failure keeps its own message ("No space left on device").
+fn mcap_error(path: &Path, e: mcap::McapError) -> RecordError {
+    match e {
+        mcap::McapError::Io(source) => RecordError::Io { path: path.to_path_buf(), source },
+        source => RecordError::Mcap { path: path.to_path_buf(), source },
+    }
+}
+
+/// The error of a call after [`Recorder::finish`] (cannot happen: `finish` consumes it).
+fn finished(path: &Path) -> RecordError {
+    RecordError::Io { path: path.to_path_buf(), source: std::io::Error::other("recording already finished") }
 }

@@ -179,8 +179,19 @@ fn mcap_recordings_have_foxglove_schemas_and_one_message_per_step() {
             energy: s.info.energy,
         })
         .unwrap();
+        // Regression (reliability probe, data loss 5): nothing bears the name before the
+        // recording is complete.
+        assert!(!path.exists(), "an unfinished recording bears its name");
     }
     rec.finish().unwrap();
+    let names = |d: &std::path::Path| -> Vec<String> {
+        std::fs::read_dir(d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect()
+    };
+    assert_eq!(names(&dir), ["walk.mcap"], "temporary files left beside the recording");
+    // A recording abandoned by an error is removed, not left truncated.
+    let abandoned = Recorder::create(&dir.join("abandoned.mcap"), env.inner().model()).unwrap();
+    drop(abandoned);
+    assert_eq!(names(&dir), ["walk.mcap"]);
 
     let bytes = std::fs::read(&path).unwrap();
     let summary = mcap::Summary::read(&bytes).unwrap().expect("a summary section");
