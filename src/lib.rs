@@ -12,6 +12,7 @@
 //! | [`control`] | closed-loop runs of the controller alone (`centaur control`) |
 //! | [`experiment`], [`compare`], [`train`] | pure RL against the hybrid, over seeds; `centaur train` |
 //! | [`recording`], [`plot`] | MCAP recordings for Foxglove; learning-curve plots |
+//! | [`settings`] | `[env]`: a robot environment's settings over its preset, from a run's TOML |
 //! | [`rundir`] | atomic writes; run directories refused when taken, unless replaced |
 //! | `cli` (feature `cli`, default) | the examples' and the binary's command line and progress bars |
 
@@ -33,5 +34,6 @@ pub mod recording;
 pub mod registry;
 pub mod residual;
 pub mod rundir;
+pub mod settings;
 pub mod stats;
 pub mod train;

@@ -25,15 +25,16 @@ use centaur_mpc::{Command, ControllerConfig, Gait, LocomotionController};
 
 use crate::hybrid::{Exploration, HybridError, ResidualConfig, Steering};
 use crate::residual::ResidualEnv;
+use crate::settings::{EnvSettings, NotApplicable};
 
-/// Builds a robot environment with an episode length (`None`: its default).
-pub type BuildRobot = fn(Option<usize>) -> Result<Box<dyn RobotEnv>, RobotEnvError>;
+/// Builds a robot environment with `[env]` settings over its preset.
+pub type BuildRobot = fn(&EnvSettings) -> Result<Box<dyn RobotEnv>, RegistryError>;
 
 /// One robot environment: how to build it, and its presets.
 pub struct RobotSpec {
     /// The name the CLI takes.
     pub name: &'static str,
-    /// The environment with its episode length (`None`: the default).
+    /// The environment with settings over its preset.
     pub build: BuildRobot,
     /// The controller preset (`None`: the robot has no controller).
     pub controller: Option<fn() -> ControllerConfig>,
@@ -42,22 +43,19 @@ pub struct RobotSpec {
     pub residual: Option<fn() -> ResidualConfig>,
 }
 
-/// A Minitaur env with an episode length.
-fn minitaur(config: MinitaurConfig, steps: Option<usize>) -> Result<Box<dyn RobotEnv>, RobotEnvError> {
-    let max_episode_steps = steps.unwrap_or(config.max_episode_steps);
-    Ok(Box::new(MinitaurEnv::new(MinitaurConfig { max_episode_steps, ..config })?))
+/// A Minitaur env with settings over `config`.
+fn minitaur(config: MinitaurConfig, s: &EnvSettings) -> Result<Box<dyn RobotEnv>, RegistryError> {
+    Ok(Box::new(MinitaurEnv::new(s.minitaur(config)?)?))
 }
 
-/// A Gymnasium locomotion env with an episode length.
-fn locomotion(config: LocomotionConfig, steps: Option<usize>) -> Result<Box<dyn RobotEnv>, RobotEnvError> {
-    let max_episode_steps = steps.unwrap_or(config.max_episode_steps);
-    Ok(Box::new(LocomotionEnv::new(LocomotionConfig { max_episode_steps, ..config })?))
+/// A Gymnasium locomotion env with settings over `config`.
+fn locomotion(config: LocomotionConfig, s: &EnvSettings) -> Result<Box<dyn RobotEnv>, RegistryError> {
+    Ok(Box::new(LocomotionEnv::new(s.locomotion(config)?)?))
 }
 
-/// A modular robot env with an episode length.
-fn modular(config: ModularConfig, steps: Option<usize>) -> Result<Box<dyn RobotEnv>, RobotEnvError> {
-    let max_episode_steps = steps.unwrap_or(config.max_episode_steps);
-    Ok(Box::new(ModularEnv::new(ModularConfig { max_episode_steps, ..config })?))
+/// A modular robot env with settings over `config`.
+fn modular(config: ModularConfig, s: &EnvSettings) -> Result<Box<dyn RobotEnv>, RegistryError> {
+    Ok(Box::new(ModularEnv::new(s.modular(config)?)?))
 }
 
 /// The Minitaur's hybrid: a quarter of the leg model's range around a 2 m/s trot whose
@@ -203,6 +201,9 @@ pub enum RegistryError {
     /// The hybrid could not be put together.
     #[error(transparent)]
     Hybrid(#[from] HybridError),
+    /// An `[env]` setting the environment does not have.
+    #[error(transparent)]
+    Settings(#[from] NotApplicable),
     /// The environments refused to start.
     #[error("environment `{name}`: {source}")]
     Env {
@@ -283,6 +284,7 @@ fn modular_file_config(file: &str) -> Result<ModularConfig, RegistryError> {
 pub struct EnvSource {
     name: String,
     body: Option<String>,
+    settings: EnvSettings,
 }
 
 impl EnvSource {
@@ -293,16 +295,28 @@ impl EnvSource {
             Some(file) => Some(read_body_file(Path::new(file))?),
             None => None,
         };
-        let source = EnvSource { name: name.to_string(), body };
+        let source = EnvSource { name: name.to_string(), body, settings: EnvSettings::default() };
         source.make()?;
         Ok(source)
+    }
+
+    /// The same environment with `[env]` settings over its preset, checked by making one.
+    pub fn with_settings(self, settings: EnvSettings) -> Result<EnvSource, RegistryError> {
+        let source = EnvSource { settings, ..self };
+        source.make()?;
+        Ok(source)
+    }
+
+    /// The `[env]` settings.
+    pub fn settings(&self) -> &EnvSettings {
+        &self.settings
     }
 
     /// A source whose body text was read before (a run record's); `body` is ignored for
     /// names other than `modular:FILE.json`, which requires it.
     pub fn with_body(name: &str, body: Option<String>) -> EnvSource {
         let body = if name.starts_with("modular:") { body } else { None };
-        EnvSource { name: name.to_string(), body }
+        EnvSource { name: name.to_string(), body, settings: EnvSettings::default() }
     }
 
     /// The environment's name.
@@ -318,7 +332,9 @@ impl EnvSource {
     /// A fresh environment (as [`make_env`], with the body read at the start).
     pub fn make(&self) -> Result<Box<dyn Env>, RegistryError> {
         match (self.name.strip_prefix("modular:"), &self.body) {
-            (Some(file), Some(text)) => Ok(modular(modular_text_config(Path::new(file), text)?, None)?),
+            (Some(file), Some(text)) => {
+                Ok(modular(modular_text_config(Path::new(file), text)?, &self.settings)?)
+            }
             (Some(file), None) => Err(RegistryError::Io {
                 path: PathBuf::from(file),
                 source: std::io::Error::new(
@@ -326,7 +342,7 @@ impl EnvSource {
                     "the run records no body for this file",
                 ),
             }),
-            (None, _) => make_env(&self.name),
+            (None, _) => make_env_with(&self.name, &self.settings),
         }
     }
 
@@ -342,11 +358,16 @@ pub fn make_robot_env(
     name: &str,
     max_episode_steps: Option<usize>,
 ) -> Result<Box<dyn RobotEnv>, RegistryError> {
+    make_robot_env_with(name, &EnvSettings { max_episode_steps, ..EnvSettings::default() })
+}
+
+/// A robot environment by name with `[env]` settings over its preset.
+pub fn make_robot_env_with(name: &str, settings: &EnvSettings) -> Result<Box<dyn RobotEnv>, RegistryError> {
     if let Some(file) = name.strip_prefix("modular:") {
-        return Ok(modular(modular_file_config(file)?, max_episode_steps)?);
+        return modular(modular_file_config(file)?, settings);
     }
     let spec = robot(name).ok_or_else(|| RegistryError::UnknownEnv { name: name.to_string() })?;
-    Ok((spec.build)(max_episode_steps)?)
+    (spec.build)(settings)
 }
 
 /// The controller preset of a robot environment.
@@ -367,8 +388,17 @@ pub fn residual_config(name: &str) -> Result<ResidualConfig, RegistryError> {
 
 /// The hybrid of a robot environment: the env, its controller preset and `residual`.
 pub fn make_residual_env(name: &str, residual: ResidualConfig) -> Result<ResidualEnv, RegistryError> {
+    make_residual_env_with(name, residual, &EnvSettings::default())
+}
+
+/// The hybrid of a robot environment with `[env]` settings over the robot's preset.
+pub fn make_residual_env_with(
+    name: &str,
+    residual: ResidualConfig,
+    settings: &EnvSettings,
+) -> Result<ResidualEnv, RegistryError> {
     let config = controller_config(name)?;
-    let env = make_robot_env(name, None)?;
+    let env = make_robot_env_with(name, settings)?;
     let controller = LocomotionController::new(env.model(), config).map_err(HybridError::from)?;
     Ok(ResidualEnv::new(env, controller, residual)?)
 }
@@ -376,15 +406,21 @@ pub fn make_residual_env(name: &str, residual: ResidualConfig) -> Result<Residua
 /// A fresh environment by name: `pendulum`, a robot, `modular:FILE.json`, or a hybrid
 /// `<robot>-residual` with the robot's residual preset.
 pub fn make_env(name: &str) -> Result<Box<dyn Env>, RegistryError> {
+    make_env_with(name, &EnvSettings::default())
+}
+
+/// [`make_env`] with `[env]` settings over the preset (none for the Pendulum).
+pub fn make_env_with(name: &str, settings: &EnvSettings) -> Result<Box<dyn Env>, RegistryError> {
     if name == "pendulum" {
+        settings.none_for("the Pendulum")?;
         return Ok(Box::new(Pendulum::new()));
     }
     if let Some(robot) = name.strip_suffix("-residual")
         && self::robot(robot).is_some_and(|r| r.residual.is_some())
     {
-        return Ok(Box::new(make_residual_env(robot, residual_config(robot)?)?));
+        return Ok(Box::new(make_residual_env_with(robot, residual_config(robot)?, settings)?));
     }
-    Ok(make_robot_env(name, None)?)
+    Ok(make_robot_env_with(name, settings)?)
 }
 
 /// `n` copies of an environment stepped on `threads` threads.

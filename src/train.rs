@@ -43,6 +43,7 @@ use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
 use crate::registry::{EnvSource, RegistryError};
 use crate::residual::start_as_controller;
 use crate::rundir::{Claim, claim, write_atomic};
+use crate::settings::{EnvSettings, split_run_toml};
 
 /// The default checkpoint period of `centaur train`, in environment steps.
 pub const DEFAULT_CHECKPOINT_EVERY: u64 = 100_000;
@@ -67,7 +68,8 @@ pub struct TrainOptions {
     pub seed: Option<u64>,
     /// Output directory (created if missing).
     pub out: PathBuf,
-    /// TOML file with the algorithm's hyperparameters (its config struct's fields).
+    /// TOML run file: the algorithm's hyperparameters (its config struct's fields) and an
+    /// optional `[env]` table ([`crate::settings::EnvSettings`]).
     pub config: Option<PathBuf>,
     /// Threads stepping the environments (≥ 1; results do not depend on it).
     pub threads: usize,
@@ -105,6 +107,9 @@ pub struct RunRecord {
     pub config: Option<String>,
     /// The body of `modular:FILE.json` as read at the start.
     pub body: Option<String>,
+    /// The `[env]` settings of the config file (empty: the preset).
+    #[serde(default)]
+    pub env_settings: EnvSettings,
     /// The version of Centaur that started the run.
     pub centaur_version: String,
 }
@@ -192,6 +197,35 @@ fn parse<T: serde::de::DeserializeOwned>(text: &str, path: &Path) -> Result<T, T
     toml::from_str(text).map_err(|e| TrainError::Config { path: path.to_path_buf(), message: e.to_string() })
 }
 
+/// The algorithm's settings from an already parsed table (a run file less its `[env]`).
+fn parse_table<T: serde::de::DeserializeOwned>(table: toml::Table, path: &Path) -> Result<T, TrainError> {
+    T::deserialize(toml::Value::Table(table))
+        .map_err(|e| TrainError::Config { path: path.to_path_buf(), message: e.to_string() })
+}
+
+/// A run file: the algorithm's settings at the top level (as [`parse_algo_config`]) and the
+/// environment's in an optional `[env]` table ([`crate::settings`]).
+pub fn parse_run_config(
+    kind: AlgoKind,
+    text: &str,
+    path: &Path,
+) -> Result<(AlgoConfig, EnvSettings), TrainError> {
+    let (settings, rest) =
+        split_run_toml(text).map_err(|message| TrainError::Config { path: path.to_path_buf(), message })?;
+    let Some(table) = rest else {
+        return Ok((parse_algo_config(kind, text, path)?, settings));
+    };
+    let algo = match kind {
+        AlgoKind::Ppo => AlgoConfig::Ppo(parse_table::<PpoConfig>(table, path)?),
+        AlgoKind::A2c => AlgoConfig::A2c(parse_table::<A2cConfig>(table, path)?),
+        AlgoKind::Sac => AlgoConfig::Sac(parse_table::<SacConfig>(table, path)?),
+        AlgoKind::SacV1 => AlgoConfig::SacV1(parse_table::<SacV1Config>(table, path)?),
+        AlgoKind::Td3 => AlgoConfig::Td3(parse_table::<Td3Config>(table, path)?),
+        AlgoKind::Ddpg => AlgoConfig::Ddpg(parse_table::<DdpgConfig>(table, path)?),
+    };
+    Ok((algo, settings))
+}
+
 /// The settings of a learner of kind `kind` from the TOML text of `path` (the fields of the
 /// algorithm's config struct over its defaults; unknown keys are an error naming the key).
 pub fn parse_algo_config(kind: AlgoKind, text: &str, path: &Path) -> Result<AlgoConfig, TrainError> {
@@ -276,11 +310,11 @@ fn new_learner(
 pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> Result<Summary, TrainError> {
     validate(opts)?;
     let config_text = opts.config.as_deref().map(read_config_file).transpose()?;
-    let config = match (&opts.config, &config_text) {
-        (Some(p), Some(text)) => parse_algo_config(opts.algo, text, p)?,
-        _ => AlgoConfig::default_for(opts.algo),
+    let (config, settings) = match (&opts.config, &config_text) {
+        (Some(p), Some(text)) => parse_run_config(opts.algo, text, p)?,
+        _ => (AlgoConfig::default_for(opts.algo), EnvSettings::default()),
     };
-    let source = EnvSource::read(&opts.env)?;
+    let source = EnvSource::read(&opts.env)?.with_settings(settings)?;
     let seed = opts.seed.unwrap_or(config.seed());
     // The learner is built (its settings checked) before anything is written.
     let algo = new_learner(config, seed, opts.steps, &source, opts.n_envs)?;
@@ -296,6 +330,7 @@ pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> R
         config_file: opts.config.clone(),
         config: config_text,
         body: source.body().map(str::to_string),
+        env_settings: source.settings().clone(),
         centaur_version: env!("CARGO_PKG_VERSION").to_string(),
     };
     let run_json = opts.out.join("run.json");
@@ -337,14 +372,15 @@ pub fn resume(
     }
     let kind = AlgoKind::from_name(&record.algo)
         .ok_or_else(|| fail(format!("unknown algorithm `{}`", record.algo)))?;
-    let source = EnvSource::with_body(&record.env, record.body.clone());
+    let source =
+        EnvSource::with_body(&record.env, record.body.clone()).with_settings(record.env_settings.clone())?;
     let ckpt_path = dir.join("checkpoint");
     let csv_path = dir.join("metrics.csv");
     if !ckpt_path.exists() {
         // Killed before its first checkpoint: start again, exactly as the run began.
         let config_file = record.config_file.clone().unwrap_or_else(|| PathBuf::from("run.json"));
         let config = match &record.config {
-            Some(text) => parse_algo_config(kind, text, &config_file)?,
+            Some(text) => parse_run_config(kind, text, &config_file)?.0,
             None => AlgoConfig::default_for(kind),
         };
         let algo = new_learner(config, record.seed, record.steps, &source, record.n_envs)?;
@@ -394,6 +430,9 @@ fn write_checkpoint(
     if let Some(body) = &record.body {
         // The body itself, so that the policy stays tied to it if the file changes.
         checkpoint.set_meta("body", body);
+    }
+    if !record.env_settings.is_empty() {
+        checkpoint.set_meta("env_settings", &record.env_settings);
     }
     checkpoint.set_meta("run_metrics_rows", rows);
     checkpoint.set_meta("run_wall_seconds", wall);

@@ -519,3 +519,52 @@ fn numeric_options_are_refused_not_bent() {
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("--envs 0"));
     assert!(!out.exists());
 }
+
+/// `[env]` in the run file sets the environment over its preset: it reaches every env of
+/// the run (training and evaluation), the run record and the checkpoint; keys the env does
+/// not have are refused, naming those it has.
+#[test]
+fn the_env_table_of_a_run_file_configures_the_environment() {
+    let config = out_dir("env-table.toml");
+    std::fs::write(
+        &config,
+        "n_steps = 64\nbatch_size = 64\nn_epochs = 1\nactor_hidden = [8]\ncritic_hidden = [8]\n\n[env]\nmax_episode_steps = 20\nhealthy_reward = 0.0\n",
+    )
+    .unwrap();
+    let out = out_dir("env-table");
+    let opts = TrainOptions {
+        env: "walker2d".into(),
+        algo: AlgoKind::Ppo,
+        steps: 256,
+        seed: Some(0),
+        out: out.clone(),
+        config: Some(config.clone()),
+        threads: 1,
+        n_envs: 2,
+        eval_episodes: 10,
+        checkpoint_every: 0,
+        overwrite: false,
+    };
+    train(&opts, &mut |_| {}).unwrap();
+    let rows = MetricsCsv::read(&out.join("metrics.csv")).unwrap();
+    assert!(rows.iter().any(|m| m.episodes > 0));
+    assert!(rows.iter().filter(|m| m.episodes > 0).all(|m| m.episode_length_mean <= 20.0), "{rows:?}");
+    let ckpt = centaur_rl::Checkpoint::read(&out.join("checkpoint")).unwrap();
+    let settings: centaur::settings::EnvSettings = ckpt.get_meta("env_settings").unwrap();
+    assert_eq!((settings.max_episode_steps, settings.healthy_reward), (Some(20), Some(0.0)));
+    let record = centaur::train::read_run_record(&out).unwrap();
+    assert_eq!(record.env_settings, settings);
+    std::fs::remove_dir_all(&out).unwrap();
+
+    for (env, text, says) in [
+        ("walker2d", "[env]\nenergy_weight = 0.1\n", "energy_weight does not apply"),
+        ("pendulum", "[env]\nmax_episode_steps = 5\n", "the Pendulum"),
+        ("walker2d", "[env]\nmax_episode_step = 5\n", "max_episode_step"),
+    ] {
+        std::fs::write(&config, text).unwrap();
+        let bad = TrainOptions { env: env.into(), ..opts.clone() };
+        let e = train(&bad, &mut |_| {}).unwrap_err();
+        assert!(e.to_string().contains(says), "{env} {text}: {e}");
+        assert!(!out.exists());
+    }
+}

@@ -66,7 +66,8 @@ struct TrainArgs {
     /// Output directory (refused if it already holds a run, unless --overwrite).
     #[arg(long, required_unless_present = "resume")]
     out: Option<PathBuf>,
-    /// TOML file setting any of the algorithm's hyperparameters (read once, kept in run.json).
+    /// TOML file setting any of the algorithm's hyperparameters and, in an `[env]` table, the
+    /// environment's settings over its preset (read once, kept in run.json).
     #[arg(long)]
     config: Option<PathBuf>,
     /// Threads stepping the environments (results do not depend on it).

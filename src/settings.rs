@@ -1,0 +1,291 @@
+//! `[env]`: a robot environment's settings over its preset, from a run's TOML file.
+//!
+//! A run file holds the algorithm's hyperparameters at the top level and, optionally, an
+//! `[env]` table of [`EnvSettings`]: any of the environment's reward weights, episode
+//! length, control rate, randomisation, latency and observation options, each named as the
+//! field of the environment's config it sets. Unknown keys are an error naming the key; a
+//! key that the environment does not have (`healthy_reward` on the Minitaur) is an error
+//! naming the keys it has; the values are then checked by the environment's own validation.
+//!
+//! ```toml
+//! learning_rate = 3e-4      # the algorithm's settings (PpoConfig's fields)
+//!
+//! [env]                     # the Minitaur's, over MinitaurBulletEnv-v0's defaults
+//! energy_weight = 0.0
+//! drift_weight = 0.1
+//! max_episode_steps = 500
+//! randomize = false
+//! ```
+//!
+//! | key | Minitaur | Gymnasium robots (Ant, Walker2d, …) | modular robots |
+//! |---|---|---|---|
+//! | `max_episode_steps`, `frame_skip` (the Minitaur's `action_repeat`) | ✓ | ✓ | ✓ |
+//! | `joint_history`, `drop_base_orientation` (observation) | ✓ | ✓ | ✓ |
+//! | `distance_weight`, `energy_weight`, `drift_weight`, `shake_weight`, `distance_limit`, `randomize`, `latency`, `observation_noise_std` | ✓ | | |
+//! | `forward_reward_weight`, `contact_cost_weight`, `healthy_reward`, `terminate_when_unhealthy`, `healthy_z_range`, `healthy_angle_range` | | ✓ | |
+//! | `ctrl_cost_weight`, `reset_noise_scale` | | ✓ | ✓ |
+//!
+//! Checkpoints and run records keep the settings (an empty table is the preset).
+
+use centaur_envs::{LocomotionConfig, MinitaurConfig, ModularConfig};
+use serde::{Deserialize, Serialize};
+
+/// The `[env]` table: each `Some` field replaces the preset's value.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnvSettings {
+    /// Episode length (control steps).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_episode_steps: Option<usize>,
+    /// Physics steps per control step (the Minitaur's `action_repeat`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frame_skip: Option<usize>,
+    /// Joint positions of the last `k` control steps appended to the observation.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub joint_history: Option<usize>,
+    /// Remove the base orientation from the observation.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drop_base_orientation: Option<bool>,
+    /// Minitaur: weight of the forward distance.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub distance_weight: Option<f64>,
+    /// Minitaur: weight of the energy term.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub energy_weight: Option<f64>,
+    /// Minitaur: weight of the sideways drift penalty.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drift_weight: Option<f64>,
+    /// Minitaur: weight of the vertical shake penalty.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shake_weight: Option<f64>,
+    /// Minitaur: the episode ends beyond this distance from the origin (m).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub distance_limit: Option<f64>,
+    /// Minitaur: randomise the robot at reset (`false`: the nominal robot).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub randomize: Option<bool>,
+    /// Minitaur: control latency (s).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub latency: Option<f64>,
+    /// Minitaur: observation noise, σ as a fraction of each entry's bound.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub observation_noise_std: Option<f64>,
+    /// Gymnasium robots: weight of the forward velocity.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub forward_reward_weight: Option<f64>,
+    /// Gymnasium and modular robots: weight of `Σ a²`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ctrl_cost_weight: Option<f64>,
+    /// Gymnasium robots: weight of the contact cost.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub contact_cost_weight: Option<f64>,
+    /// Gymnasium robots: reward per healthy step.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub healthy_reward: Option<f64>,
+    /// Gymnasium robots: end the episode when unhealthy.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub terminate_when_unhealthy: Option<bool>,
+    /// Gymnasium robots: healthy range of the torso height (m), `[low, high]`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub healthy_z_range: Option<[f64; 2]>,
+    /// Gymnasium robots (Walker2d, Hopper): healthy range of the torso angle (rad).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub healthy_angle_range: Option<[f64; 2]>,
+    /// Gymnasium and modular robots: reset noise scale.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reset_noise_scale: Option<f64>,
+}
+
+/// A key of `[env]` that the environment does not have.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("[env] {key} does not apply to {env} (its keys: {})", keys.join(", "))]
+pub struct NotApplicable {
+    /// The key.
+    pub key: &'static str,
+    /// The kind of environment.
+    pub env: &'static str,
+    /// The keys it has.
+    pub keys: Vec<&'static str>,
+}
+
+const COMMON: [&str; 4] = ["max_episode_steps", "frame_skip", "joint_history", "drop_base_orientation"];
+const MINITAUR: [&str; 8] = [
+    "distance_weight",
+    "energy_weight",
+    "drift_weight",
+    "shake_weight",
+    "distance_limit",
+    "randomize",
+    "latency",
+    "observation_noise_std",
+];
+const LOCOMOTION: [&str; 8] = [
+    "forward_reward_weight",
+    "ctrl_cost_weight",
+    "contact_cost_weight",
+    "healthy_reward",
+    "terminate_when_unhealthy",
+    "healthy_z_range",
+    "healthy_angle_range",
+    "reset_noise_scale",
+];
+const MODULAR: [&str; 2] = ["ctrl_cost_weight", "reset_noise_scale"];
+
+impl EnvSettings {
+    /// Whether no setting is given (the preset as it is).
+    pub fn is_empty(&self) -> bool {
+        self.given().is_empty()
+    }
+
+    /// The keys given, in declaration order.
+    pub fn given(&self) -> Vec<&'static str> {
+        let s = self;
+        let flags = [
+            ("max_episode_steps", s.max_episode_steps.is_some()),
+            ("frame_skip", s.frame_skip.is_some()),
+            ("joint_history", s.joint_history.is_some()),
+            ("drop_base_orientation", s.drop_base_orientation.is_some()),
+            ("distance_weight", s.distance_weight.is_some()),
+            ("energy_weight", s.energy_weight.is_some()),
+            ("drift_weight", s.drift_weight.is_some()),
+            ("shake_weight", s.shake_weight.is_some()),
+            ("distance_limit", s.distance_limit.is_some()),
+            ("randomize", s.randomize.is_some()),
+            ("latency", s.latency.is_some()),
+            ("observation_noise_std", s.observation_noise_std.is_some()),
+            ("forward_reward_weight", s.forward_reward_weight.is_some()),
+            ("ctrl_cost_weight", s.ctrl_cost_weight.is_some()),
+            ("contact_cost_weight", s.contact_cost_weight.is_some()),
+            ("healthy_reward", s.healthy_reward.is_some()),
+            ("terminate_when_unhealthy", s.terminate_when_unhealthy.is_some()),
+            ("healthy_z_range", s.healthy_z_range.is_some()),
+            ("healthy_angle_range", s.healthy_angle_range.is_some()),
+            ("reset_noise_scale", s.reset_noise_scale.is_some()),
+        ];
+        flags.into_iter().filter(|(_, given)| *given).map(|(k, _)| k).collect()
+    }
+
+    /// Refuses a key outside `COMMON ∪ own` for an environment of kind `env`.
+    fn only(&self, env: &'static str, own: &[&'static str]) -> Result<(), NotApplicable> {
+        let keys: Vec<&'static str> = COMMON.iter().chain(own).copied().collect();
+        match self.given().into_iter().find(|k| !keys.contains(k)) {
+            Some(key) => Err(NotApplicable { key, env, keys }),
+            None => Ok(()),
+        }
+    }
+
+    /// Refuses every key: for an environment without settings (the Pendulum).
+    pub fn none_for(&self, env: &'static str) -> Result<(), NotApplicable> {
+        match self.given().first() {
+            Some(&key) => Err(NotApplicable { key, env, keys: Vec::new() }),
+            None => Ok(()),
+        }
+    }
+
+    /// The Minitaur's config with these settings.
+    pub fn minitaur(&self, mut c: MinitaurConfig) -> Result<MinitaurConfig, NotApplicable> {
+        self.only("the Minitaur", &MINITAUR)?;
+        let s = self;
+        set(&mut c.max_episode_steps, s.max_episode_steps);
+        set(&mut c.action_repeat, s.frame_skip);
+        set(&mut c.obs.joint_history, s.joint_history);
+        set(&mut c.obs.drop_base_orientation, s.drop_base_orientation);
+        set(&mut c.distance_weight, s.distance_weight);
+        set(&mut c.energy_weight, s.energy_weight);
+        set(&mut c.drift_weight, s.drift_weight);
+        set(&mut c.shake_weight, s.shake_weight);
+        set(&mut c.distance_limit, s.distance_limit);
+        set(&mut c.latency, s.latency);
+        set(&mut c.observation_noise_std, s.observation_noise_std);
+        match s.randomize {
+            Some(false) => c.randomization = None,
+            Some(true) if c.randomization.is_none() => c.randomization = Some(Default::default()),
+            _ => {}
+        }
+        Ok(c)
+    }
+
+    /// A Gymnasium robot's config with these settings.
+    pub fn locomotion(&self, mut c: LocomotionConfig) -> Result<LocomotionConfig, NotApplicable> {
+        self.only("a Gymnasium robot", &LOCOMOTION)?;
+        let s = self;
+        set(&mut c.max_episode_steps, s.max_episode_steps);
+        set(&mut c.frame_skip, s.frame_skip);
+        set(&mut c.obs.joint_history, s.joint_history);
+        set(&mut c.obs.drop_base_orientation, s.drop_base_orientation);
+        set(&mut c.forward_reward_weight, s.forward_reward_weight);
+        set(&mut c.ctrl_cost_weight, s.ctrl_cost_weight);
+        set(&mut c.contact_cost_weight, s.contact_cost_weight);
+        set(&mut c.healthy_reward, s.healthy_reward);
+        set(&mut c.terminate_when_unhealthy, s.terminate_when_unhealthy);
+        set(&mut c.healthy_z_range, s.healthy_z_range.map(|[a, b]| (a, b)));
+        set(&mut c.healthy_angle_range, s.healthy_angle_range.map(|[a, b]| (a, b)));
+        set(&mut c.reset_noise_scale, s.reset_noise_scale);
+        Ok(c)
+    }
+
+    /// A modular robot's config with these settings.
+    pub fn modular(&self, mut c: ModularConfig) -> Result<ModularConfig, NotApplicable> {
+        self.only("a modular robot", &MODULAR)?;
+        let s = self;
+        set(&mut c.max_episode_steps, s.max_episode_steps);
+        set(&mut c.frame_skip, s.frame_skip);
+        set(&mut c.obs.joint_history, s.joint_history);
+        set(&mut c.obs.drop_base_orientation, s.drop_base_orientation);
+        set(&mut c.ctrl_cost_weight, s.ctrl_cost_weight);
+        set(&mut c.reset_noise_scale, s.reset_noise_scale);
+        Ok(c)
+    }
+}
+
+fn set<T>(field: &mut T, value: Option<T>) {
+    if let Some(v) = value {
+        *field = v;
+    }
+}
+
+/// Splits a run file's TOML `text` into its `[env]` table and the rest (the algorithm's
+/// settings; `None` when the file has no `[env]`, so that the algorithm's parser reports
+/// line numbers); `Err` is the TOML parser's or the `[env]` table's message.
+pub fn split_run_toml(text: &str) -> Result<(EnvSettings, Option<toml::Table>), String> {
+    let mut table: toml::Table = toml::from_str(text).map_err(|e| e.to_string())?;
+    let Some(env) = table.remove("env") else {
+        return Ok((EnvSettings::default(), None));
+    };
+    let settings = EnvSettings::deserialize(env).map_err(|e| format!("[env]: {e}"))?;
+    Ok((settings, Some(table)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_apply_to_their_robots_and_are_refused_elsewhere() {
+        let (s, rest) = split_run_toml(
+            "gamma = 0.99\n[env]\nenergy_weight = 0.0\nmax_episode_steps = 50\nrandomize = false\n",
+        )
+        .unwrap();
+        assert_eq!(rest.unwrap().get("gamma").and_then(|v| v.as_float()), Some(0.99));
+        let m = s.minitaur(MinitaurConfig::default()).unwrap();
+        assert_eq!((m.energy_weight, m.max_episode_steps, m.randomization), (0.0, 50, None));
+        assert_eq!(m.distance_weight, MinitaurConfig::default().distance_weight);
+        let e = s.locomotion(LocomotionConfig::ant()).unwrap_err();
+        assert_eq!(e.key, "energy_weight");
+        assert!(e.to_string().contains("healthy_reward"), "{e}");
+        assert!(s.none_for("pendulum").is_err());
+        assert!(EnvSettings::default().none_for("pendulum").is_ok());
+
+        let (s, _) = split_run_toml("[env]\nhealthy_reward = 5.0\nhealthy_z_range = [0.3, 1.0]\n").unwrap();
+        let ant = s.locomotion(LocomotionConfig::ant()).unwrap();
+        assert_eq!((ant.healthy_reward, ant.healthy_z_range), (5.0, (0.3, 1.0)));
+        assert_eq!(s.minitaur(MinitaurConfig::default()).unwrap_err().key, "healthy_reward");
+
+        assert!(split_run_toml("[env]\nhealthy_rewrd = 5.0\n").unwrap_err().contains("healthy_rewrd"));
+        assert!(split_run_toml("[env]\nmax_episode_steps = -3\n").is_err());
+        assert_eq!(split_run_toml("gamma = 0.9\n").unwrap(), (EnvSettings::default(), None));
+        // The settings travel through JSON (run records, checkpoints) unchanged.
+        let json = serde_json::to_string(&s).unwrap();
+        assert_eq!(serde_json::from_str::<EnvSettings>(&json).unwrap(), s);
+    }
+}
