@@ -10,6 +10,7 @@
 //! | [`residual`] | [`residual::ResidualEnv`]: the hybrid as an environment, for training |
 //! | [`deploy`] | [`deploy::HybridStack`]: the controller and a trained policy behind a robot interface |
 //! | [`control`] | closed-loop runs of the controller alone (`centaur control`) |
+//! | [`eval`] | `centaur eval`: a checkpoint on any configuration of its environment |
 //! | [`experiment`], [`compare`], [`train`] | pure RL against the hybrid, over seeds; `centaur train` |
 //! | [`recording`], [`plot`] | MCAP recordings for Foxglove; learning-curve plots |
 //! | [`settings`] | `[env]`: a robot environment's settings over its preset, from a run's TOML |
@@ -27,6 +28,7 @@ pub mod cli;
 pub mod compare;
 pub mod control;
 pub mod deploy;
+pub mod eval;
 pub mod experiment;
 pub mod hybrid;
 pub mod plot;

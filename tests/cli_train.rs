@@ -70,6 +70,18 @@ fn train_writes_every_artefact() {
     assert_eq!(ckpt.get_meta::<String>("env").unwrap(), "pendulum");
     let resumed = centaur_rl::learners::load(&out.join("checkpoint")).unwrap();
     assert_eq!((resumed.name(), resumed.steps_done()), ("ppo", 2048));
+    // `centaur eval` on the run directory: the Pendulum, as trained, beside the checkpoint.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["eval", "--episodes", "10", "--seed", "1000003", "--checkpoint"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("| pendulum | 10 |"));
+    let eval: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("eval.json")).unwrap()).unwrap();
+    // The same episodes as the run's own final evaluation (seeds 1,000,000 + 3 + k).
+    assert_eq!(eval["stats"]["return_mean"].as_f64(), Some(s.final_return_mean));
     std::fs::remove_dir_all(&out).unwrap();
 }
 
@@ -554,6 +566,42 @@ fn the_env_table_of_a_run_file_configures_the_environment() {
     assert_eq!((settings.max_episode_steps, settings.healthy_reward), (Some(20), Some(0.0)));
     let record = centaur::train::read_run_record(&out).unwrap();
     assert_eq!(record.env_settings, settings);
+
+    // `centaur eval`: as trained by default; a run file's [env] judges it in another
+    // configuration (the seed study's no-penalty / full-penalty judgement); another env
+    // whose spaces do not fit is refused.
+    let eval = |config: Option<PathBuf>, env: Option<&str>, record: Option<PathBuf>| {
+        centaur::eval::run_eval(&centaur::eval::EvalOptions {
+            checkpoint: out.clone(),
+            config,
+            env: env.map(str::to_string),
+            episodes: 3,
+            seed: 7,
+            record,
+            out: None,
+        })
+    };
+    let mcap = out.join("eval.mcap");
+    let as_trained = eval(None, None, Some(mcap.clone())).unwrap();
+    assert_eq!((as_trained.env.as_str(), as_trained.stats.episodes), ("walker2d", 3));
+    assert!(as_trained.changed_from_training.is_empty() && as_trained.stats.length_mean <= 20.0);
+    assert!(mcap.is_file() && out.join("eval.json").is_file());
+    let judge = out_dir("judge.toml");
+    std::fs::write(&judge, "gamma = 0.5\n[env]\nmax_episode_steps = 20\nhealthy_reward = 1.0\n").unwrap();
+    let judged = eval(Some(judge.clone()), None, None).unwrap();
+    assert_eq!(judged.changed_from_training, ["healthy_reward"]);
+    // Same episodes, one more point per healthy step.
+    let extra = judged.stats.return_mean - as_trained.stats.return_mean;
+    assert!(
+        (extra - as_trained.stats.length_mean).abs() < 1e-6,
+        "{extra} vs {}",
+        as_trained.stats.length_mean
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("eval.json")).unwrap()).unwrap();
+    assert_eq!(json["settings"]["healthy_reward"].as_f64(), Some(1.0));
+    assert!(eval(None, Some("ant"), None).unwrap_err().to_string().contains("policy maps"));
+    std::fs::remove_file(&judge).unwrap();
     std::fs::remove_dir_all(&out).unwrap();
 
     for (env, text, says) in [

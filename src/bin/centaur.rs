@@ -45,6 +45,59 @@ enum Command {
     /// lateral pushes, base-mass, friction and motor-strength changes; prints the table and
     /// writes robustness.json into the run directory.
     Robustness(RobustnessArgs),
+    /// Evaluate a trained policy deterministically on its environment or another
+    /// configuration of it (`--config` with an [env] table); prints the table and writes
+    /// eval.json beside the checkpoint.
+    Eval(EvalArgs),
+}
+
+/// Arguments of `centaur eval`.
+#[derive(Args)]
+struct EvalArgs {
+    /// A run directory (its `checkpoint`) or a checkpoint file.
+    #[arg(long)]
+    checkpoint: PathBuf,
+    /// A run file whose [env] table replaces the settings the policy was trained with.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Evaluate on another environment than the checkpoint's (its spaces must fit).
+    #[arg(long)]
+    env: Option<String>,
+    /// Deterministic episodes.
+    #[arg(long, default_value_t = 10, value_parser = positive_count)]
+    episodes: usize,
+    /// Episode k resets with seed + k.
+    #[arg(long, default_value_t = 1_000_000)]
+    seed: u64,
+    /// Record the first episode as an MCAP file for Foxglove (robot environments).
+    #[arg(long)]
+    record: Option<PathBuf>,
+    /// Where to write eval.json [default: beside the checkpoint].
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+/// `centaur eval`.
+fn eval(args: EvalArgs) -> ExitCode {
+    let opts = centaur::eval::EvalOptions {
+        checkpoint: args.checkpoint,
+        config: args.config,
+        env: args.env,
+        episodes: args.episodes,
+        seed: args.seed,
+        record: args.record,
+        out: args.out,
+    };
+    match centaur::eval::run_eval(&opts) {
+        Ok(report) => {
+            print!("{}", centaur::eval::markdown(&report));
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
 }
 
 /// Arguments of `centaur train`.
@@ -423,6 +476,7 @@ fn main() -> ExitCode {
         Command::Control(args) => return control(args),
         Command::Compare(args) => return compare(args),
         Command::Robustness(args) => return robustness(args),
+        Command::Eval(args) => return eval(args),
     };
     train_command(args)
 }

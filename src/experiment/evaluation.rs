@@ -11,9 +11,43 @@ use centaur_rl::Policy;
 
 use super::options::ExperimentError;
 use super::summary::AgentStats;
-use crate::hybrid::ActionMapping;
+use crate::hybrid::{ActionMapping, HybridError};
 use crate::recording::{Frame, Recorder};
+use crate::registry::{make_residual_env_with, make_robot_env_with, residual_config, robot};
 use crate::residual::ResidualEnv;
+use crate::settings::EnvSettings;
+
+/// A trained policy's deterministic episodes (episode `k` resets with `seed + k`) on a robot
+/// environment, or on a hybrid `<robot>-residual` with the robot's residual preset, with
+/// `[env]` settings over the preset; the first episode recorded to `record` if given. A
+/// policy of other dimensions is refused with both shapes.
+pub fn evaluate_policy(
+    env: &str,
+    settings: &EnvSettings,
+    policy: Policy,
+    episodes: usize,
+    seed: u64,
+    record: Option<&Path>,
+) -> Result<AgentStats, ExperimentError> {
+    let hybrid = env.strip_suffix("-residual").filter(|r| robot(r).is_some_and(|s| s.residual.is_some()));
+    let shape = (policy.obs_dim(), policy.act_dim());
+    let (mut driver, needed) = match hybrid {
+        Some(r) => {
+            let env = make_residual_env_with(r, residual_config(r)?, settings)?;
+            let needed = (env.observation_space().dim(), env.action_space().dim());
+            (Driver::Hybrid { env: Box::new(env), policy }, needed)
+        }
+        None => {
+            let env = make_robot_env_with(env, settings)?;
+            let needed = (env.observation_space().dim(), env.action_space().dim());
+            (Driver::Pure { env, policy }, needed)
+        }
+    };
+    if shape != needed {
+        return Err(HybridError::PolicyShape { policy: shape, needed }.into());
+    }
+    evaluate(&mut driver, episodes, seed, record)
+}
 
 /// The agent an evaluation runs.
 pub(crate) enum Driver {

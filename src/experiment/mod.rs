@@ -38,6 +38,7 @@ mod robustness;
 mod runner;
 mod summary;
 
+pub use evaluation::evaluate_policy;
 pub use options::{Curve, ExperimentError, ExperimentOptions, ExperimentResult, Phase};
 pub use presets::tuned_config;
 pub use robustness::{Condition, RobustnessOptions, RobustnessRow, robustness_table, run_robustness};
