@@ -236,9 +236,12 @@ fn aggregate(runs: &[ExperimentSummary], pick: impl Fn(&ExperimentSummary) -> &A
     }
 }
 
-/// Resamples each seed's curve on a common grid (linear interpolation, held flat outside
-/// its range) and returns the across-seed mean with a ± one-std band.
+/// Resamples each seed's curve on a common grid (linear interpolation between its finite
+/// points — records without a finished episode are NaN — held flat outside its range) and
+/// returns the across-seed mean with a ± one-std band.
 pub fn band(label: &str, curves: &[Curve], steps: u64, points: usize) -> Series {
+    let curves: Vec<Curve> =
+        curves.iter().map(|c| c.iter().copied().filter(|p| p.1.is_finite()).collect()).collect();
     let grid: Vec<f64> = (0..points).map(|k| steps as f64 * (k + 1) as f64 / points as f64).collect();
     let at = |c: &Curve, x: f64| -> Option<f64> {
         let first = c.first()?;

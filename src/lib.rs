@@ -10,6 +10,7 @@
 //! | [`residual`] | [`residual::ResidualEnv`]: the hybrid as an environment, for training |
 //! | [`deploy`] | [`deploy::HybridStack`]: the controller and a trained policy behind a robot interface |
 //! | [`control`] | closed-loop runs of the controller alone (`centaur control`) |
+//! | [`sweep`] | `centaur sweep`: a grid of run settings × seeds, in parallel, resumable |
 //! | [`eval`] | `centaur eval`: a checkpoint on any configuration of its environment |
 //! | [`experiment`], [`compare`], [`train`] | pure RL against the hybrid, over seeds; `centaur train` |
 //! | [`recording`], [`plot`] | MCAP recordings for Foxglove; learning-curve plots |
@@ -38,4 +39,5 @@ pub mod residual;
 pub mod rundir;
 pub mod settings;
 pub mod stats;
+pub mod sweep;
 pub mod train;

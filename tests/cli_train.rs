@@ -616,3 +616,66 @@ fn the_env_table_of_a_run_file_configures_the_environment() {
         assert!(!out.exists());
     }
 }
+
+/// `centaur sweep`: a 2 × 1 grid × 2 seeds on two jobs; one run directory per point and
+/// seed, the per-point IQM in sweep.json; a rerun keeps finished runs and resumes a killed
+/// one to the same figures; another grid in the same directory is refused.
+#[test]
+fn a_sweep_runs_its_grid_in_parallel_and_resumes() {
+    let out = out_dir("sweep");
+    let grid = out_dir("sweep-grid.toml");
+    std::fs::write(
+        &grid,
+        "env = \"pendulum\"\nalgo = \"ppo\"\nsteps = 1024\nenvs = 2\ncheckpoint_every = 512\n\n[base]\nn_steps = 128\nbatch_size = 128\nn_epochs = 1\nactor_hidden = [8]\ncritic_hidden = [8]\n\n[grid]\nlearning_rate = [3e-4, 1e-3]\n",
+    )
+    .unwrap();
+    let sweep = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+            .args(["sweep", "--seeds", "2", "--jobs", "2", "--grid"])
+            .arg(&grid)
+            .arg("--out")
+            .arg(&out)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let o = sweep(&[]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(stdout.lines().filter(|l| l.starts_with('[')).count(), 4, "{stdout}");
+    let json = || -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(out.join("sweep.json")).unwrap()).unwrap()
+    };
+    let first = json();
+    let points = first["points"].as_array().unwrap();
+    assert_eq!(points.len(), 2);
+    assert_eq!(points[1]["values"]["learning_rate"].as_str(), Some("0.001"));
+    for p in points {
+        assert_eq!(p["final_returns"].as_array().unwrap().len(), 2);
+        assert!(p["return_iqm"].as_f64().unwrap().is_finite());
+    }
+    assert!(out.join("p001").join("seed_1").join("checkpoint").exists());
+    assert!(out.join("sweep_curves.png").is_file());
+    // p001 seed 1 "killed" after its first checkpoint: its summary gone, metrics rows past
+    // the checkpoint left over. The rerun resumes it alone to the same figures.
+    let killed = out.join("p001").join("seed_1");
+    std::fs::remove_file(killed.join("summary.json")).unwrap();
+    let kept = std::fs::read(out.join("p000").join("seed_0").join("checkpoint")).unwrap();
+    let o = sweep(&[]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("[1] p001 seed 1") && !stdout.contains("[2]"), "{stdout}");
+    assert_eq!(json()["points"], first["points"]);
+    assert_eq!(std::fs::read(out.join("p000").join("seed_0").join("checkpoint")).unwrap(), kept);
+    // Another grid: refused, then replaced with --overwrite.
+    std::fs::write(&grid, std::fs::read_to_string(&grid).unwrap().replace("1e-3", "3e-3")).unwrap();
+    let o = sweep(&[]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("another grid"));
+    // A typo in a key is named before anything runs.
+    std::fs::write(&grid, "env = \"pendulum\"\nalgo = \"ppo\"\nsteps = 64\n[grid]\nlearning_rat = [1e-3]\n")
+        .unwrap();
+    let o = sweep(&["--overwrite"]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("learning_rat"));
+    std::fs::remove_dir_all(&out).unwrap();
+    std::fs::remove_file(&grid).unwrap();
+}
