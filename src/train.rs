@@ -8,6 +8,7 @@
 //! |---|---|
 //! | `run.json` | the run's record ([`RunRecord`]), written first: every option, the config file's text and a modular body's text, so that `--resume` needs nothing else |
 //! | `metrics.csv` | one [`UpdateMetrics`] row per update / log interval; flushed and `fsync`ed at every checkpoint |
+//! | `episodes.csv` | every finished training episode: the run's step at its end, env index, return, length, terminated, each reward term summed over it |
 //! | `checkpoint` | the learner ([`centaur_rl::Checkpoint`] format, plus the env name under `env`): act with `Policy::load`, resume with `centaur train --resume DIR`; rewritten atomically every `checkpoint_every` steps and at the end |
 //! | `summary.json` | `{"env", "algo", "seed", "steps", "wall_seconds", "steps_per_second", "final_return_mean", "final_return_std"}`, written (atomically) before the plots |
 //! | `learning_curve.svg`, `learning_curve.png` | mean training episode return (± std band) against environment steps |
@@ -33,6 +34,7 @@ use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use centaur_gym::EpisodeLog;
 use centaur_rl::{
     A2cConfig, AlgoConfig, AlgoKind, Algorithm, Checkpoint, DdpgConfig, MetricsCsv, Policy, PpoConfig,
     RlError, SacConfig, SacV1Config, Td3Config, UpdateMetrics, evaluate,
@@ -52,8 +54,15 @@ pub const DEFAULT_CHECKPOINT_EVERY: u64 = 100_000;
 pub const MAX_CONFIG_BYTES: u64 = 1 << 20;
 
 /// The files of a run directory, in the order a run writes them.
-pub const RUN_FILES: [&str; 6] =
-    ["run.json", "metrics.csv", "checkpoint", "summary.json", "learning_curve.svg", "learning_curve.png"];
+pub const RUN_FILES: [&str; 7] = [
+    "run.json",
+    "metrics.csv",
+    "episodes.csv",
+    "checkpoint",
+    "summary.json",
+    "learning_curve.svg",
+    "learning_curve.png",
+];
 
 /// What to train.
 #[derive(Clone, Debug, PartialEq)]
@@ -336,9 +345,8 @@ pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> R
     let run_json = opts.out.join("run.json");
     write_atomic(&run_json, &(serde_json::to_string_pretty(&record).expect("the record serialises") + "\n"))
         .map_err(io_err(&run_json))?;
-    let csv_path = opts.out.join("metrics.csv");
-    let csv = MetricsCsv::create(&csv_path).map_err(io_err(&csv_path))?;
-    run_segments(&record, &source, &opts.out, opts.threads, algo, csv, Vec::new(), 0.0, progress)
+    let logs = RunLogs::create(&opts.out, &source)?;
+    run_segments(&record, &source, &opts.out, opts.threads, algo, logs, progress)
 }
 
 /// The record (`run.json`) of the run in `dir`.
@@ -384,8 +392,8 @@ pub fn resume(
             None => AlgoConfig::default_for(kind),
         };
         let algo = new_learner(config, record.seed, record.steps, &source, record.n_envs)?;
-        let csv = MetricsCsv::create(&csv_path).map_err(io_err(&csv_path))?;
-        return run_segments(&record, &source, dir, threads, algo, csv, Vec::new(), 0.0, progress);
+        let logs = RunLogs::create(dir, &source)?;
+        return run_segments(&record, &source, dir, threads, algo, logs, progress);
     }
     let checkpoint = Checkpoint::read(&ckpt_path).map_err(RlError::from)?;
     let env: String = checkpoint.get_meta("env").map_err(RlError::from)?;
@@ -396,6 +404,7 @@ pub fn resume(
         )));
     }
     let rows_done: usize = checkpoint.get_meta("run_metrics_rows").map_err(RlError::from)?;
+    let episodes_done: usize = checkpoint.get_meta("run_episode_rows").map_err(RlError::from)?;
     let wall_done: f64 = checkpoint.get_meta("run_wall_seconds").map_err(RlError::from)?;
     let algo = centaur_rl::learners::from_checkpoint(&checkpoint)?;
     let mut rows = MetricsCsv::read(&csv_path).map_err(io_err(&csv_path))?;
@@ -414,7 +423,110 @@ pub fn resume(
     }
     write_atomic(&csv_path, &text).map_err(io_err(&csv_path))?;
     let csv = MetricsCsv::append(&csv_path).map_err(io_err(&csv_path))?;
-    run_segments(&record, &source, dir, threads, algo, csv, rows, wall_done, progress)
+    let episodes =
+        EpisodeCsv::truncated(&dir.join("episodes.csv"), episodes_done).map_err(|e| fail(e.to_string()))?;
+    let logs = RunLogs { csv, rows, episodes, wall_seconds: wall_done };
+    run_segments(&record, &source, dir, threads, algo, logs, progress)
+}
+
+/// `episodes.csv`: every finished training episode — the environment step at which it
+/// ended (over the whole run), the environment index, return, length, whether it ended by
+/// termination, and each reward term summed over the episode.
+struct EpisodeCsv {
+    path: PathBuf,
+    out: std::io::BufWriter<std::fs::File>,
+    terms: usize,
+    rows: usize,
+}
+
+impl EpisodeCsv {
+    /// Creates the file with its header for an env whose reward terms are `names`.
+    fn create(path: &Path, names: &[&str]) -> std::io::Result<EpisodeCsv> {
+        use std::io::Write;
+        let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
+        let terms: Vec<String> = names.iter().map(|n| format!(",{n}")).collect();
+        writeln!(out, "step,env,return,length,terminated{}", terms.concat())?;
+        Ok(EpisodeCsv { path: path.to_path_buf(), out, terms: names.len(), rows: 0 })
+    }
+
+    /// The file of a killed run cut back to its first `rows` episodes, open for appending.
+    fn truncated(path: &Path, rows: usize) -> std::io::Result<EpisodeCsv> {
+        let text = std::fs::read_to_string(path)?;
+        let mut lines = text.lines();
+        let header = lines.next().unwrap_or_default();
+        let kept: Vec<&str> = lines.take(rows).collect();
+        if kept.len() < rows {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                format!(
+                    "{} holds {} episodes, the checkpoint was taken after {rows}",
+                    path.display(),
+                    kept.len()
+                ),
+            ));
+        }
+        let terms = header.split(',').count().saturating_sub(5);
+        let mut text = format!("{header}\n");
+        for l in &kept {
+            text += l;
+            text.push('\n');
+        }
+        write_atomic(path, &text)?;
+        let file = std::fs::OpenOptions::new().append(true).open(path)?;
+        Ok(EpisodeCsv { path: path.to_path_buf(), out: std::io::BufWriter::new(file), terms, rows })
+    }
+
+    /// Appends the episodes of `log`, their steps offset by `offset` (the run's steps before
+    /// the segment's environments were made).
+    fn drain(&mut self, log: &EpisodeLog, offset: u64) -> std::io::Result<()> {
+        use std::io::Write;
+        let mut log = log.lock().unwrap_or_else(|e| e.into_inner());
+        for e in log.drain(..) {
+            write!(
+                self.out,
+                "{},{},{},{},{}",
+                offset + e.step,
+                e.env,
+                e.ret,
+                e.length,
+                u8::from(e.terminated)
+            )?;
+            for t in &e.terms[..self.terms.min(e.terms.len())] {
+                write!(self.out, ",{t}")?;
+            }
+            writeln!(self.out)?;
+            self.rows += 1;
+        }
+        Ok(())
+    }
+
+    /// Flushes and `fsync`s.
+    fn sync(&mut self) -> std::io::Result<()> {
+        use std::io::Write;
+        self.out.flush()?;
+        self.out.get_ref().sync_data()
+    }
+}
+
+/// What a run has written so far, open for appending: its metrics rows, its episode log
+/// and its training wall time.
+struct RunLogs {
+    csv: MetricsCsv,
+    rows: Vec<UpdateMetrics>,
+    episodes: EpisodeCsv,
+    wall_seconds: f64,
+}
+
+impl RunLogs {
+    /// Fresh `metrics.csv` and `episodes.csv` in `dir`.
+    fn create(dir: &Path, source: &EnvSource) -> Result<RunLogs, TrainError> {
+        let csv_path = dir.join("metrics.csv");
+        let csv = MetricsCsv::create(&csv_path).map_err(io_err(&csv_path))?;
+        let names = source.make()?.reward_term_names();
+        let ep_path = dir.join("episodes.csv");
+        let episodes = EpisodeCsv::create(&ep_path, names).map_err(io_err(&ep_path))?;
+        Ok(RunLogs { csv, rows: Vec::new(), episodes, wall_seconds: 0.0 })
+    }
 }
 
 /// Writes the learner as the run's checkpoint, with the run's position in its metadata.
@@ -422,8 +534,7 @@ fn write_checkpoint(
     algo: &dyn Algorithm,
     record: &RunRecord,
     path: &Path,
-    rows: usize,
-    wall: f64,
+    logs: &RunLogs,
 ) -> Result<(), TrainError> {
     let mut checkpoint = algo.to_checkpoint();
     checkpoint.set_meta("env", &record.env);
@@ -434,8 +545,9 @@ fn write_checkpoint(
     if !record.env_settings.is_empty() {
         checkpoint.set_meta("env_settings", &record.env_settings);
     }
-    checkpoint.set_meta("run_metrics_rows", rows);
-    checkpoint.set_meta("run_wall_seconds", wall);
+    checkpoint.set_meta("run_metrics_rows", logs.rows.len());
+    checkpoint.set_meta("run_episode_rows", logs.episodes.rows);
+    checkpoint.set_meta("run_wall_seconds", logs.wall_seconds);
     checkpoint.write(path).map_err(RlError::from)?;
     Ok(())
 }
@@ -449,9 +561,7 @@ fn run_segments(
     dir: &Path,
     threads: usize,
     mut algo: Box<dyn Algorithm>,
-    mut csv: MetricsCsv,
-    mut rows: Vec<UpdateMetrics>,
-    mut wall_seconds: f64,
+    mut logs: RunLogs,
     progress: &mut dyn FnMut(&UpdateMetrics),
 ) -> Result<Summary, TrainError> {
     let csv_path = dir.join("metrics.csv");
@@ -467,33 +577,45 @@ fn run_segments(
         Vec::new()
     };
     targets.push(record.steps);
+    let log: EpisodeLog = Default::default();
     for target in targets {
         if algo.steps_done() >= target {
             continue;
         }
         let mut env = source.make_vec(record.n_envs, threads)?;
-        let mut csv_error = None;
+        env.log_episodes(log.clone());
+        let offset = algo.steps_done();
+        let mut write_error = None;
         let t0 = Instant::now();
+        let RunLogs { csv, rows, episodes, .. } = &mut logs;
         algo.learn(&mut env, target, &mut |m| {
             if let Err(e) = csv.write(m) {
-                csv_error = Some(e);
+                write_error = Some((csv_path.clone(), e));
+                return ControlFlow::Break(());
+            }
+            if let Err(e) = episodes.drain(&log, offset) {
+                write_error = Some((episodes.path.clone(), e));
                 return ControlFlow::Break(());
             }
             rows.push(*m);
             progress(m);
             ControlFlow::Continue(())
         })?;
-        wall_seconds += t0.elapsed().as_secs_f64();
-        if let Some(e) = csv_error {
-            return Err(TrainError::Io { path: csv_path, source: e });
+        logs.wall_seconds += t0.elapsed().as_secs_f64();
+        if let Some((path, source)) = write_error {
+            return Err(TrainError::Io { path, source });
         }
-        csv.sync().map_err(io_err(&csv_path))?;
-        write_checkpoint(algo.as_ref(), record, &ckpt, rows.len(), wall_seconds)?;
+        // Episodes that ended after the last record of the segment.
+        logs.episodes.drain(&log, offset).map_err(io_err(&logs.episodes.path))?;
+        logs.csv.sync().map_err(io_err(&csv_path))?;
+        logs.episodes.sync().map_err(io_err(&logs.episodes.path))?;
+        write_checkpoint(algo.as_ref(), record, &ckpt, &logs)?;
     }
     if algo.steps_done() == 0 || !ckpt.exists() {
         // A zero-step run still leaves its (untrained) checkpoint.
-        write_checkpoint(algo.as_ref(), record, &ckpt, rows.len(), wall_seconds)?;
+        write_checkpoint(algo.as_ref(), record, &ckpt, &logs)?;
     }
+    let (rows, wall_seconds) = (logs.rows, logs.wall_seconds);
     let mut policy = Policy::load(&ckpt).map_err(RlError::from)?;
     let mut eval_env = source.make()?;
     let eval =

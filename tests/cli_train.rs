@@ -223,6 +223,15 @@ fn a_killed_run_resumes_to_the_uninterrupted_result() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(metric_bits(&killed), metric_bits(&whole));
     assert_eq!(summary_bits(&killed), summary_bits(&whole));
+    let episodes = |d: &std::path::Path| std::fs::read_to_string(d.join("episodes.csv")).unwrap();
+    assert_eq!(episodes(&killed), episodes(&whole), "the episode logs differ after resume");
+    // 40,960 steps of 200-step Pendulum episodes on 2 envs, cut at every 4,096-step segment:
+    // 20 per segment, 10 segments; the last column is the episode's step, in order.
+    let log = episodes(&whole);
+    assert_eq!(log.lines().count(), 1 + 200, "{}", &log[..200.min(log.len())]);
+    let steps: Vec<u64> =
+        log.lines().skip(1).map(|l| l.split(',').next().unwrap().parse().unwrap()).collect();
+    assert!(steps.windows(2).all(|w| w[0] <= w[1]) && *steps.last().unwrap() <= 40_960);
     let state = |d: &std::path::Path| {
         let mut c = centaur_rl::Checkpoint::read(&d.join("checkpoint")).unwrap();
         for timing in ["wall_time", "run_wall_seconds"] {
@@ -265,7 +274,7 @@ fn an_off_policy_run_resumes_from_a_mid_run_copy() {
     };
     let snapshot = |to: &std::path::Path| {
         std::fs::create_dir_all(to).unwrap();
-        for f in ["run.json", "metrics.csv", "checkpoint"] {
+        for f in ["run.json", "metrics.csv", "episodes.csv", "checkpoint"] {
             if whole.join(f).exists() {
                 std::fs::copy(whole.join(f), to.join(f)).unwrap();
             }
@@ -284,6 +293,8 @@ fn an_off_policy_run_resumes_from_a_mid_run_copy() {
     for dir in [&copy, &early] {
         resume(dir, 1, &mut |_| {}).unwrap();
         assert_eq!(metric_bits(dir), metric_bits(&whole), "{}", dir.display());
+        let log = |d: &std::path::Path| std::fs::read_to_string(d.join("episodes.csv")).unwrap();
+        assert_eq!(log(dir), log(&whole), "{}", dir.display());
         assert_eq!(summary_bits(dir), summary_bits(&whole), "{}", dir.display());
     }
     for d in [&whole, &copy, &early] {

@@ -46,4 +46,4 @@ mod vec_env;
 pub use env::{Env, EnvError, MAX_REWARD_TERMS, Step, StepInfo, check_action, check_observation};
 pub use rng::{Rng, RngState};
 pub use space::BoxSpace;
-pub use vec_env::{EpisodeRecord, VecEnv, VecStep};
+pub use vec_env::{EpisodeLog, EpisodeRecord, VecEnv, VecStep};

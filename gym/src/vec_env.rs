@@ -1,7 +1,9 @@
 //! [`VecEnv`]: N environments stepped together, in parallel across threads, with
 //! auto-reset; the results depend on the seed only, never on the number of threads.
 
-use crate::env::{Env, EnvError, StepInfo};
+use std::sync::{Arc, Mutex};
+
+use crate::env::{Env, EnvError, MAX_REWARD_TERMS, StepInfo};
 use crate::space::BoxSpace;
 
 /// A finished episode, reported by [`VecEnv::step`].
@@ -15,7 +17,15 @@ pub struct EpisodeRecord {
     pub length: usize,
     /// Ended by termination (rather than truncation).
     pub terminated: bool,
+    /// Each reward term summed over the episode ([`Env::reward_term_names`] order).
+    pub terms: [f64; MAX_REWARD_TERMS],
+    /// Transitions this VecEnv had stepped (all environments) when the episode ended.
+    pub step: u64,
 }
+
+/// Where a [`VecEnv`] copies every finished episode when asked to
+/// ([`VecEnv::log_episodes`]): a run's per-episode log, drained by its owner.
+pub type EpisodeLog = Arc<Mutex<Vec<EpisodeRecord>>>;
 
 /// The results of one [`VecEnv::step`], in buffers reused across steps.
 #[derive(Clone, Debug)]
@@ -56,6 +66,7 @@ struct Slot {
     env: Box<dyn Env>,
     ret: f64,
     length: usize,
+    terms: [f64; MAX_REWARD_TERMS],
     /// Outcome of the last step: the episode it finished, or the error it raised.
     finished: Option<EpisodeRecord>,
     error: Option<EnvError>,
@@ -81,16 +92,26 @@ impl Slot {
         };
         self.ret += s.reward;
         self.length += 1;
+        for (sum, t) in self.terms.iter_mut().zip(&s.info.reward_terms) {
+            *sum += t;
+        }
         *out.0 = s.reward;
         *out.1 = s.terminated;
         *out.2 = s.truncated;
         *out.3 = s.info;
         if s.done() {
             fo.copy_from_slice(o);
-            self.finished =
-                Some(EpisodeRecord { env: 0, ret: self.ret, length: self.length, terminated: s.terminated });
+            self.finished = Some(EpisodeRecord {
+                env: 0,
+                ret: self.ret,
+                length: self.length,
+                terminated: s.terminated,
+                terms: self.terms,
+                step: 0,
+            });
             self.ret = 0.0;
             self.length = 0;
+            self.terms = [0.0; MAX_REWARD_TERMS];
             if let Err(e) = self.env.reset(None, o) {
                 self.error = Some(e);
             }
@@ -114,6 +135,10 @@ pub struct VecEnv {
     current_obs: Vec<f32>,
     /// Whether `reset` succeeded and no step has failed since.
     started: bool,
+    /// Transitions stepped so far (all environments).
+    transitions: u64,
+    /// Where finished episodes are copied, if anywhere.
+    episode_log: Option<EpisodeLog>,
 }
 
 impl VecEnv {
@@ -143,11 +168,20 @@ impl VecEnv {
         Ok(VecEnv {
             current_obs: vec![0.0; n * obs_space.dim()],
             started: false,
+            transitions: 0,
+            episode_log: None,
             obs_dim: obs_space.dim(),
             act_dim: act_space.dim(),
             slots: envs
                 .into_iter()
-                .map(|env| Slot { env, ret: 0.0, length: 0, finished: None, error: None })
+                .map(|env| Slot {
+                    env,
+                    ret: 0.0,
+                    length: 0,
+                    terms: [0.0; MAX_REWARD_TERMS],
+                    finished: None,
+                    error: None,
+                })
                 .collect(),
             pool,
             obs_space,
@@ -187,6 +221,12 @@ impl VecEnv {
         self.slots[i].env.as_ref()
     }
 
+    /// Copies every episode that finishes from now on into `log` (a run's per-episode log;
+    /// its owner drains it).
+    pub fn log_episodes(&mut self, log: EpisodeLog) {
+        self.episode_log = Some(log);
+    }
+
     /// Buffers sized for this VecEnv.
     pub fn make_step_buffers(&self) -> VecStep {
         VecStep::new(self.len(), self.obs_dim)
@@ -207,6 +247,7 @@ impl VecEnv {
             slot.env.reset(Some(seed.wrapping_add(i as u64)), o)?;
             slot.ret = 0.0;
             slot.length = 0;
+            slot.terms = [0.0; MAX_REWARD_TERMS];
         }
         self.current_obs.copy_from_slice(obs);
         self.started = true;
@@ -260,6 +301,7 @@ impl VecEnv {
                 });
             }
         }
+        self.transitions += self.slots.len() as u64;
         for (i, slot) in self.slots.iter_mut().enumerate() {
             if let Some(e) = slot.error.take() {
                 self.started = false;
@@ -267,8 +309,12 @@ impl VecEnv {
             }
             if let Some(mut rec) = slot.finished.take() {
                 rec.env = i;
+                rec.step = self.transitions;
                 episodes.push(rec);
             }
+        }
+        if let Some(log) = self.episode_log.as_ref().filter(|_| !episodes.is_empty()) {
+            log.lock().unwrap_or_else(|e| e.into_inner()).extend_from_slice(episodes);
         }
         self.current_obs.copy_from_slice(obs);
         Ok(())
