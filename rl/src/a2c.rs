@@ -23,7 +23,7 @@ use crate::algorithm::Algorithm;
 use crate::buffer::{RolloutBuffer, n_step_returns};
 use crate::checkpoint::Checkpoint;
 use crate::distributions::{gaussian_entropy, gaussian_log_prob, gaussian_log_prob_grad};
-use crate::error::{RlError, check};
+use crate::error::{RlError, check, check_critic_lr};
 use crate::metrics::{EpisodeWindow, UpdateMetrics};
 use crate::nn::{Activation, Init, Mlp, MlpBuffers};
 use crate::normalizer::{RewardScaler, RunningMeanStd};
@@ -43,6 +43,9 @@ pub struct A2cConfig {
     pub n_steps: usize,
     /// Learning rate (default: 7e-4).
     pub learning_rate: f64,
+    /// The critic's learning rate, annealed alike; unset: the same as `learning_rate`
+    /// (default: unset).
+    pub critic_learning_rate: Option<f64>,
     /// Anneal the learning rate linearly to 0 (default: false).
     pub anneal_lr: bool,
     /// Environment steps over which the learning rate anneals; unset means the
@@ -97,6 +100,7 @@ impl Default for A2cConfig {
             seed: 0,
             n_steps: 5,
             learning_rate: 7e-4,
+            critic_learning_rate: None,
             anneal_lr: false,
             lr_decay_steps: None,
             optimizer: OptimizerKind::Rmsprop,
@@ -135,6 +139,7 @@ impl A2cConfig {
             self.learning_rate,
             "must be positive",
         )?;
+        check_critic_lr(A, self.critic_learning_rate)?;
         check(self.lr_decay_steps != Some(0), A, "lr_decay_steps", self.lr_decay_steps, "must be positive")?;
         check(
             (0.0..1.0).contains(&self.rmsprop_alpha),
@@ -370,7 +375,7 @@ impl A2c {
     }
 
     /// One gradient step on the whole rollout; fills the loss metrics.
-    fn update(&mut self, lr: f32, m: &mut UpdateMetrics) -> Result<(), RlError> {
+    fn update(&mut self, lr: f32, lr_critic: f32, m: &mut UpdateMetrics) -> Result<(), RlError> {
         let ad = self.act_space.dim();
         let b = self.rollout.len();
         let (ent_coef, vf_coef) = (self.config.ent_coef as f32, self.config.vf_coef as f32);
@@ -426,12 +431,12 @@ impl A2c {
             Optim::Adam([a, l, c]) => {
                 a.step(&mut self.actor.params, &self.actor.grads, lr);
                 l.step(&mut self.log_std, &self.log_std_grad, lr);
-                c.step(&mut self.critic.params, &self.critic.grads, lr);
+                c.step(&mut self.critic.params, &self.critic.grads, lr_critic);
             }
             Optim::Rms([a, l, c]) => {
                 a.step(&mut self.actor.params, &self.actor.grads, lr);
                 l.step(&mut self.log_std, &self.log_std_grad, lr);
-                c.step(&mut self.critic.params, &self.critic.grads, lr);
+                c.step(&mut self.critic.params, &self.critic.grads, lr_critic);
             }
         }
         m.policy_loss = pg;
@@ -532,16 +537,17 @@ impl Algorithm for A2c {
         let (mut window_start, mut window_time) = (self.steps_done, 0.0);
         while self.steps_done < total_steps {
             let t0 = Instant::now();
-            let lr = if self.config.anneal_lr {
-                linear_decay(self.config.learning_rate, self.steps_done, horizon)
-            } else {
-                self.config.learning_rate
-            };
+            let (c, done) = (&self.config, self.steps_done);
+            let anneal = |lr0: f64| if c.anneal_lr { linear_decay(lr0, done, horizon) } else { lr0 };
+            let lr = anneal(c.learning_rate);
+            let lr_critic = anneal(c.critic_learning_rate.unwrap_or(c.learning_rate));
             self.collect_rollout(env, &mut episodes)?;
             self.compute_advantages();
             let mut m = UpdateMetrics::empty();
             m.explained_variance = self.explained_variance();
-            self.update(lr as f32, &mut m)?;
+            m.value_mean = self.rollout.values.iter().map(|&v| f64::from(v)).sum::<f64>()
+                / self.rollout.values.len().max(1) as f64;
+            self.update(lr as f32, lr_critic as f32, &mut m)?;
             self.updates += 1;
             let dt = t0.elapsed().as_secs_f64();
             self.wall_time += dt;
@@ -552,6 +558,7 @@ impl Algorithm for A2c {
                 m.wall_time = self.wall_time;
                 m.steps_per_second = (self.steps_done - window_start) as f64 / window_time.max(1e-9);
                 m.learning_rate = lr;
+                m.reward_mean = self.work.collector.take_reward_mean();
                 episodes.drain_into(&mut m);
                 window_start = self.steps_done;
                 window_time = 0.0;

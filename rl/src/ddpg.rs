@@ -28,7 +28,7 @@ use serde::{Deserialize, Serialize};
 use crate::algorithm::Algorithm;
 use crate::buffer::{ReplayBatch, concat_obs_act};
 use crate::checkpoint::Checkpoint;
-use crate::error::{RlError, check};
+use crate::error::{RlError, check, check_critic_lr};
 use crate::metrics::UpdateMetrics;
 use crate::nn::{Activation, Init, Mlp, MlpBuffers, polyak, tanh_fast};
 use crate::off_policy::{self, Collector, LoopSettings, OffPolicyLearner};
@@ -50,8 +50,10 @@ pub struct DdpgConfig {
     pub learning_starts: u64,
     /// Minibatch size (default: 256).
     pub batch_size: usize,
-    /// Learning rate of actor and critics (default: 1e-3).
+    /// Learning rate of the actor (default: 1e-3).
     pub learning_rate: f64,
+    /// The critic's (Q) learning rate; unset: `learning_rate` (default: unset).
+    pub critic_learning_rate: Option<f64>,
     /// Adam ε (default: 1e-8).
     pub adam_eps: f64,
     /// Polyak coefficient τ (default: 0.005).
@@ -86,6 +88,7 @@ impl Default for DdpgConfig {
             learning_starts: 100,
             batch_size: 256,
             learning_rate: 1e-3,
+            critic_learning_rate: None,
             adam_eps: 1e-8,
             tau: 0.005,
             gamma: 0.99,
@@ -123,6 +126,7 @@ impl DdpgConfig {
             self.learning_rate,
             "must be positive",
         )?;
+        check_critic_lr(A, self.critic_learning_rate)?;
         check(
             self.adam_eps.is_finite() && self.adam_eps > 0.0,
             A,
@@ -406,7 +410,11 @@ impl OffPolicyLearner for Ddpg {
     fn train_step(&mut self, sums: &mut LossSums) -> Result<(), RlError> {
         let (od, ad, b) =
             (self.collector.obs_space.dim(), self.collector.act_space.dim(), self.config.batch_size);
-        let (gamma, lr) = (self.config.gamma as f32, self.config.learning_rate as f32);
+        let (gamma, lr, lr_q) = (
+            self.config.gamma as f32,
+            self.config.learning_rate as f32,
+            self.config.critic_learning_rate.unwrap_or(self.config.learning_rate) as f32,
+        );
         let w = &mut self.work;
         self.collector.replay.sample(&mut self.rng, &mut w.batch);
 
@@ -441,7 +449,7 @@ impl OffPolicyLearner for Ddpg {
         sums.q_loss += loss;
         sums.n_q += 1;
         self.q.backward(&mut w.q_buf, &w.q_in, &w.d_q, b, None);
-        self.opt_q.step(&mut self.q.params, &self.q.grads, lr);
+        self.opt_q.step(&mut self.q.params, &self.q.grads, lr_q);
 
         // Actor: J(μ) = −mean Q(s, μ(s)), through tanh (∂a/∂y = 1 − a²).
         let y = self.actor.forward(&mut w.actor_buf, &w.batch.obs, b);

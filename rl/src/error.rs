@@ -64,6 +64,17 @@ pub(crate) fn check(
     if ok { Ok(()) } else { Err(RlError::InvalidConfig { algo, field, value: format!("{value:?}"), reason }) }
 }
 
+/// Checks an optional `critic_learning_rate`: unset, or finite and positive.
+pub(crate) fn check_critic_lr(algo: &'static str, lr: Option<f64>) -> Result<(), RlError> {
+    check(
+        lr.is_none_or(|lr| lr.is_finite() && lr > 0.0),
+        algo,
+        "critic_learning_rate",
+        lr,
+        "must be positive",
+    )
+}
+
 /// The most `f32` values one buffer of a learner may hold (2^30, 4 GiB): a rollout or replay
 /// buffer, a batch's activations. Larger settings are refused before anything is allocated.
 pub const MAX_BUFFER_FLOATS: usize = 1 << 30;

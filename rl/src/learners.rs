@@ -129,6 +129,18 @@ impl AlgoConfig {
         }
     }
 
+    /// Checks every field's range (the learner's own `validate`).
+    pub fn validate(&self) -> Result<(), RlError> {
+        match self {
+            AlgoConfig::Ppo(c) => c.validate(),
+            AlgoConfig::A2c(c) => c.validate(),
+            AlgoConfig::Sac(c) => c.validate(),
+            AlgoConfig::SacV1(c) => c.validate(),
+            AlgoConfig::Td3(c) => c.validate(),
+            AlgoConfig::Ddpg(c) => c.validate(),
+        }
+    }
+
     /// The seed of these settings.
     pub fn seed(&self) -> u64 {
         match self {

@@ -46,6 +46,13 @@ pub struct UpdateMetrics {
     pub alpha: f64,
     /// Learning rate in use.
     pub learning_rate: f64,
+    /// Mean state value `V(s)` the critic predicts over the rollout (on-policy).
+    pub value_mean: f64,
+    /// Mean environment reward per step since the previous record (as the env returns it,
+    /// before any normalisation).
+    pub reward_mean: f64,
+    /// The KL penalty's coefficient `β` during the update (PPO with `kl_penalty`).
+    pub kl_coef: f64,
 }
 
 impl UpdateMetrics {
@@ -65,12 +72,15 @@ impl UpdateMetrics {
             mean_q: f64::NAN,
             alpha: f64::NAN,
             learning_rate: f64::NAN,
+            value_mean: f64::NAN,
+            reward_mean: f64::NAN,
+            kl_coef: f64::NAN,
             ..Default::default()
         }
     }
 
     /// CSV column names.
-    pub const COLUMNS: [&'static str; 18] = [
+    pub const COLUMNS: [&'static str; 21] = [
         "update",
         "env_steps",
         "wall_time",
@@ -89,10 +99,17 @@ impl UpdateMetrics {
         "mean_q",
         "alpha",
         "learning_rate",
+        "value_mean",
+        "reward_mean",
+        "kl_coef",
     ];
 
+    /// The number of columns of files written before `value_mean`, `reward_mean` and
+    /// `kl_coef` were logged (2026-11-25 and earlier).
+    pub const COLUMNS_V1: usize = 18;
+
     /// The values in [`UpdateMetrics::COLUMNS`] order.
-    pub fn values(&self) -> [f64; 18] {
+    pub fn values(&self) -> [f64; 21] {
         [
             self.update as f64,
             self.env_steps as f64,
@@ -112,6 +129,9 @@ impl UpdateMetrics {
             self.mean_q,
             self.alpha,
             self.learning_rate,
+            self.value_mean,
+            self.reward_mean,
+            self.kl_coef,
         ]
     }
 
@@ -131,7 +151,12 @@ impl UpdateMetrics {
     /// bits: finite numbers are written in Rust's shortest round-trip form); `None` for a
     /// line of another shape.
     pub fn parse_csv_row(line: &str) -> Option<UpdateMetrics> {
-        let cells: Vec<&str> = line.split(',').collect();
+        let mut cells: Vec<&str> = line.split(',').collect();
+        // Files written before `value_mean`, `reward_mean` and `kl_coef` existed have 18
+        // columns; the missing ones read as NaN.
+        if cells.len() == Self::COLUMNS_V1 {
+            cells.extend(["", "", ""]);
+        }
         if cells.len() != Self::COLUMNS.len() {
             return None;
         }
@@ -143,7 +168,7 @@ impl UpdateMetrics {
                 _ => c.parse().ok(),
             }
         };
-        let mut v = [0.0; 18];
+        let mut v = [0.0; 21];
         for (i, c) in cells.iter().enumerate() {
             if !matches!(i, 0 | 1 | 4) {
                 v[i] = float(c)?;
@@ -168,6 +193,9 @@ impl UpdateMetrics {
             mean_q: v[15],
             alpha: v[16],
             learning_rate: v[17],
+            value_mean: v[18],
+            reward_mean: v[19],
+            kl_coef: v[20],
         })
     }
 
@@ -250,7 +278,10 @@ impl MetricsCsv {
     pub fn read(path: &Path) -> std::io::Result<Vec<UpdateMetrics>> {
         let text = std::fs::read_to_string(path)?;
         let mut lines = text.lines();
-        if lines.next() != Some(UpdateMetrics::csv_header().as_str()) {
+        let header = UpdateMetrics::csv_header();
+        // The current header, or the 18 columns of files written before the last three existed.
+        let older = UpdateMetrics::COLUMNS[..UpdateMetrics::COLUMNS_V1].join(",");
+        if !lines.next().is_some_and(|h| h == header || h == older) {
             return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, "not a metrics.csv header"));
         }
         lines
@@ -312,6 +343,11 @@ mod tests {
         let back = UpdateMetrics::parse_csv_row(&odd.csv_row()).unwrap();
         assert_eq!(back.values().map(f64::to_bits), odd.values().map(f64::to_bits));
         assert!(UpdateMetrics::parse_csv_row("3,600").is_none());
+        // A row of the 18-column format reads with the three later columns NaN.
+        let old_row = row.rsplitn(4, ',').nth(3).unwrap();
+        let back = UpdateMetrics::parse_csv_row(old_row).unwrap();
+        assert!(back.value_mean.is_nan() && back.reward_mean.is_nan() && back.kl_coef.is_nan());
+        assert_eq!(back.episode_return_mean, -150.0);
         assert!(UpdateMetrics::parse_csv_row(&row.replace("-150", "x")).is_none());
         w.drain_into(&mut m);
         assert_eq!(m.episodes, 0);

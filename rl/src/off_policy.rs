@@ -183,6 +183,7 @@ pub(crate) fn learn<L: OffPolicyLearner>(
     }
     let mut episodes = EpisodeWindow::default();
     let mut sums = L::Sums::default();
+    let (mut reward_sum, mut reward_steps) = (0.0f64, 0u64);
     let (mut t0, mut steps_at_t0) = (Instant::now(), c.steps_done);
     let mut next_record = (c.steps_done / s.log_interval + 1) * s.log_interval;
     while learner.parts().0.steps_done < total_steps {
@@ -199,6 +200,8 @@ pub(crate) fn learn<L: OffPolicyLearner>(
             c.env_actions[i] = rescale_action(c.actions[i], c.act_space.low[k], c.act_space.high[k]);
         }
         env.step(&c.env_actions[..n * ad], &mut c.step)?;
+        reward_sum += c.step.rewards.iter().sum::<f64>();
+        reward_steps += n as u64;
         for e in &c.step.episodes {
             episodes.push(e.ret, e.length);
         }
@@ -241,6 +244,8 @@ pub(crate) fn learn<L: OffPolicyLearner>(
             m.steps_per_second = (steps - steps_at_t0) as f64 / dt.max(1e-9);
             m.learning_rate = s.learning_rate;
             learner.report(&sums, &mut m);
+            m.reward_mean = reward_sum / reward_steps.max(1) as f64;
+            (reward_sum, reward_steps) = (0.0, 0);
             episodes.drain_into(&mut m);
             sums = L::Sums::default();
             t0 = Instant::now();

@@ -72,6 +72,9 @@ pub(crate) struct Collector {
     final_idx: Vec<usize>,
     /// `V(s)` of the observations after the last step (to bootstrap the rollout's end).
     pub last_values: Vec<f32>,
+    /// Raw environment rewards summed since [`Collector::take_reward_mean`], and their count.
+    reward_sum: f64,
+    reward_steps: u64,
 }
 
 /// The policy input of raw observations: normalised with the running statistics if enabled.
@@ -94,6 +97,8 @@ impl Collector {
             final_obs: vec![0.0; n_envs * obs_dim],
             final_idx: Vec::with_capacity(n_envs),
             last_values: vec![0.0; n_envs],
+            reward_sum: 0.0,
+            reward_steps: 0,
         }
     }
 
@@ -121,6 +126,13 @@ impl Collector {
             }
         }
         Ok(())
+    }
+
+    /// The mean raw environment reward per step since the last call (NaN without a step).
+    pub(crate) fn take_reward_mean(&mut self) -> f64 {
+        let mean = if self.reward_steps == 0 { f64::NAN } else { self.reward_sum / self.reward_steps as f64 };
+        (self.reward_sum, self.reward_steps) = (0.0, 0);
+        mean
     }
 
     /// Collects one rollout of `n_steps × n_envs` transitions into `state.rollout`, and the
@@ -181,6 +193,8 @@ impl Collector {
                 self.rewards.copy_from_slice(&st.rewards);
             }
             self.final_idx.clear();
+            self.reward_sum += st.rewards.iter().sum::<f64>();
+            self.reward_steps += n as u64;
             for i in 0..n {
                 let k = t * n + i;
                 rollout.rewards[k] = self.rewards[i] as f32;

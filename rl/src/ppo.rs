@@ -22,6 +22,7 @@
 //! | observation normalisation, clipped to ±10 | `norm_obs`, `clip_obs` |
 //! | reward scaling by the discounted return's std, clipped to ±10 | `norm_reward`, `clip_reward` |
 //! | approximate-KL tracking, optional early stop at a target KL | `target_kl` |
+//! | adaptive KL penalty (Schulman et al. 2017, section 4), the paper's second variant | `kl_penalty`, `kl_target`, `kl_coef_init` |
 //! | bootstrapping from the final observation on truncation | `bootstrap_truncation` |
 //!
 //! ## The loss
@@ -37,6 +38,18 @@
 //! minimised by Adam on the actor, log-std and critic parameters jointly (one global
 //! gradient norm). `approx_kl = mean[(r − 1) − log r]` (Schulman's k3 estimator);
 //! when it exceeds `target_kl` after an epoch, the remaining epochs are skipped (CleanRL).
+//!
+//! ## The adaptive KL penalty
+//!
+//! With `kl_penalty` the policy loss gains `β · KL[π_old ‖ π_θ]` (eq. 8 of the paper),
+//! estimated per minibatch as `mean[log π_old(a|s) − log π_θ(a|s)]` over the rollout's
+//! actions, which are drawn from `π_old`: its expectation is the KL and its gradient,
+//! `−β · mean[∇ log π_θ(a|s)]`, is an unbiased estimate of the KL's gradient. After each
+//! update `β` adapts to the measured KL `d` (the k3 estimate averaged over the last epoch's
+//! minibatches): `β ← β/2` if `d < kl_target/1.5`, `β ← 2β` if `d > 1.5 · kl_target`. The
+//! paper's variant has no clipping: `kl_penalty = true, clip_policy = false`; with both on,
+//! the penalty is added to the clipped surrogate. `β` is logged as `kl_coef` and kept in
+//! checkpoints.
 
 use std::ops::ControlFlow;
 use std::time::Instant;
@@ -47,7 +60,7 @@ use crate::algorithm::Algorithm;
 use crate::buffer::{RolloutBuffer, gae, n_step_returns};
 use crate::checkpoint::Checkpoint;
 use crate::distributions::{gaussian_entropy, gaussian_log_prob, gaussian_log_prob_grad};
-use crate::error::{RlError, check};
+use crate::error::{RlError, check, check_critic_lr};
 use crate::metrics::{EpisodeWindow, UpdateMetrics};
 use crate::nn::{Activation, Init, Mlp, MlpBuffers};
 use crate::normalizer::{RewardScaler, RunningMeanStd};
@@ -75,6 +88,10 @@ pub struct PpoConfig {
     pub n_epochs: usize,
     /// Adam learning rate, the initial one if annealed (default: 3e-4).
     pub learning_rate: f64,
+    /// The critic's learning rate (the value network, or the value head on a shared
+    /// trunk, which itself learns at `learning_rate`), annealed alike; unset: the same as
+    /// `learning_rate` (default: unset).
+    pub critic_learning_rate: Option<f64>,
     /// Anneal the learning rate linearly to 0 (default: true).
     pub anneal_lr: bool,
     /// Environment steps over which the learning rate anneals; unset means the
@@ -107,6 +124,13 @@ pub struct PpoConfig {
     /// Stop an update's epochs once the approximate KL exceeds this; unset: never
     /// (default: unset).
     pub target_kl: Option<f64>,
+    /// Add the adaptive KL penalty `β · KL[π_old ‖ π_θ]` to the policy loss (see the module
+    /// docs) (default: false).
+    pub kl_penalty: bool,
+    /// The penalty's target KL `d_targ` (default: 0.01).
+    pub kl_target: f64,
+    /// The penalty's initial coefficient `β` (default: 1.0).
+    pub kl_coef_init: f64,
     /// Normalise observations with running statistics (default: true).
     pub norm_obs: bool,
     /// Clip of normalised observations (default: 10.0).
@@ -145,6 +169,7 @@ impl Default for PpoConfig {
             batch_size: 64,
             n_epochs: 10,
             learning_rate: 3e-4,
+            critic_learning_rate: None,
             anneal_lr: true,
             lr_decay_steps: None,
             adam_eps: 1e-5,
@@ -160,6 +185,9 @@ impl Default for PpoConfig {
             clip_grad_norm: true,
             max_grad_norm: 0.5,
             target_kl: None,
+            kl_penalty: false,
+            kl_target: 0.01,
+            kl_coef_init: 1.0,
             norm_obs: true,
             clip_obs: 10.0,
             norm_reward: true,
@@ -213,6 +241,7 @@ impl PpoConfig {
             self.learning_rate,
             "must be positive",
         )?;
+        check_critic_lr(A, self.critic_learning_rate)?;
         check(self.lr_decay_steps != Some(0), A, "lr_decay_steps", self.lr_decay_steps, "must be positive")?;
         check(
             self.adam_eps.is_finite() && self.adam_eps > 0.0,
@@ -245,6 +274,20 @@ impl PpoConfig {
             "target_kl",
             self.target_kl,
             "must be positive",
+        )?;
+        check(
+            self.kl_target.is_finite() && self.kl_target > 0.0,
+            A,
+            "kl_target",
+            self.kl_target,
+            "must be positive",
+        )?;
+        check(
+            self.kl_coef_init.is_finite() && self.kl_coef_init >= 0.0,
+            A,
+            "kl_coef_init",
+            self.kl_coef_init,
+            "must be ≥ 0",
         )?;
         check(self.clip_obs > 0.0, A, "clip_obs", self.clip_obs, "must be positive")?;
         check(self.clip_reward > 0.0, A, "clip_reward", self.clip_reward, "must be positive")?;
@@ -310,6 +353,8 @@ pub struct Ppo {
     actor: Mlp,
     log_std: Vec<f32>,
     log_std_grad: Vec<f32>,
+    /// The KL penalty's coefficient `β` (used with `kl_penalty`).
+    kl_coef: f64,
     /// The value network, or the value head on `trunk`.
     critic: Mlp,
     /// The shared feature trunk when `separate_networks` is off.
@@ -419,6 +464,7 @@ impl Ppo {
             opt_critic: Adam::new(critic.n_params(), eps),
             log_std: vec![config.log_std_init as f32; ad],
             log_std_grad: vec![0.0; ad],
+            kl_coef: config.kl_coef_init,
             actor,
             critic,
             obs_rms: RunningMeanStd::new(od),
@@ -571,6 +617,7 @@ impl Ppo {
             b,
         );
         self.log_std_grad.fill(0.0);
+        let beta = if self.config.kl_penalty { self.kl_coef as f32 } else { 0.0 };
         let (mut pg, mut kl, mut cf) = (0.0f64, 0.0f64, 0.0f64);
         for j in 0..b {
             let (a, mu) = (&w.mb_actions[j * ad..(j + 1) * ad], &mean[j * ad..(j + 1) * ad]);
@@ -582,10 +629,11 @@ impl Ppo {
             // ∂/∂ratio of max(pg1, pg2): −Â where pg1 is active, 0 where the clip is.
             let (loss, d_ratio) =
                 if !self.config.clip_policy || pg1 >= pg2 { (pg1, -adv) } else { (pg2, 0.0) };
-            pg += loss as f64;
+            // The penalty β (log π_old − log π_θ): ∂/∂log π_θ = −β.
+            pg += (loss - beta * log_ratio) as f64;
             kl += ((ratio - 1.0) - log_ratio) as f64;
             cf += ((ratio - 1.0).abs() > clip) as u8 as f64;
-            let d_logp = d_ratio * ratio / b as f32;
+            let d_logp = (d_ratio * ratio - beta) / b as f32;
             gaussian_log_prob_grad(a, mu, &self.log_std, &mut w.d_mu, &mut w.d_ls);
             for i in 0..ad {
                 w.d_mean[j * ad + i] = d_logp * w.d_mu[i];
@@ -666,19 +714,20 @@ impl Ppo {
     }
 
     /// `n_epochs` passes of minibatch gradient steps; fills the loss metrics.
-    fn update(&mut self, lr: f32, m: &mut UpdateMetrics) -> Result<(), RlError> {
+    fn update(&mut self, lr: f32, lr_critic: f32, m: &mut UpdateMetrics) -> Result<(), RlError> {
         let (od, ad) = (self.obs_space.dim(), self.act_space.dim());
         let len = self.rollout.len();
         let bs = self.config.batch_size.min(len);
         let (ent_coef, vf_coef) = (self.config.ent_coef as f32, self.config.vf_coef as f32);
         let (mut pg_sum, mut v_sum, mut kl_sum, mut cf_sum, mut n_mb) =
             (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0u64);
+        let mut last_epoch_kl = 0.0f64;
         'epochs: for _epoch in 0..self.config.n_epochs {
             // A fresh permutation of 0..len each epoch (not a reshuffle of the previous
             // one, so that the order depends only on the RNG state, which checkpoints keep).
             self.work.indices.iter_mut().enumerate().for_each(|(i, k)| *k = i);
             self.rng.shuffle(&mut self.work.indices);
-            let mut epoch_kl = 0.0f64;
+            let (mut epoch_kl, mut epoch_kl_sum, mut epoch_mb) = (0.0f64, 0.0f64, 0u64);
             for start in (0..len).step_by(bs) {
                 let b = bs.min(len - start);
                 let w = &mut self.work;
@@ -713,7 +762,7 @@ impl Ppo {
                 }
                 self.opt_actor.step(&mut self.actor.params, &self.actor.grads, lr);
                 self.opt_log_std.step(&mut self.log_std, &self.log_std_grad, lr);
-                self.opt_critic.step(&mut self.critic.params, &self.critic.grads, lr);
+                self.opt_critic.step(&mut self.critic.params, &self.critic.grads, lr_critic);
                 if let Some(t) = &mut self.trunk {
                     self.opt_trunk.step(&mut t.params, &t.grads, lr);
                 }
@@ -725,9 +774,22 @@ impl Ppo {
                 n_mb += 1;
                 m.entropy = mb.entropy;
                 epoch_kl = mb.approx_kl;
+                epoch_kl_sum += mb.approx_kl;
+                epoch_mb += 1;
             }
+            last_epoch_kl = epoch_kl_sum / epoch_mb.max(1) as f64;
             if self.config.target_kl.is_some_and(|t| epoch_kl > t) {
                 break 'epochs;
+            }
+        }
+        if self.config.kl_penalty {
+            // Section 4's rule, with the KL measured over the last epoch.
+            m.kl_coef = self.kl_coef;
+            let target = self.config.kl_target;
+            if last_epoch_kl < target / 1.5 {
+                self.kl_coef /= 2.0;
+            } else if last_epoch_kl > target * 1.5 {
+                self.kl_coef *= 2.0;
             }
         }
         let n = n_mb.max(1) as f64;
@@ -797,6 +859,9 @@ impl Ppo {
         p.updates = c.get_meta("updates")?;
         p.lr_horizon = c.get_meta("lr_horizon")?;
         p.wall_time = c.get_meta("wall_time")?;
+        if p.config.kl_penalty {
+            p.kl_coef = c.get_meta("kl_coef")?;
+        }
         Ok(p)
     }
 }
@@ -822,16 +887,18 @@ impl Algorithm for Ppo {
         while self.steps_done < total_steps {
             let t0 = Instant::now();
             let steps_before = self.steps_done;
-            let lr = if self.config.anneal_lr {
-                linear_decay(self.config.learning_rate, self.steps_done, horizon)
-            } else {
-                self.config.learning_rate
-            };
+            let (c, done) = (&self.config, self.steps_done);
+            let anneal = |lr0: f64| if c.anneal_lr { linear_decay(lr0, done, horizon) } else { lr0 };
+            let lr = anneal(c.learning_rate);
+            let lr_critic = anneal(c.critic_learning_rate.unwrap_or(c.learning_rate));
             self.collect_rollout(env, &mut episodes)?;
             self.compute_advantages();
             let mut m = UpdateMetrics::empty();
             m.explained_variance = self.explained_variance();
-            self.update(lr as f32, &mut m)?;
+            m.value_mean = self.rollout.values.iter().map(|&v| f64::from(v)).sum::<f64>()
+                / self.rollout.values.len().max(1) as f64;
+            m.reward_mean = self.work.collector.take_reward_mean();
+            self.update(lr as f32, lr_critic as f32, &mut m)?;
             self.updates += 1;
             let dt = t0.elapsed().as_secs_f64();
             self.wall_time += dt;
@@ -872,6 +939,9 @@ impl Algorithm for Ppo {
         c.put_rms("return_rms", &self.reward_scaler.stats);
         c.put_f64("discounted_returns", &self.reward_scaler.returns);
         c.put_rng("rng", &self.rng);
+        if self.config.kl_penalty {
+            c.set_meta("kl_coef", self.kl_coef);
+        }
         self.policy().write_to(&mut c);
         c
     }

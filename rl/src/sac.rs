@@ -29,7 +29,7 @@ use crate::algorithm::Algorithm;
 use crate::buffer::{ReplayBatch, concat_obs_act};
 use crate::checkpoint::Checkpoint;
 use crate::distributions::{squashed_gaussian_backward, squashed_gaussian_sample};
-use crate::error::{RlError, check};
+use crate::error::{RlError, check, check_critic_lr};
 use crate::metrics::UpdateMetrics;
 use crate::nn::{Activation, Init, Mlp, MlpBuffers, polyak};
 use crate::off_policy::{self, Collector, LoopSettings, OffPolicyLearner};
@@ -55,8 +55,10 @@ pub struct SacConfig {
     pub learning_starts: u64,
     /// Minibatch size (default: 256).
     pub batch_size: usize,
-    /// Learning rate of actor, critics and temperature (default: 3e-4).
+    /// Learning rate of the actor and the temperature (default: 3e-4).
     pub learning_rate: f64,
+    /// The critics' (twin Q) learning rate; unset: `learning_rate` (default: unset).
+    pub critic_learning_rate: Option<f64>,
     /// Adam ε (default: 1e-8).
     pub adam_eps: f64,
     /// Polyak coefficient τ (default: 0.005).
@@ -91,6 +93,7 @@ impl Default for SacConfig {
             learning_starts: 100,
             batch_size: 256,
             learning_rate: 3e-4,
+            critic_learning_rate: None,
             adam_eps: 1e-8,
             tau: 0.005,
             gamma: 0.99,
@@ -128,6 +131,7 @@ impl SacConfig {
             self.learning_rate,
             "must be positive",
         )?;
+        check_critic_lr(A, self.critic_learning_rate)?;
         check(
             self.adam_eps.is_finite() && self.adam_eps > 0.0,
             A,
@@ -508,6 +512,7 @@ impl OffPolicyLearner for Sac {
         // Critics: J(Q) = ½ Σ_i mean (Q_i(s, a) − y)².
         concat_obs_act(&w.batch.obs, &w.batch.actions, b, &mut w.q_in);
         let lr = self.config.learning_rate as f32;
+        let lr_q = self.config.critic_learning_rate.unwrap_or(self.config.learning_rate) as f32;
         for i in 0..2 {
             let q = self.q[i].forward(&mut w.q_buf[i], &w.q_in, b);
             let mut loss = 0.0f64;
@@ -521,7 +526,7 @@ impl OffPolicyLearner for Sac {
             }
             sums.q_loss += loss;
             self.q[i].backward(&mut w.q_buf[i], &w.q_in, &w.d_q, b, None);
-            self.opt_q[i].step(&mut self.q[i].params, &self.q[i].grads, lr);
+            self.opt_q[i].step(&mut self.q[i].params, &self.q[i].grads, lr_q);
         }
 
         // Actor: J(π) = mean(α log π(ã|s) − min_i Q_i(s, ã)), with the updated critics.

@@ -31,7 +31,7 @@ use crate::algorithm::Algorithm;
 use crate::buffer::{ReplayBatch, concat_obs_act};
 use crate::checkpoint::Checkpoint;
 use crate::distributions::squashed_gaussian_backward;
-use crate::error::{RlError, check};
+use crate::error::{RlError, check, check_critic_lr};
 use crate::metrics::UpdateMetrics;
 use crate::nn::{Activation, Init, Mlp, MlpBuffers, polyak};
 use crate::off_policy::{self, Collector, LoopSettings, OffPolicyLearner};
@@ -55,8 +55,10 @@ pub struct SacV1Config {
     pub learning_starts: u64,
     /// Minibatch size (default: 256).
     pub batch_size: usize,
-    /// Learning rate of actor, V and Q networks (default: 3e-4).
+    /// Learning rate of the actor (default: 3e-4).
     pub learning_rate: f64,
+    /// The critics' (V and twin Q) learning rate; unset: `learning_rate` (default: unset).
+    pub critic_learning_rate: Option<f64>,
     /// Adam ε (default: 1e-8).
     pub adam_eps: f64,
     /// Polyak coefficient τ (default: 0.005).
@@ -87,6 +89,7 @@ impl Default for SacV1Config {
             learning_starts: 100,
             batch_size: 256,
             learning_rate: 3e-4,
+            critic_learning_rate: None,
             adam_eps: 1e-8,
             tau: 0.005,
             gamma: 0.99,
@@ -122,6 +125,7 @@ impl SacV1Config {
             self.learning_rate,
             "must be positive",
         )?;
+        check_critic_lr(A, self.critic_learning_rate)?;
         check(
             self.adam_eps.is_finite() && self.adam_eps > 0.0,
             A,
@@ -408,8 +412,12 @@ impl OffPolicyLearner for SacV1 {
     fn train_step(&mut self, sums: &mut LossSums) -> Result<(), RlError> {
         let (od, ad, b) =
             (self.collector.obs_space.dim(), self.collector.act_space.dim(), self.config.batch_size);
-        let (gamma, lr, alpha) =
-            (self.config.gamma as f32, self.config.learning_rate as f32, self.config.alpha as f32);
+        let (gamma, lr, lr_q, alpha) = (
+            self.config.gamma as f32,
+            self.config.learning_rate as f32,
+            self.config.critic_learning_rate.unwrap_or(self.config.learning_rate) as f32,
+            self.config.alpha as f32,
+        );
         let w = &mut self.work;
         self.collector.replay.sample(&mut self.rng, &mut w.batch);
 
@@ -477,7 +485,7 @@ impl OffPolicyLearner for SacV1 {
             w.d_q[j] = d / b as f32;
         }
         self.v.backward(&mut w.v_buf, &w.batch.obs, &w.d_q, b, None);
-        self.opt_v.step(&mut self.v.params, &self.v.grads, lr);
+        self.opt_v.step(&mut self.v.params, &self.v.grads, lr_q);
 
         // Critics: y = r + γ(1 − d) V̄(s'), J(Q) = ½ Σ_i mean (Q_i(s, a) − y)².
         let vn = self.v_target.forward(&mut w.v_target_buf, &w.batch.next_obs, b);
@@ -498,7 +506,7 @@ impl OffPolicyLearner for SacV1 {
             }
             sums.q_loss += loss;
             self.q[i].backward(&mut w.q_buf[i], &w.q_in, &w.d_q, b, None);
-            self.opt_q[i].step(&mut self.q[i].params, &self.q[i].grads, lr);
+            self.opt_q[i].step(&mut self.q[i].params, &self.q[i].grads, lr_q);
         }
         if !actor_loss.is_finite() || !sums.q_loss.is_finite() || !v_loss.is_finite() {
             return Err(RlError::Diverged {

@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 use crate::algorithm::Algorithm;
 use crate::buffer::{ReplayBatch, concat_obs_act};
 use crate::checkpoint::Checkpoint;
-use crate::error::{RlError, check};
+use crate::error::{RlError, check, check_critic_lr};
 use crate::metrics::UpdateMetrics;
 use crate::nn::{Activation, Init, Mlp, MlpBuffers, polyak, tanh_fast};
 use crate::off_policy::{self, Collector, LoopSettings, OffPolicyLearner};
@@ -48,8 +48,10 @@ pub struct Td3Config {
     pub learning_starts: u64,
     /// Minibatch size (default: 256).
     pub batch_size: usize,
-    /// Learning rate of actor and critics (default: 1e-3).
+    /// Learning rate of the actor (default: 1e-3).
     pub learning_rate: f64,
+    /// The critics' (twin Q) learning rate; unset: `learning_rate` (default: unset).
+    pub critic_learning_rate: Option<f64>,
     /// Adam ε (default: 1e-8).
     pub adam_eps: f64,
     /// Polyak coefficient τ (default: 0.005).
@@ -84,6 +86,7 @@ impl Default for Td3Config {
             learning_starts: 100,
             batch_size: 256,
             learning_rate: 1e-3,
+            critic_learning_rate: None,
             adam_eps: 1e-8,
             tau: 0.005,
             gamma: 0.99,
@@ -121,6 +124,7 @@ impl Td3Config {
             self.learning_rate,
             "must be positive",
         )?;
+        check_critic_lr(A, self.critic_learning_rate)?;
         check(
             self.adam_eps.is_finite() && self.adam_eps > 0.0,
             A,
@@ -386,7 +390,11 @@ impl OffPolicyLearner for Td3 {
     fn train_step(&mut self, sums: &mut LossSums) -> Result<(), RlError> {
         let (od, ad, b) =
             (self.collector.obs_space.dim(), self.collector.act_space.dim(), self.config.batch_size);
-        let (gamma, lr) = (self.config.gamma as f32, self.config.learning_rate as f32);
+        let (gamma, lr, lr_q) = (
+            self.config.gamma as f32,
+            self.config.learning_rate as f32,
+            self.config.critic_learning_rate.unwrap_or(self.config.learning_rate) as f32,
+        );
         let (sigma, c) = (self.config.target_policy_noise, self.config.target_noise_clip);
         let w = &mut self.work;
         self.collector.replay.sample(&mut self.rng, &mut w.batch);
@@ -421,7 +429,7 @@ impl OffPolicyLearner for Td3 {
             }
             sums.q_loss += loss;
             self.q[i].backward(&mut w.q_buf[i], &w.q_in, &w.d_q, b, None);
-            self.opt_q[i].step(&mut self.q[i].params, &self.q[i].grads, lr);
+            self.opt_q[i].step(&mut self.q[i].params, &self.q[i].grads, lr_q);
         }
         sums.n_q += 1;
         if !sums.q_loss.is_finite() {

@@ -135,6 +135,9 @@ fn resume_equals_uninterrupted(
 #[test]
 fn resumed_training_continues_the_same_learning_curve() {
     resume_equals_uninterrupted(&|e| Box::new(Ppo::for_env(small_ppo(), e).unwrap()), 2, 512, 1024);
+    // The adaptive KL coefficient is state too.
+    let kl = PpoConfig { kl_penalty: true, clip_policy: false, kl_target: 1e-3, ..small_ppo() };
+    resume_equals_uninterrupted(&|e| Box::new(Ppo::for_env(kl.clone(), e).unwrap()), 2, 512, 1024);
     let shared = PpoConfig { separate_networks: false, ..small_ppo() };
     resume_equals_uninterrupted(&|e| Box::new(Ppo::for_env(shared.clone(), e).unwrap()), 2, 512, 1024);
     resume_equals_uninterrupted(&|e| Box::new(Sac::for_env(small_sac(), e).unwrap()), 2, 600, 1200);

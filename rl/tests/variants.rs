@@ -1,0 +1,192 @@
+//! The algorithm variants the studies use: separate critic learning rates (every learner)
+//! and PPO's adaptive KL penalty (Schulman et al. 2017, section 4).
+
+use std::ops::ControlFlow;
+
+use centaur_gym::pendulum::Pendulum;
+use centaur_gym::{Env, VecEnv};
+use centaur_rl::*;
+
+fn pendulums(n: usize) -> VecEnv {
+    VecEnv::new((0..n).map(|_| Box::new(Pendulum::new()) as Box<dyn Env>).collect(), 1).unwrap()
+}
+
+/// Trains to `total` steps; returns the metrics records.
+fn learn(algo: &mut dyn Algorithm, env: &mut VecEnv, total: u64) -> Vec<UpdateMetrics> {
+    let mut rows = Vec::new();
+    algo.learn(env, total, &mut |m| {
+        rows.push(*m);
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    rows
+}
+
+/// A parameter blob of the learner's checkpoint.
+fn blob(algo: &dyn Algorithm, name: &str) -> Vec<f32> {
+    algo.to_checkpoint().f32(name, None).unwrap().to_vec()
+}
+
+fn small_ppo() -> PpoConfig {
+    PpoConfig {
+        seed: 7,
+        n_steps: 128,
+        batch_size: 64,
+        n_epochs: 4,
+        actor_hidden: vec![16, 16],
+        critic_hidden: vec![16, 16],
+        ..PpoConfig::default()
+    }
+}
+
+/// One PPO update with and without a separate critic rate: the critic moves differently,
+/// the actor exactly alike (without global gradient clipping, the policy gradient of one
+/// update does not depend on the critic's parameters: the advantages are computed first).
+/// The same rate given explicitly is the unset default, bit for bit.
+#[test]
+fn ppo_critic_learning_rate_moves_only_the_critic() {
+    let base = PpoConfig { clip_grad_norm: false, ..small_ppo() };
+    let run = |c: PpoConfig| {
+        let mut env = pendulums(2);
+        let mut p = Ppo::for_env(c, &env).unwrap();
+        learn(&mut p, &mut env, 256);
+        p
+    };
+    let same = run(base.clone());
+    let explicit = run(PpoConfig { critic_learning_rate: Some(base.learning_rate), ..base.clone() });
+    let slow = run(PpoConfig { critic_learning_rate: Some(base.learning_rate / 10.0), ..base.clone() });
+    for name in ["actor", "log_std", "critic"] {
+        assert_eq!(blob(&same, name), blob(&explicit, name), "{name}: explicit default differs");
+    }
+    assert_eq!(blob(&same, "actor"), blob(&slow, "actor"));
+    assert_eq!(blob(&same, "log_std"), blob(&slow, "log_std"));
+    assert_ne!(blob(&same, "critic"), blob(&slow, "critic"));
+    // The slower critic moved less from the shared initialisation.
+    let init = {
+        let env = pendulums(2);
+        Ppo::for_env(base.clone(), &env).unwrap()
+    };
+    let moved = |p: &Ppo| {
+        blob(p, "critic")
+            .iter()
+            .zip(blob(&init, "critic"))
+            .map(|(a, b)| f64::from(a - b).powi(2))
+            .sum::<f64>()
+    };
+    assert!(moved(&slow) < moved(&same), "{} vs {}", moved(&slow), moved(&same));
+    assert!(PpoConfig { critic_learning_rate: Some(-1.0), ..base }.validate().is_err());
+}
+
+/// Every other learner: the critic's rate is its own (the default is the shared rate, bit
+/// for bit) and a bad one is refused naming the field.
+#[test]
+fn off_policy_and_a2c_critic_learning_rates() {
+    type Make = dyn Fn(Option<f64>, &VecEnv) -> Result<Box<dyn Algorithm>, RlError>;
+    let small = |h: usize| vec![h, h];
+    // An off-policy learner with small networks and an early start.
+    macro_rules! off_policy {
+        ($learner:ident, $config:ident) => {
+            Box::new(move |lr, e| {
+                let c = $config {
+                    seed: 2,
+                    batch_size: 32,
+                    learning_starts: 100,
+                    log_interval: 100,
+                    actor_hidden: small(16),
+                    critic_hidden: small(16),
+                    critic_learning_rate: lr,
+                    ..$config::default()
+                };
+                Ok(Box::new($learner::for_env(c, e)?) as Box<dyn Algorithm>)
+            })
+        };
+    }
+    let makers: Vec<(&str, &str, Box<Make>)> = vec![
+        ("sac", "q0", off_policy!(Sac, SacConfig)),
+        ("sac_v1", "v", off_policy!(SacV1, SacV1Config)),
+        ("td3", "q0", off_policy!(Td3, Td3Config)),
+        ("ddpg", "q", off_policy!(Ddpg, DdpgConfig)),
+        (
+            "a2c",
+            "critic",
+            Box::new(move |lr, e| {
+                let c = A2cConfig {
+                    seed: 2,
+                    log_interval: 20,
+                    actor_hidden: vec![16],
+                    critic_hidden: vec![16],
+                    critic_learning_rate: lr,
+                    ..A2cConfig::default()
+                };
+                Ok(Box::new(A2c::for_env(c, e)?) as Box<dyn Algorithm>)
+            }),
+        ),
+    ];
+    for (algo, critic, make) in &makers {
+        let run = |lr: Option<f64>| {
+            let mut env = pendulums(1);
+            let mut a = make(lr, &env).unwrap();
+            learn(a.as_mut(), &mut env, 300);
+            a
+        };
+        let default = run(None);
+        let shared = default.to_checkpoint();
+        let rate: f64 =
+            match shared.get_meta::<serde_json::Value>("config").unwrap()["learning_rate"].as_f64() {
+                Some(r) => r,
+                None => panic!("{algo}: no learning_rate in the config"),
+            };
+        let explicit = run(Some(rate));
+        assert_eq!(blob(default.as_ref(), critic), blob(explicit.as_ref(), critic), "{algo}");
+        let other = run(Some(rate * 0.1));
+        assert_ne!(blob(default.as_ref(), critic), blob(other.as_ref(), critic), "{algo}");
+        let e = make(Some(f64::NAN), &pendulums(1)).err().unwrap();
+        assert!(e.to_string().contains("critic_learning_rate"), "{algo}: {e}");
+    }
+}
+
+/// Section 4's rule: β doubles while the measured KL is above 1.5 × the target and halves
+/// while it is below target / 1.5; the coefficient is logged per update.
+#[test]
+fn ppo_kl_coefficient_adapts_to_its_target() {
+    for (target, factor) in [(1e-9, 2.0), (10.0, 0.5)] {
+        let c = PpoConfig { kl_penalty: true, clip_policy: false, kl_target: target, ..small_ppo() };
+        let mut env = pendulums(2);
+        let mut p = Ppo::for_env(c, &env).unwrap();
+        let rows = learn(&mut p, &mut env, 4 * 256);
+        let betas: Vec<f64> = rows.iter().map(|m| m.kl_coef).collect();
+        assert_eq!(betas, [1.0, factor, factor * factor, factor * factor * factor], "target {target}");
+    }
+    // Without the penalty the column is empty.
+    let mut env = pendulums(2);
+    let mut p = Ppo::for_env(small_ppo(), &env).unwrap();
+    assert!(learn(&mut p, &mut env, 256).iter().all(|m| m.kl_coef.is_nan()));
+    for bad in [PpoConfig { kl_target: 0.0, ..small_ppo() }, PpoConfig { kl_coef_init: -1.0, ..small_ppo() }]
+    {
+        assert!(bad.validate().is_err());
+    }
+}
+
+/// The penalty's gradient pulls the new policy towards the old one: with the unclipped
+/// surrogate and many epochs at a high rate, a heavy penalty keeps the update's KL far below
+/// the unpenalised one.
+#[test]
+fn ppo_kl_penalty_restrains_the_update() {
+    let kl = |penalty: bool| {
+        let c = PpoConfig {
+            clip_policy: false,
+            kl_penalty: penalty,
+            kl_coef_init: 30.0,
+            learning_rate: 3e-3,
+            n_epochs: 20,
+            clip_grad_norm: false,
+            anneal_lr: false,
+            ..small_ppo()
+        };
+        let mut env = pendulums(2);
+        let mut p = Ppo::for_env(c, &env).unwrap();
+        learn(&mut p, &mut env, 256)[0].approx_kl
+    };
+    let (free, penalised) = (kl(false), kl(true));
+    assert!(penalised < 0.5 * free, "KL with the penalty {penalised}, without {free}");
+}
