@@ -24,10 +24,11 @@
 //! | `distance_weight`, `energy_weight`, `drift_weight`, `shake_weight`, `distance_limit`, `randomize`, `latency`, `observation_noise_std` | ✓ | | |
 //! | `forward_reward_weight`, `contact_cost_weight`, `healthy_reward`, `terminate_when_unhealthy`, `healthy_z_range`, `healthy_angle_range` | | ✓ | |
 //! | `ctrl_cost_weight`, `reset_noise_scale` | | ✓ | ✓ |
+//! | `observation` (`"full"`, `"hinges_orientation"`, `"hinges"`) | | | ✓ |
 //!
 //! Checkpoints and run records keep the settings (an empty table is the preset).
 
-use centaur_envs::{LocomotionConfig, MinitaurConfig, ModularConfig};
+use centaur_envs::{LocomotionConfig, MinitaurConfig, ModularConfig, ModularObservation};
 use serde::{Deserialize, Serialize};
 
 /// The `[env]` table: each `Some` field replaces the preset's value.
@@ -94,6 +95,10 @@ pub struct EnvSettings {
     /// Gymnasium and modular robots: reset noise scale.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reset_noise_scale: Option<f64>,
+    /// Modular robots: the observation set, `"full"`, `"hinges_orientation"` or `"hinges"`
+    /// (the observation ablation; [`ModularObservation`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub observation: Option<ModularObservation>,
 }
 
 /// A key of `[env]` that the environment does not have.
@@ -129,7 +134,7 @@ const LOCOMOTION: [&str; 8] = [
     "healthy_angle_range",
     "reset_noise_scale",
 ];
-const MODULAR: [&str; 2] = ["ctrl_cost_weight", "reset_noise_scale"];
+const MODULAR: [&str; 3] = ["ctrl_cost_weight", "reset_noise_scale", "observation"];
 
 impl EnvSettings {
     /// Whether no setting is given (the preset as it is).
@@ -161,6 +166,7 @@ impl EnvSettings {
             ("healthy_z_range", s.healthy_z_range.is_some()),
             ("healthy_angle_range", s.healthy_angle_range.is_some()),
             ("reset_noise_scale", s.reset_noise_scale.is_some()),
+            ("observation", s.observation.is_some()),
         ];
         flags.into_iter().filter(|(_, given)| *given).map(|(k, _)| k).collect()
     }
@@ -234,6 +240,7 @@ impl EnvSettings {
         set(&mut c.obs.drop_base_orientation, s.drop_base_orientation);
         set(&mut c.ctrl_cost_weight, s.ctrl_cost_weight);
         set(&mut c.reset_noise_scale, s.reset_noise_scale);
+        set(&mut c.observation, s.observation);
         Ok(c)
     }
 }
@@ -284,6 +291,15 @@ mod tests {
         assert!(split_run_toml("[env]\nhealthy_rewrd = 5.0\n").unwrap_err().contains("healthy_rewrd"));
         assert!(split_run_toml("[env]\nmax_episode_steps = -3\n").is_err());
         assert_eq!(split_run_toml("gamma = 0.9\n").unwrap(), (EnvSettings::default(), None));
+        // The modular observation ablation: a set by name, refused on other robots.
+        let (s, _) =
+            split_run_toml("[env]\nobservation = \"hinges_orientation\"\njoint_history = 2\n").unwrap();
+        let gecko = s.modular(ModularConfig::gecko()).unwrap();
+        assert_eq!((gecko.observation, gecko.obs.joint_history), (ModularObservation::HingesOrientation, 2));
+        assert_eq!(s.locomotion(LocomotionConfig::ant()).unwrap_err().key, "observation");
+        assert!(split_run_toml("[env]\nobservation = \"velocities\"\n").unwrap_err().contains("velocities"));
+        let json = serde_json::to_string(&s).unwrap();
+        assert_eq!(serde_json::from_str::<EnvSettings>(&json).unwrap(), s);
         // The settings travel through JSON (run records, checkpoints) unchanged.
         let json = serde_json::to_string(&s).unwrap();
         assert_eq!(serde_json::from_str::<EnvSettings>(&json).unwrap(), s);

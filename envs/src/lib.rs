@@ -17,7 +17,8 @@ pub use error::RobotEnvError;
 pub use locomotion::{LocomotionConfig, LocomotionEnv, LocomotionRobot};
 pub use minitaur::{MinitaurConfig, MinitaurEnv};
 pub use modular::{
-    Body, Face, ModularConfig, ModularEnv, ModularError, ModularReward, ModuleId, ModuleKind, ModuleSpecs,
+    Body, Face, ModularConfig, ModularEnv, ModularError, ModularObservation, ModularReward, ModuleId,
+    ModuleKind, ModuleSpecs,
 };
 pub use robot::{FootContact, JointTarget, ObsOptions, RobotEnv};
 pub use sim::{ColliderSpec, LoopClosure, Sim, SimConfig, SimError};

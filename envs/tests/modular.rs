@@ -4,7 +4,8 @@
 use centaur_dynamics::nalgebra::Vector3;
 use centaur_dynamics::{Data, JointKind, Model, forward_kinematics};
 use centaur_envs::modular::{
-    Body, Face, ModularConfig, ModularEnv, ModularError, ModularReward, ModuleKind, ModuleSpecs,
+    Body, Face, ModularConfig, ModularEnv, ModularError, ModularObservation, ModularReward, ModuleKind,
+    ModuleSpecs,
 };
 use centaur_envs::{ObsOptions, RobotEnv};
 use centaur_gym::{Env, EnvError, Rng};
@@ -433,4 +434,42 @@ fn bodies_read_back_from_json_and_bad_documents_are_refused() {
         .unwrap();
     let snake = Body::from_json(&snake).unwrap();
     assert_eq!((snake.num_modules(), snake.hinges().len()), (9, 4));
+}
+
+/// The observation sets of the modular PPO study's ablation: each holds exactly its groups,
+/// in the full observation's order, and the history composes with them.
+#[test]
+fn observation_sets_of_the_ablation() {
+    let (mut full_env, mut full) = env(ModularConfig::gecko());
+    full_env.reset(Some(4), &mut full).unwrap();
+    full_env.step(&[0.3; 6], &mut full).unwrap();
+    // Full: height (1), quaternion (4), 6 hinge angles, 6 base velocities, 6 hinge rates.
+    let (quat, hinges) = (full[1..5].to_vec(), full[5..11].to_vec());
+    for (set, history, expected) in [
+        (ModularObservation::HingesOrientation, 0, [&quat[..], &hinges[..]].concat()),
+        (ModularObservation::Hinges, 0, hinges.clone()),
+    ] {
+        let mut c = ModularConfig::gecko();
+        c.observation = set;
+        c.obs.joint_history = history;
+        let (mut e, mut obs) = env(c);
+        assert_eq!(obs.len(), set.dim(6));
+        e.reset(Some(4), &mut obs).unwrap();
+        e.step(&[0.3; 6], &mut obs).unwrap();
+        // The same seed and action: the same state, fewer entries.
+        assert_eq!(obs, expected, "{set:?}");
+    }
+    // "The last 3 hinge positions + orientation": the set with three steps of history.
+    let mut c = ModularConfig::gecko();
+    c.observation = ModularObservation::HingesOrientation;
+    c.obs.joint_history = 3;
+    let (mut e, mut obs) = env(c.clone());
+    assert_eq!(obs.len(), 4 + 6 + 3 * 6);
+    e.reset(Some(4), &mut obs).unwrap();
+    e.step(&[0.3; 6], &mut obs).unwrap();
+    assert_eq!(&obs[4..10], &obs[obs.len() - 6..], "the newest history slot is the current angles");
+    // Dropping an orientation the set does not hold is refused.
+    c.observation = ModularObservation::Hinges;
+    c.obs.drop_base_orientation = true;
+    assert!(ModularEnv::new(c).is_err());
 }

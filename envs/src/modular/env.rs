@@ -22,6 +22,40 @@ pub enum ModularReward {
     ForwardX,
 }
 
+/// Which groups of entries the observation holds: the observation ablation of the PPO study
+/// on modular robots (hinge positions only; plus the core's orientation; plus velocities).
+/// Its third set, "the last 3 hinge positions + orientation", is
+/// [`ModularObservation::HingesOrientation`] with `obs.joint_history = 3` (the history holds
+/// the angles of the last three control steps, the newest of which repeats the current ones).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ModularObservation {
+    /// The core's height and orientation, the hinge angles, the core's velocities and the
+    /// hinge velocities: `11 + 2n` entries (default).
+    #[default]
+    Full,
+    /// The core's orientation quaternion and the hinge angles: `4 + n` entries.
+    HingesOrientation,
+    /// The hinge angles alone: `n` entries.
+    Hinges,
+}
+
+impl ModularObservation {
+    /// The number of entries for `n` hinges, before the shared options.
+    pub fn dim(self, n: usize) -> usize {
+        match self {
+            ModularObservation::Full => 11 + 2 * n,
+            ModularObservation::HingesOrientation => 4 + n,
+            ModularObservation::Hinges => n,
+        }
+    }
+
+    /// Whether the set holds the core's orientation.
+    pub fn has_orientation(self) -> bool {
+        !matches!(self, ModularObservation::Hinges)
+    }
+}
+
 /// Configuration of a [`ModularEnv`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct ModularConfig {
@@ -41,6 +75,8 @@ pub struct ModularConfig {
     pub reset_noise_scale: f64,
     /// Physics settings (default: 5 ms steps, 8 PGS iterations).
     pub sim: SimConfig,
+    /// Which entries the observation holds (default: all of them).
+    pub observation: ModularObservation,
     /// Observation options.
     pub obs: ObsOptions,
 }
@@ -57,6 +93,7 @@ impl ModularConfig {
             ctrl_cost_weight: 0.0,
             reset_noise_scale: 0.05,
             sim: SimConfig { dt: 0.005, ..SimConfig::default() },
+            observation: ModularObservation::Full,
             obs: ObsOptions::default(),
         }
     }
@@ -101,6 +138,12 @@ impl ModularConfig {
                 "reset_noise_scale must be finite and non-negative, ctrl_cost_weight finite",
             ));
         }
+        if self.obs.drop_base_orientation && !self.observation.has_orientation() {
+            return Err(RobotEnvError::config(
+                "ModularConfig",
+                "drop_base_orientation asks to remove an orientation the `hinges` observation does not hold",
+            ));
+        }
         if self.body.hinges().is_empty() {
             return Err(RobotEnvError::config("ModularConfig", "the body has no active hinge to drive"));
         }
@@ -112,8 +155,9 @@ impl ModularConfig {
 ///
 /// Observation (`11 + 2n` entries for `n` hinges, before the shared options): the core's
 /// height, its orientation quaternion `(x, y, z, w)`, the hinge angles, the core's linear
-/// and angular velocity (world axes), the hinge velocities. [`ObsOptions`] drops the
-/// quaternion or appends past hinge angles. Actions outside `[−1, 1]` are clipped.
+/// and angular velocity (world axes), the hinge velocities; [`ModularObservation`] keeps
+/// fewer groups. [`ObsOptions`] drops the quaternion or appends past hinge angles. Actions
+/// outside `[−1, 1]` are clipped.
 pub struct ModularEnv {
     config: ModularConfig,
     model: Model,
@@ -158,8 +202,8 @@ impl ModularEnv {
             })
             .collect::<Result<Vec<usize>, RobotEnvError>>()?;
         let n = actuated.len();
-        let obs_dim =
-            11 + 2 * n - if config.obs.drop_base_orientation { 4 } else { 0 } + n * config.obs.joint_history;
+        let obs_dim = config.observation.dim(n) - if config.obs.drop_base_orientation { 4 } else { 0 }
+            + n * config.obs.joint_history;
         let sim = build_sim(&model, &config)?;
         Ok(ModularEnv {
             obs_space: BoxSpace::unbounded(obs_dim),
@@ -217,8 +261,11 @@ impl ModularEnv {
             obs[k] = x as f32;
             k += 1;
         };
-        put(s.q[2]);
-        if !self.config.obs.drop_base_orientation {
+        let set = self.config.observation;
+        if set == ModularObservation::Full {
+            put(s.q[2]);
+        }
+        if set.has_orientation() && !self.config.obs.drop_base_orientation {
             for i in 3..7 {
                 put(s.q[i]);
             }
@@ -226,12 +273,14 @@ impl ModularEnv {
         for &j in &self.actuated {
             put(s.q[self.model.joints[j].idx_q]);
         }
-        let (lin, ang) = (s.base_linear_velocity_world(), s.base_angular_velocity_world());
-        for x in lin.iter().chain(ang.iter()) {
-            put(*x);
-        }
-        for &j in &self.actuated {
-            put(s.v[self.model.joints[j].idx_v]);
+        if set == ModularObservation::Full {
+            let (lin, ang) = (s.base_linear_velocity_world(), s.base_angular_velocity_world());
+            for x in lin.iter().chain(ang.iter()) {
+                put(*x);
+            }
+            for &j in &self.actuated {
+                put(s.v[self.model.joints[j].idx_v]);
+            }
         }
         if self.config.obs.joint_history > 0 {
             for (h, &j) in self.joint_scratch.iter_mut().zip(&self.actuated) {

@@ -58,4 +58,4 @@ mod env;
 mod json;
 
 pub use body::{Body, Face, ModularError, ModuleId, ModuleKind, ModuleSpecs};
-pub use env::{ModularConfig, ModularEnv, ModularReward, servo_torque};
+pub use env::{ModularConfig, ModularEnv, ModularObservation, ModularReward, servo_torque};
