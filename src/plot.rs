@@ -84,7 +84,6 @@ const PALETTE: [RGBColor; 6] = [
 /// Writes the curves to `path` (`.svg` or `.png`, 1000 × 600 pixels).
 pub fn plot_curves(path: &Path, labels: &PlotLabels, series: &[Series]) -> Result<(), PlotError> {
     register_font();
-    let (w, h) = (1000u32, 600u32);
     let finite = |v: &f64| v.is_finite();
     let xs: Vec<f64> = series.iter().flat_map(|s| s.x.iter().copied()).filter(finite).collect();
     let ys: Vec<f64> = series
@@ -95,23 +94,85 @@ pub fn plot_curves(path: &Path, labels: &PlotLabels, series: &[Series]) -> Resul
     if xs.is_empty() || ys.is_empty() {
         return Err(PlotError::Empty { path: path.to_path_buf() });
     }
-    let (x0, x1) = min_max(&xs);
-    let (y0, y1) = min_max(&ys);
-    let pad = ((y1 - y0) * 0.05).max(1e-9);
-    let range = (x0, if x1 > x0 { x1 } else { x0 + 1.0 }, y0 - pad, y1 + pad);
+    let range = ranges(&xs, &ys);
+    render(path, (1000, 600), &Figure::Curves { labels, series, range })
+}
+
+/// One small chart of [`plot_panels`]: a titled curve.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Panel {
+    /// Title (the metric's name).
+    pub title: String,
+    /// `(x, y)` points; non-finite ones are skipped.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// Writes `panels` as a grid of small charts (three per row, 420 × 260 pixels each) with a
+/// common x-axis title; panels without a finite point are left out.
+pub fn plot_panels(path: &Path, title: &str, x: &str, panels: &[Panel]) -> Result<(), PlotError> {
+    register_font();
+    let drawn: Vec<&Panel> =
+        panels.iter().filter(|p| p.points.iter().any(|(x, y)| x.is_finite() && y.is_finite())).collect();
+    if drawn.is_empty() {
+        return Err(PlotError::Empty { path: path.to_path_buf() });
+    }
+    let rows = drawn.len().div_ceil(3);
+    render(path, (1260, 40 + 260 * rows as u32), &Figure::Panels { title, x, panels: &drawn })
+}
+
+/// The drawing range of the finite `xs` and `ys` (non-empty), with 5 % room on y.
+fn ranges(xs: &[f64], ys: &[f64]) -> (f64, f64, f64, f64) {
+    let (x0, x1) = min_max(xs);
+    let (y0, y1) = min_max(ys);
+    let pad = ((y1 - y0).abs() * 0.05).max(1e-9);
+    (x0, if x1 > x0 { x1 } else { x0 + 1.0 }, y0 - pad, y1 + pad)
+}
+
+/// What a file shows.
+enum Figure<'a> {
+    Curves { labels: &'a PlotLabels, series: &'a [Series], range: (f64, f64, f64, f64) },
+    Panels { title: &'a str, x: &'a str, panels: &'a [&'a Panel] },
+}
+
+fn paint<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    figure: &Figure<'_>,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    match figure {
+        Figure::Curves { labels, series, range } => draw(root, labels, series, *range),
+        Figure::Panels { title, x, panels } => {
+            root.fill(&WHITE)?;
+            let body = root.titled(title, ("sans-serif", 22))?;
+            let rows = panels.len().div_ceil(3);
+            for (area, panel) in body.split_evenly((rows, 3)).iter().zip(panels.iter()) {
+                let pts: Vec<(f64, f64)> =
+                    panel.points.iter().copied().filter(|(x, y)| x.is_finite() && y.is_finite()).collect();
+                let (xs, ys): (Vec<f64>, Vec<f64>) = pts.iter().copied().unzip();
+                let labels = PlotLabels { title: panel.title.clone(), x: x.to_string(), y: String::new() };
+                let series =
+                    Series { label: String::new(), x: xs.clone(), y: ys.clone(), lower: None, upper: None };
+                draw_small(area, &labels, &series, ranges(&xs, &ys))?;
+            }
+            Ok(())
+        }
+    }
+}
+
+/// Renders `figure` to `path` (`.svg` or `.png`) at `size` pixels.
+fn render(path: &Path, (w, h): (u32, u32), figure: &Figure<'_>) -> Result<(), PlotError> {
     let err =
         |e: &dyn std::fmt::Display| PlotError::Backend { path: path.to_path_buf(), message: e.to_string() };
     match path.extension().and_then(|e| e.to_str()) {
         Some("svg") => {
             let root = SVGBackend::new(path, (w, h)).into_drawing_area();
-            draw(&root, labels, series, range).map_err(|e| err(&e))?;
+            paint(&root, figure).map_err(|e| err(&e))?;
             root.present().map_err(|e| err(&e))?;
         }
         Some("png") => {
             let mut buf = vec![0u8; (w * h * 3) as usize];
             {
                 let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-                draw(&root, labels, series, range).map_err(|e| err(&e))?;
+                paint(&root, figure).map_err(|e| err(&e))?;
                 root.present().map_err(|e| err(&e))?;
             }
             let file = std::fs::File::create(path).map_err(|e| err(&e))?;
@@ -124,6 +185,37 @@ pub fn plot_curves(path: &Path, labels: &PlotLabels, series: &[Series]) -> Resul
         }
         _ => return Err(PlotError::Format { path: path.to_path_buf() }),
     }
+    Ok(())
+}
+
+/// One small chart: its title, axes with few ticks, the curve.
+fn draw_small<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    labels: &PlotLabels,
+    s: &Series,
+    (x0, x1, y0, y1): (f64, f64, f64, f64),
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let mut chart = ChartBuilder::on(area)
+        .caption(&labels.title, ("sans-serif", 15))
+        .margin(8)
+        .x_label_area_size(30)
+        .y_label_area_size(55)
+        .build_cartesian_2d(x0..x1, y0..y1)?;
+    let (x_dec, y_dec) = (decimals(x1 - x0), decimals(y1 - y0));
+    let fx = move |v: &f64| format!("{v:.x_dec$}");
+    // Small quantities (learning rates, KL) in scientific notation.
+    let small = (y1 - y0).abs() < 1e-2;
+    let fy = move |v: &f64| if small { format!("{v:.2e}") } else { format!("{v:.y_dec$}") };
+    chart
+        .configure_mesh()
+        .x_labels(4)
+        .y_labels(5)
+        .x_label_formatter(&fx)
+        .y_label_formatter(&fy)
+        .label_style(("sans-serif", 11))
+        .draw()?;
+    let line: Vec<(f64, f64)> = s.x.iter().copied().zip(s.y.iter().copied()).collect();
+    chart.draw_series(LineSeries::new(line, PALETTE[0].stroke_width(2)))?;
     Ok(())
 }
 

@@ -12,6 +12,8 @@
 //! envs = 1                  # optional: environments per run (default 1)
 //! eval_episodes = 10        # optional (default 10)
 //! checkpoint_every = 100000 # optional (default: `centaur train`'s)
+//! eval_every = 100000       # optional: deterministic evaluations during training
+//!                           # (a multiple of checkpoint_every; evaluations.csv per run)
 //!
 //! [base]                    # optional: run-file keys shared by every point
 //! n_steps = 2048
@@ -25,6 +27,9 @@
 //! # …or, instead of [grid], a list of points:
 //! # [[points]]
 //! # learning_rate = 3e-4
+//!
+//! [judges.no_penalty]       # optional: every final policy is also evaluated on the env
+//! ctrl_cost_weight = 0.0    # with these [env] settings (in place of the run's)
 //! ```
 //!
 //! ## The output directory
@@ -34,7 +39,9 @@
 //! | `sweep.toml` | the grid file as given (a rerun with another grid is refused) |
 //! | `pNNN/config.toml` | the point's run file (base + its values) |
 //! | `pNNN/seed_K/` | a `centaur train` run directory |
-//! | `sweep.json` | per point: its values, every seed's final return, IQM with 95 % CI, mean and std |
+//! | `judges/NAME.toml` | a judge's `[env]` table |
+//! | `pNNN/seed_K/judge_NAME.json` | the run's final policy evaluated by judge `NAME` (`centaur eval`'s `eval.json`) |
+//! | `sweep.json` | per point: its values, every seed's final return, IQM with 95 % CI, mean and std; per judge the same statistics of the judged returns |
 //! | `sweep_curves.png`, `.svg` | the training return per point: mean over seeds ± one std |
 //!
 //! A rerun of the same grid keeps every finished run (its `summary.json`), resumes every
@@ -49,9 +56,11 @@ use centaur_rl::{AlgoKind, MetricsCsv};
 use serde::{Deserialize, Serialize};
 
 use crate::compare::band;
+use crate::eval::{EvalOptions, run_eval};
 use crate::plot::{PlotError, PlotLabels, plot_curves};
 use crate::registry::EnvSource;
 use crate::rundir::write_atomic;
+use crate::settings::split_run_toml;
 use crate::stats::{Interval, iqm_with_ci};
 use crate::train::{
     DEFAULT_CHECKPOINT_EVERY, Summary, TrainError, TrainOptions, parse_run_config, read_config_file, resume,
@@ -80,6 +89,12 @@ pub struct Grid {
     /// Checkpoint period of each run (steps).
     #[serde(default)]
     pub checkpoint_every: Option<u64>,
+    /// Steps between deterministic evaluations of each run (0: only the final one).
+    #[serde(default)]
+    pub eval_every: u64,
+    /// Judges: named `[env]` tables; every final policy is evaluated on its env with each.
+    #[serde(default)]
+    pub judges: BTreeMap<String, toml::Table>,
     /// Run-file keys shared by every point.
     #[serde(default)]
     pub base: toml::Table,
@@ -142,6 +157,24 @@ pub struct PointSummary {
     pub return_mean: f64,
     /// Standard deviation over seeds.
     pub return_std: f64,
+    /// Per judge: every seed's judged return and their statistics.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub judged: BTreeMap<String, Judged>,
+}
+
+/// The final policies of a point's seeds, evaluated by one judge.
+#[derive(Clone, Debug, Serialize)]
+pub struct Judged {
+    /// Every seed's mean return, seed order.
+    pub returns: Vec<f64>,
+    /// Interquartile mean over seeds.
+    pub return_iqm: f64,
+    /// Its 95 % stratified-bootstrap confidence interval.
+    pub return_iqm_ci95: Option<Interval>,
+    /// Episodes that ended by a fall, over all seeds.
+    pub falls: usize,
+    /// Episodes, over all seeds.
+    pub episodes: usize,
 }
 
 /// The `sweep.json` record.
@@ -188,6 +221,18 @@ pub enum SweepError {
         seed: u64,
         /// The failure.
         source: TrainError,
+    },
+    /// A judge's evaluation of a run failed.
+    #[error("{point} seed {seed}, judge {judge}: {message}")]
+    Judge {
+        /// The point.
+        point: String,
+        /// The seed.
+        seed: u64,
+        /// The judge.
+        judge: String,
+        /// The failure.
+        message: String,
     },
     /// Files.
     #[error(transparent)]
@@ -268,35 +313,81 @@ pub fn points(grid: &Grid) -> Result<Vec<Point>, String> {
         .collect()
 }
 
+/// A grid file read and checked: every point's run file and every judge's `[env]` table
+/// fit the environment, the algorithm exists, the evaluation period fits the checkpoints.
+pub struct CheckedGrid {
+    /// The file's text.
+    pub text: String,
+    /// The grid.
+    pub grid: Grid,
+    /// Its algorithm.
+    pub kind: AlgoKind,
+    /// Its points.
+    pub points: Vec<Point>,
+    /// Each point's run file (TOML).
+    pub texts: Vec<String>,
+    /// Each judge's name and run file (an `[env]` table).
+    pub judge_files: Vec<(String, String)>,
+    /// The runs' checkpoint period.
+    pub checkpoint_every: u64,
+}
+
+/// Reads and checks the grid file at `path` without running anything (`centaur sweep
+/// --check`; [`run_sweep`] starts with it).
+pub fn check_grid(path: &Path) -> Result<CheckedGrid, SweepError> {
+    let grid_err = |message: String| SweepError::Grid { path: path.to_path_buf(), message };
+    let text = read_config_file(path)?;
+    let grid: Grid = toml::from_str(&text).map_err(|e| grid_err(e.to_string()))?;
+    let kind =
+        AlgoKind::from_name(&grid.algo).ok_or_else(|| grid_err(format!("unknown algo `{}`", grid.algo)))?;
+    let points = points(&grid).map_err(grid_err)?;
+    // Every point's settings are checked before anything runs.
+    let source = EnvSource::read(&grid.env).map_err(TrainError::from)?;
+    let texts: Vec<String> = points.iter().map(|p| toml::to_string(&p.config).unwrap_or_default()).collect();
+    for (p, t) in points.iter().zip(&texts) {
+        let point_err = |e: &dyn std::fmt::Display| grid_err(format!("{} ({:?}): {e}", p.name, p.values));
+        let (config, settings) = parse_run_config(kind, t, Path::new(&p.name)).map_err(|e| point_err(&e))?;
+        config.validate().map_err(|e| point_err(&e))?;
+        source.clone().with_settings(settings).map_err(|e| point_err(&e))?;
+    }
+    let checkpoint_every = grid.checkpoint_every.unwrap_or(DEFAULT_CHECKPOINT_EVERY);
+    if grid.eval_every > 0 && (checkpoint_every == 0 || !grid.eval_every.is_multiple_of(checkpoint_every)) {
+        return Err(grid_err(format!(
+            "eval_every {} must be a multiple of checkpoint_every {checkpoint_every}",
+            grid.eval_every
+        )));
+    }
+    let mut judge_files = Vec::new();
+    for (name, table) in &grid.judges {
+        let ok_name =
+            !name.is_empty() && name.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-');
+        if !ok_name {
+            return Err(grid_err(format!("judge `{name}`: names are letters, digits, `_` and `-`")));
+        }
+        let env = toml::Table::from_iter([("env".to_string(), toml::Value::Table(table.clone()))]);
+        let text = toml::to_string(&env).unwrap_or_default();
+        let (settings, _) = split_run_toml(&text).map_err(|e| grid_err(format!("judge `{name}`: {e}")))?;
+        source.clone().with_settings(settings).map_err(|e| grid_err(format!("judge `{name}`: {e}")))?;
+        judge_files.push((name.clone(), text));
+    }
+    Ok(CheckedGrid { text, grid, kind, points, texts, judge_files, checkpoint_every })
+}
+
 /// Runs (or resumes) the sweep; `report` sees each run as it finishes (point, seed, summary).
 pub fn run_sweep(
     opts: &SweepOptions,
     report: &(dyn Fn(&str, u64, &Summary) + Sync),
 ) -> Result<SweepSummary, SweepError> {
     let grid_err = |message: String| SweepError::Grid { path: opts.grid.clone(), message };
-    let text = read_config_file(&opts.grid)?;
-    let grid: Grid = toml::from_str(&text).map_err(|e| grid_err(e.to_string()))?;
-    let kind =
-        AlgoKind::from_name(&grid.algo).ok_or_else(|| grid_err(format!("unknown algo `{}`", grid.algo)))?;
     if opts.seeds == 0 || opts.jobs == 0 {
         return Err(grid_err("--seeds and --jobs must be at least 1".into()));
     }
-    let points = points(&grid).map_err(grid_err)?;
+    let CheckedGrid { text, grid, kind, points, texts, judge_files, checkpoint_every } =
+        check_grid(&opts.grid)?;
     let runs = points.len().checked_mul(opts.seeds as usize).filter(|&n| n <= MAX_RUNS);
     let runs = runs.ok_or_else(|| {
         grid_err(format!("{} points × {} seeds exceed {MAX_RUNS} runs", points.len(), opts.seeds))
     })?;
-    // Every point's settings are checked before anything runs.
-    let source = EnvSource::read(&grid.env).map_err(TrainError::from)?;
-    let texts: Vec<String> = points.iter().map(|p| toml::to_string(&p.config).unwrap_or_default()).collect();
-    for (p, t) in points.iter().zip(&texts) {
-        let (_, settings) = parse_run_config(kind, t, Path::new(&p.name))
-            .map_err(|e| grid_err(format!("{} ({:?}): {e}", p.name, p.values)))?;
-        source
-            .clone()
-            .with_settings(settings)
-            .map_err(|e| grid_err(format!("{} ({:?}): {e}", p.name, p.values)))?;
-    }
     // The directory: this grid's sweep, or a new one.
     let recorded = opts.out.join("sweep.toml");
     if let Ok(previous) = std::fs::read_to_string(&recorded)
@@ -313,6 +404,14 @@ pub fn run_sweep(
     };
     std::fs::create_dir_all(&opts.out).map_err(io(&opts.out))?;
     write_atomic(&recorded, &text).map_err(io(&recorded))?;
+    if !judge_files.is_empty() {
+        let judges = opts.out.join("judges");
+        std::fs::create_dir_all(&judges).map_err(io(&judges))?;
+        for (name, text) in &judge_files {
+            let path = judges.join(format!("{name}.toml"));
+            write_atomic(&path, text).map_err(io(&path))?;
+        }
+    }
     let mut tasks = Vec::with_capacity(runs);
     for (p, t) in points.iter().zip(&texts) {
         let dir = opts.out.join(&p.name);
@@ -324,9 +423,11 @@ pub fn run_sweep(
                 .map(|seed| (p.name.clone(), seed, config.clone(), dir.join(format!("seed_{seed}")))),
         );
     }
-    // Finished runs are kept as they are.
+    let judges_dir = opts.out.join("judges");
+    let judged = |dir: &Path| grid.judges.keys().all(|name| dir.join(format!("judge_{name}.json")).exists());
+    // Finished (and judged) runs are kept as they are.
     let before = tasks.len();
-    tasks.retain(|(_, _, _, dir)| !dir.join("summary.json").exists());
+    tasks.retain(|(_, _, _, dir)| !dir.join("summary.json").exists() || !judged(dir));
     let kept = before - tasks.len();
 
     let next = AtomicUsize::new(0);
@@ -346,10 +447,37 @@ pub fn run_sweep(
             threads: 1,
             n_envs: grid.envs,
             eval_episodes: grid.eval_episodes,
-            checkpoint_every: grid.checkpoint_every.unwrap_or(DEFAULT_CHECKPOINT_EVERY),
+            checkpoint_every,
+            eval_every: grid.eval_every,
             overwrite: false,
         };
         train(&opts, &mut |_| {})
+    };
+    let run_and_judge = |task: &(String, u64, PathBuf, PathBuf)| -> Result<Summary, SweepError> {
+        let run = |source| SweepError::Run { point: task.0.clone(), seed: task.1, source };
+        let summary = run_one(task).map_err(run)?;
+        for name in grid.judges.keys() {
+            let out = task.3.join(format!("judge_{name}.json"));
+            if out.exists() {
+                continue;
+            }
+            let eval = EvalOptions {
+                checkpoint: task.3.clone(),
+                config: Some(judges_dir.join(format!("{name}.toml"))),
+                env: None,
+                episodes: grid.eval_episodes.max(10),
+                seed: 1_000_000 + task.1,
+                record: None,
+                out: Some(out),
+            };
+            run_eval(&eval).map_err(|e| SweepError::Judge {
+                point: task.0.clone(),
+                seed: task.1,
+                judge: name.clone(),
+                message: e.to_string(),
+            })?;
+        }
+        Ok(summary)
     };
     std::thread::scope(|s| {
         for _ in 0..opts.jobs.min(tasks.len()) {
@@ -357,12 +485,12 @@ pub fn run_sweep(
                 while !stop.load(Ordering::Relaxed) {
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     let Some(task) = tasks.get(i) else { break };
-                    match run_one(task) {
+                    match run_and_judge(task) {
                         Ok(summary) => report(&task.0, task.1, &summary),
-                        Err(source) => {
+                        Err(e) => {
                             stop.store(true, Ordering::Relaxed);
                             let mut f = failure.lock().unwrap_or_else(|e| e.into_inner());
-                            f.get_or_insert(SweepError::Run { point: task.0.clone(), seed: task.1, source });
+                            f.get_or_insert(e);
                         }
                     }
                 }
@@ -377,8 +505,8 @@ pub fn run_sweep(
     Ok(summary)
 }
 
-/// Removes a sweep's files from `dir`: `sweep.*`, `sweep_curves.*` and the `pNNN` point
-/// directories (nothing else).
+/// Removes a sweep's files from `dir`: `sweep.*`, `sweep_curves.*`, `judges/` and the
+/// `pNNN` point directories (nothing else).
 fn remove_sweep(dir: &Path) -> Result<(), (PathBuf, std::io::Error)> {
     let entries = std::fs::read_dir(dir).map_err(|e| (dir.to_path_buf(), e))?;
     for entry in entries {
@@ -386,7 +514,7 @@ fn remove_sweep(dir: &Path) -> Result<(), (PathBuf, std::io::Error)> {
         let name = entry.file_name().to_string_lossy().into_owned();
         let point = name.len() >= 4 && name.starts_with('p') && name[1..].bytes().all(|b| b.is_ascii_digit());
         let path = entry.path();
-        if point && path.is_dir() {
+        if (point || name == "judges") && path.is_dir() {
             std::fs::remove_dir_all(&path).map_err(|e| (path.clone(), e))?;
         } else if matches!(
             name.as_str(),
@@ -403,6 +531,7 @@ fn summarise(grid: &Grid, points: &[Point], opts: &SweepOptions) -> Result<Sweep
     let (mut rows, mut series) = (Vec::new(), Vec::new());
     for p in points {
         let (mut finals, mut curves) = (Vec::new(), Vec::new());
+        let mut judged: BTreeMap<String, (Vec<f64>, usize, usize)> = BTreeMap::new();
         for seed in 0..opts.seeds {
             let dir = opts.out.join(&p.name).join(format!("seed_{seed}"));
             let path = dir.join("summary.json");
@@ -414,6 +543,17 @@ fn summarise(grid: &Grid, points: &[Point], opts: &SweepOptions) -> Result<Sweep
             let csv = dir.join("metrics.csv");
             let m = MetricsCsv::read(&csv).map_err(|source| TrainError::Io { path: csv, source })?;
             curves.push(m.iter().map(|r| (r.env_steps, r.episode_return_mean)).collect::<Vec<_>>());
+            for name in grid.judges.keys() {
+                let path = dir.join(format!("judge_{name}.json"));
+                let text = std::fs::read_to_string(&path)
+                    .map_err(|source| TrainError::Io { path: path.clone(), source })?;
+                let stats: JudgeFile = serde_json::from_str(&text)
+                    .map_err(|e| TrainError::Io { path: path.clone(), source: e.into() })?;
+                let entry = judged.entry(name.clone()).or_default();
+                entry.0.push(stats.stats.return_mean);
+                entry.1 += stats.stats.falls;
+                entry.2 += stats.stats.episodes;
+            }
         }
         let (iqm, ci) = iqm_with_ci(&finals);
         let n = finals.len() as f64;
@@ -437,6 +577,13 @@ fn summarise(grid: &Grid, points: &[Point], opts: &SweepOptions) -> Result<Sweep
             return_iqm_ci95: ci,
             return_mean: mean,
             return_std: std,
+            judged: judged
+                .into_iter()
+                .map(|(name, (returns, falls, episodes))| {
+                    let (iqm, ci) = iqm_with_ci(&returns);
+                    (name, Judged { returns, return_iqm: iqm, return_iqm_ci95: ci, falls, episodes })
+                })
+                .collect(),
         });
     }
     let summary = SweepSummary {
@@ -464,23 +611,57 @@ fn summarise(grid: &Grid, points: &[Point], opts: &SweepOptions) -> Result<Sweep
     Ok(summary)
 }
 
-/// The summary as a Markdown table.
+/// What `summarise` reads of a judge's `eval.json`.
+#[derive(Deserialize)]
+struct JudgeFile {
+    stats: JudgeStats,
+}
+
+#[derive(Deserialize)]
+struct JudgeStats {
+    return_mean: f64,
+    falls: usize,
+    episodes: usize,
+}
+
+/// The summary as a Markdown table (a column per judge after the final return's).
 pub fn markdown(s: &SweepSummary) -> String {
-    let mut out = String::from(
-        "| point | values | final return IQM [95 % CI] | mean ± std | seeds |\n|---|---|---:|---:|---:|\n",
-    );
+    let judges: Vec<&String> = s.points.first().map(|p| p.judged.keys().collect()).unwrap_or_default();
+    let interval =
+        |c: Option<Interval>| c.map_or("—".to_string(), |c| format!("[{:.2}, {:.2}]", c.low, c.high));
+    let mut out = String::from("| point | values | final return IQM [95 % CI] | mean ± std |");
+    for j in &judges {
+        out += &format!(" judge {j}: IQM [95 % CI], falls |");
+    }
+    out += " seeds |\n|---|---|---:|---:|";
+    out += &"---:|".repeat(judges.len());
+    out += "---:|\n";
     for p in &s.points {
         let values: Vec<String> = p.values.iter().map(|(k, v)| format!("{k} = {v}")).collect();
-        let ci = p.return_iqm_ci95.map_or("—".to_string(), |c| format!("[{:.2}, {:.2}]", c.low, c.high));
         out += &format!(
-            "| {} | {} | {:.2} {ci} | {:.2} ± {:.2} | {} |\n",
+            "| {} | {} | {:.2} {} | {:.2} ± {:.2} |",
             p.name,
             values.join(", "),
             p.return_iqm,
+            interval(p.return_iqm_ci95),
             p.return_mean,
             p.return_std,
-            p.final_returns.len()
         );
+        for j in &judges {
+            match p.judged.get(*j) {
+                Some(d) => {
+                    out += &format!(
+                        " {:.2} {}, {}/{} |",
+                        d.return_iqm,
+                        interval(d.return_iqm_ci95),
+                        d.falls,
+                        d.episodes
+                    )
+                }
+                None => out += " — |",
+            }
+        }
+        out += &format!(" {} |\n", p.final_returns.len());
     }
     out
 }

@@ -10,8 +10,10 @@
 //! | `metrics.csv` | one [`UpdateMetrics`] row per update / log interval; flushed and `fsync`ed at every checkpoint |
 //! | `episodes.csv` | every finished training episode: the run's step at its end, env index, return, length, terminated, each reward term summed over it |
 //! | `checkpoint` | the learner ([`centaur_rl::Checkpoint`] format, plus the env name under `env`): act with `Policy::load`, resume with `centaur train --resume DIR`; rewritten atomically every `checkpoint_every` steps and at the end |
+//! | `evaluations.csv` | with `eval_every`: `step,return_mean,return_std,length_mean,episodes`, the deterministic evaluation of the checkpoint taken every `eval_every` steps (the same episodes as the final one, which is its last row) |
 //! | `summary.json` | `{"env", "algo", "seed", "steps", "wall_seconds", "steps_per_second", "final_return_mean", "final_return_std"}`, written (atomically) before the plots |
 //! | `learning_curve.svg`, `learning_curve.png` | mean training episode return (± std band) against environment steps |
+//! | `metrics.svg`, `metrics.png` | every logged metric the learner has (return, length, losses, entropy, KL, clip fraction, explained variance, Q, α, learning rate, speed) against environment steps |
 //!
 //! The final return is the mean over `eval_episodes` (≥ 10 by default) deterministic
 //! episodes of the policy **loaded back from the checkpoint** (the deployment path), on a
@@ -41,7 +43,7 @@ use centaur_rl::{
 };
 use serde::{Deserialize, Serialize};
 
-use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
+use crate::plot::{Panel, PlotError, PlotLabels, Series, plot_curves, plot_panels};
 use crate::registry::{EnvSource, RegistryError};
 use crate::residual::start_as_controller;
 use crate::rundir::{Claim, claim, write_atomic};
@@ -54,14 +56,17 @@ pub const DEFAULT_CHECKPOINT_EVERY: u64 = 100_000;
 pub const MAX_CONFIG_BYTES: u64 = 1 << 20;
 
 /// The files of a run directory, in the order a run writes them.
-pub const RUN_FILES: [&str; 7] = [
+pub const RUN_FILES: [&str; 10] = [
     "run.json",
     "metrics.csv",
     "episodes.csv",
+    "evaluations.csv",
     "checkpoint",
     "summary.json",
     "learning_curve.svg",
     "learning_curve.png",
+    "metrics.svg",
+    "metrics.png",
 ];
 
 /// What to train.
@@ -88,6 +93,10 @@ pub struct TrainOptions {
     pub eval_episodes: usize,
     /// Environment steps between periodic checkpoints (0: only at the end).
     pub checkpoint_every: u64,
+    /// Environment steps between deterministic evaluations (0: only at the end); a multiple
+    /// of `checkpoint_every`, since each evaluates the checkpoint just written (so that
+    /// training is the same with or without them).
+    pub eval_every: u64,
     /// Replace a run already in `out` (its files only) instead of refusing.
     pub overwrite: bool,
 }
@@ -110,6 +119,9 @@ pub struct RunRecord {
     pub eval_episodes: usize,
     /// Environment steps between periodic checkpoints (0: only at the end).
     pub checkpoint_every: u64,
+    /// Environment steps between deterministic evaluations (0: only at the end).
+    #[serde(default)]
+    pub eval_every: u64,
     /// The config file as given.
     pub config_file: Option<PathBuf>,
     /// Its text as read at the start.
@@ -291,6 +303,15 @@ fn validate(opts: &TrainOptions) -> Result<(), TrainError> {
     if opts.eval_episodes == 0 || opts.eval_episodes > 100_000 {
         return bad("eval-episodes", opts.eval_episodes, "must be 1 to 100000 (at least 10 are run)");
     }
+    if opts.eval_every > 0
+        && (opts.checkpoint_every == 0 || !opts.eval_every.is_multiple_of(opts.checkpoint_every))
+    {
+        return Err(TrainError::BadOption {
+            option: "eval-every",
+            value: opts.eval_every.to_string(),
+            reason: "must be a multiple of --checkpoint-every (each evaluation is of the checkpoint just written)",
+        });
+    }
     Ok(())
 }
 
@@ -336,6 +357,7 @@ pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> R
         n_envs: opts.n_envs,
         eval_episodes: opts.eval_episodes,
         checkpoint_every: opts.checkpoint_every,
+        eval_every: opts.eval_every,
         config_file: opts.config.clone(),
         config: config_text,
         body: source.body().map(str::to_string),
@@ -425,7 +447,18 @@ pub fn resume(
     let csv = MetricsCsv::append(&csv_path).map_err(io_err(&csv_path))?;
     let episodes =
         EpisodeCsv::truncated(&dir.join("episodes.csv"), episodes_done).map_err(|e| fail(e.to_string()))?;
-    let logs = RunLogs { csv, rows, episodes, wall_seconds: wall_done };
+    let evals_path = dir.join("evaluations.csv");
+    let steps_done = algo.steps_done();
+    let evaluations = if record.eval_every > 0 {
+        // Evaluations past the checkpoint were of the killed session's later checkpoints.
+        let mut kept = read_evaluations(&evals_path).map_err(io_err(&evals_path))?;
+        kept.retain(|e| e.step <= steps_done);
+        write_evaluations(&evals_path, &kept).map_err(io_err(&evals_path))?;
+        kept
+    } else {
+        Vec::new()
+    };
+    let logs = RunLogs { csv, rows, episodes, evaluations, wall_seconds: wall_done };
     run_segments(&record, &source, dir, threads, algo, logs, progress)
 }
 
@@ -514,7 +547,76 @@ struct RunLogs {
     csv: MetricsCsv,
     rows: Vec<UpdateMetrics>,
     episodes: EpisodeCsv,
+    /// The rows of `evaluations.csv`.
+    evaluations: Vec<Evaluation>,
     wall_seconds: f64,
+}
+
+/// One row of `evaluations.csv`: the deterministic evaluation of the checkpoint at `step`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Evaluation {
+    /// Environment steps trained.
+    pub step: u64,
+    /// Mean return.
+    pub return_mean: f64,
+    /// Its standard deviation.
+    pub return_std: f64,
+    /// Mean episode length.
+    pub length_mean: f64,
+    /// Episodes.
+    pub episodes: usize,
+}
+
+const EVALUATIONS_HEADER: &str = "step,return_mean,return_std,length_mean,episodes";
+
+/// Reads `evaluations.csv` (a missing file has no rows).
+pub fn read_evaluations(path: &Path) -> std::io::Result<Vec<Evaluation>> {
+    let text = match std::fs::read_to_string(path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(e),
+    };
+    let bad = |line: &str| {
+        std::io::Error::new(std::io::ErrorKind::InvalidData, format!("not an evaluations.csv row: `{line}`"))
+    };
+    let mut lines = text.lines();
+    if lines.next() != Some(EVALUATIONS_HEADER) {
+        return Err(bad("header"));
+    }
+    lines
+        .map(|line| {
+            let c: Vec<&str> = line.split(',').collect();
+            let f = |i: usize| c.get(i).and_then(|s| s.parse::<f64>().ok()).ok_or_else(|| bad(line));
+            let step = c.first().and_then(|s| s.parse().ok()).ok_or_else(|| bad(line))?;
+            let episodes = c.get(4).and_then(|s| s.parse().ok()).ok_or_else(|| bad(line))?;
+            if c.len() != 5 {
+                return Err(bad(line));
+            }
+            Ok(Evaluation { step, return_mean: f(1)?, return_std: f(2)?, length_mean: f(3)?, episodes })
+        })
+        .collect()
+}
+
+/// Writes `evaluations.csv` atomically (shortest round-trip floats).
+fn write_evaluations(path: &Path, rows: &[Evaluation]) -> std::io::Result<()> {
+    let mut text = format!("{EVALUATIONS_HEADER}\n");
+    for e in rows {
+        text += &format!("{},{},{},{},{}\n", e.step, e.return_mean, e.return_std, e.length_mean, e.episodes);
+    }
+    write_atomic(path, &text)
+}
+
+impl Evaluation {
+    fn new(step: u64, stats: &centaur_rl::EvalStats) -> Evaluation {
+        let n = stats.lengths.len();
+        Evaluation {
+            step,
+            return_mean: stats.mean,
+            return_std: stats.std,
+            length_mean: stats.lengths.iter().sum::<usize>() as f64 / n.max(1) as f64,
+            episodes: n,
+        }
+    }
 }
 
 impl RunLogs {
@@ -525,7 +627,7 @@ impl RunLogs {
         let names = source.make()?.reward_term_names();
         let ep_path = dir.join("episodes.csv");
         let episodes = EpisodeCsv::create(&ep_path, names).map_err(io_err(&ep_path))?;
-        Ok(RunLogs { csv, rows: Vec::new(), episodes, wall_seconds: 0.0 })
+        Ok(RunLogs { csv, rows: Vec::new(), episodes, evaluations: Vec::new(), wall_seconds: 0.0 })
     }
 }
 
@@ -550,6 +652,18 @@ fn write_checkpoint(
     checkpoint.set_meta("run_wall_seconds", logs.wall_seconds);
     checkpoint.write(path).map_err(RlError::from)?;
     Ok(())
+}
+
+/// The deterministic evaluation of the policy in `ckpt` (loaded as deployed): the record's
+/// episodes (at least 10), episode `k` reset with seed `1 000 000 + seed + k`.
+fn evaluate_checkpoint(
+    ckpt: &Path,
+    source: &EnvSource,
+    record: &RunRecord,
+) -> Result<centaur_rl::EvalStats, TrainError> {
+    let mut policy = Policy::load(ckpt).map_err(RlError::from)?;
+    let mut eval_env = source.make()?;
+    Ok(evaluate(&mut policy, eval_env.as_mut(), record.eval_episodes.max(10), 1_000_000 + record.seed)?)
 }
 
 /// Trains `algo` from where it is to the record's budget in checkpointed segments, then
@@ -577,6 +691,17 @@ fn run_segments(
         Vec::new()
     };
     targets.push(record.steps);
+    let evals_path = dir.join("evaluations.csv");
+    let due = |step: u64| {
+        record.eval_every > 0 && step > 0 && step < record.steps && step.is_multiple_of(record.eval_every)
+    };
+    let resumed_at = algo.steps_done();
+    if due(resumed_at) && ckpt.exists() && !logs.evaluations.iter().any(|e| e.step == resumed_at) {
+        // Killed between the checkpoint and its evaluation.
+        let stats = evaluate_checkpoint(&ckpt, source, record)?;
+        logs.evaluations.push(Evaluation::new(resumed_at, &stats));
+        write_evaluations(&evals_path, &logs.evaluations).map_err(io_err(&evals_path))?;
+    }
     let log: EpisodeLog = Default::default();
     for target in targets {
         if algo.steps_done() >= target {
@@ -610,16 +735,24 @@ fn run_segments(
         logs.csv.sync().map_err(io_err(&csv_path))?;
         logs.episodes.sync().map_err(io_err(&logs.episodes.path))?;
         write_checkpoint(algo.as_ref(), record, &ckpt, &logs)?;
+        if due(algo.steps_done()) {
+            let stats = evaluate_checkpoint(&ckpt, source, record)?;
+            logs.evaluations.push(Evaluation::new(algo.steps_done(), &stats));
+            write_evaluations(&evals_path, &logs.evaluations).map_err(io_err(&evals_path))?;
+        }
     }
     if algo.steps_done() == 0 || !ckpt.exists() {
         // A zero-step run still leaves its (untrained) checkpoint.
         write_checkpoint(algo.as_ref(), record, &ckpt, &logs)?;
     }
     let (rows, wall_seconds) = (logs.rows, logs.wall_seconds);
-    let mut policy = Policy::load(&ckpt).map_err(RlError::from)?;
-    let mut eval_env = source.make()?;
-    let eval =
-        evaluate(&mut policy, eval_env.as_mut(), record.eval_episodes.max(10), 1_000_000 + record.seed)?;
+    let eval = evaluate_checkpoint(&ckpt, source, record)?;
+    if record.eval_every > 0 {
+        let mut evaluations = logs.evaluations;
+        evaluations.retain(|e| e.step < algo.steps_done());
+        evaluations.push(Evaluation::new(algo.steps_done(), &eval));
+        write_evaluations(&evals_path, &evaluations).map_err(io_err(&evals_path))?;
+    }
 
     let steps = algo.steps_done();
     let summary = Summary {
@@ -650,6 +783,24 @@ fn run_segments(
     };
     for ext in ["svg", "png"] {
         match plot_curves(&dir.join(format!("learning_curve.{ext}")), &labels, std::slice::from_ref(&curve)) {
+            Ok(()) | Err(PlotError::Empty { .. }) => {}
+            Err(e) => return Err(e.into()),
+        }
+    }
+    // Every logged metric against the steps (the ones the learner does not have are NaN
+    // and left out).
+    let panels: Vec<Panel> = UpdateMetrics::COLUMNS
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| !matches!(k, 0 | 1 | 2 | 4))
+        .map(|(k, name)| Panel {
+            title: name.replace('_', " "),
+            points: rows.iter().map(|m| (m.env_steps as f64, m.values()[k])).collect(),
+        })
+        .collect();
+    let title = format!("{} on {}: training metrics", algo.name(), record.env);
+    for ext in ["svg", "png"] {
+        match plot_panels(&dir.join(format!("metrics.{ext}")), &title, "environment steps", &panels) {
             Ok(()) | Err(PlotError::Empty { .. }) => {}
             Err(e) => return Err(e.into()),
         }

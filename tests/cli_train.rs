@@ -31,6 +31,7 @@ fn train_writes_every_artefact() {
         n_envs: 2,
         eval_episodes: 10,
         checkpoint_every: 0,
+        eval_every: 0,
         overwrite: false,
     };
     let mut records = 0;
@@ -38,9 +39,17 @@ fn train_writes_every_artefact() {
     assert_eq!(records, 4); // 2048 / (256 × 2)
     assert_eq!((s.env.as_str(), s.algo.as_str(), s.seed, s.steps), ("pendulum", "ppo", 3, 2048));
     assert!(s.final_return_mean.is_finite() && s.final_return_std >= 0.0 && s.wall_seconds > 0.0);
-    for f in
-        ["run.json", "metrics.csv", "checkpoint", "learning_curve.svg", "learning_curve.png", "summary.json"]
-    {
+    for f in [
+        "run.json",
+        "metrics.csv",
+        "episodes.csv",
+        "checkpoint",
+        "learning_curve.svg",
+        "learning_curve.png",
+        "metrics.svg",
+        "metrics.png",
+        "summary.json",
+    ] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
     let csv = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
@@ -63,6 +72,24 @@ fn train_writes_every_artefact() {
     let png = std::fs::read(out.join("learning_curve.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
     assert!(std::fs::read_to_string(out.join("learning_curve.svg")).unwrap().contains("<svg"));
+    // The metric panels: PPO's losses, KL and clip fraction among them.
+    let svg = std::fs::read_to_string(out.join("metrics.svg")).unwrap();
+    for metric in [
+        "policy loss",
+        "approx kl",
+        "clip fraction",
+        "explained variance",
+        "entropy",
+        "value mean",
+        "reward mean",
+    ] {
+        assert!(svg.contains(metric), "metrics.svg lacks {metric}");
+    }
+    assert!(!svg.contains("mean q"), "PPO has no Q estimate to plot");
+    // The mean state value and the mean per-step reward (the Pendulum's is in [−16.3, 0]).
+    for m in MetricsCsv::read(&out.join("metrics.csv")).unwrap() {
+        assert!(m.value_mean.is_finite() && (-16.3..=0.0).contains(&m.reward_mean), "{m:?}");
+    }
     let policy = Policy::load(&out.join("checkpoint")).unwrap();
     assert_eq!((policy.obs_dim(), policy.act_dim()), (3, 1));
     // The checkpoint resumes as a learner and records its environment.
@@ -100,6 +127,7 @@ fn unknown_config_keys_and_bad_values_are_named() {
         n_envs: 1,
         eval_episodes: 10,
         checkpoint_every: 0,
+        eval_every: 0,
         overwrite: false,
     };
     match train(&opts, &mut |_| {}) {
@@ -124,6 +152,12 @@ fn unknown_config_keys_and_bad_values_are_named() {
             }
             other => panic!("{option}: {other:?}"),
         }
+    }
+    // Evaluations are of checkpoints: --eval-every must be a multiple of --checkpoint-every.
+    for (checkpoint_every, eval_every) in [(0, 100), (300, 500)] {
+        let bad = TrainOptions { checkpoint_every, eval_every, config: None, ..opts.clone() };
+        let e = train(&bad, &mut |_| {}).unwrap_err();
+        assert!(e.to_string().contains("--eval-every") && e.to_string().contains("multiple"), "{e}");
     }
     if std::path::Path::new("/dev/zero").exists() {
         let endless = TrainOptions { config: Some("/dev/zero".into()), ..opts };
@@ -179,6 +213,7 @@ fn a_killed_run_resumes_to_the_uninterrupted_result() {
         n_envs: 2,
         eval_episodes: 10,
         checkpoint_every: 4096,
+        eval_every: 8192,
         overwrite: false,
     };
     let uninterrupted = train(&opts, &mut |_| {}).unwrap();
@@ -188,7 +223,7 @@ fn a_killed_run_resumes_to_the_uninterrupted_result() {
     let killed = out_dir("kill-killed");
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
         .args(["train", "--env", "pendulum", "--algo", "ppo", "--steps", "40960", "--envs", "2"])
-        .args(["--checkpoint-every", "4096", "--config"])
+        .args(["--checkpoint-every", "4096", "--eval-every", "8192", "--config"])
         .arg(&config)
         .arg("--out")
         .arg(&killed)
@@ -225,6 +260,13 @@ fn a_killed_run_resumes_to_the_uninterrupted_result() {
     assert_eq!(summary_bits(&killed), summary_bits(&whole));
     let episodes = |d: &std::path::Path| std::fs::read_to_string(d.join("episodes.csv")).unwrap();
     assert_eq!(episodes(&killed), episodes(&whole), "the episode logs differ after resume");
+    // The evaluations every 8,192 steps (the last is the final one), equal after resume.
+    let evals = |d: &std::path::Path| centaur::train::read_evaluations(&d.join("evaluations.csv")).unwrap();
+    let steps: Vec<u64> = evals(&whole).iter().map(|e| e.step).collect();
+    assert_eq!(steps, [8192, 16384, 24576, 32768, 40960]);
+    assert_eq!(evals(&killed), evals(&whole), "the evaluations differ after resume");
+    let last = *evals(&whole).last().unwrap();
+    assert_eq!((last.return_mean, last.episodes), (uninterrupted.final_return_mean, 10));
     // 40,960 steps of 200-step Pendulum episodes on 2 envs, cut at every 4,096-step segment:
     // 20 per segment, 10 segments; the last column is the episode's step, in order.
     let log = episodes(&whole);
@@ -270,6 +312,7 @@ fn an_off_policy_run_resumes_from_a_mid_run_copy() {
         n_envs: 1,
         eval_episodes: 10,
         checkpoint_every: 500,
+        eval_every: 0,
         overwrite: false,
     };
     let snapshot = |to: &std::path::Path| {
@@ -566,6 +609,7 @@ fn the_env_table_of_a_run_file_configures_the_environment() {
         n_envs: 2,
         eval_episodes: 10,
         checkpoint_every: 0,
+        eval_every: 0,
         overwrite: false,
     };
     train(&opts, &mut |_| {}).unwrap();
@@ -689,4 +733,90 @@ fn a_sweep_runs_its_grid_in_parallel_and_resumes() {
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("learning_rat"));
     std::fs::remove_dir_all(&out).unwrap();
     std::fs::remove_file(&grid).unwrap();
+}
+
+/// A sweep's judges (the seed study's no-penalty / full-penalty judgement): every final
+/// policy is also evaluated on its env with each judge's `[env]` table; a judge with the
+/// training settings reproduces the final evaluation, a costlier one scores lower; judging
+/// is resumable, and a judge key the robot lacks is refused before anything runs.
+#[test]
+fn a_sweep_judges_every_final_policy() {
+    let out = out_dir("sweep-judges");
+    let grid = out_dir("sweep-judges.toml");
+    let text = "env = \"gecko\"\nalgo = \"ppo\"\nsteps = 256\ncheckpoint_every = 128\neval_every = 128\n\n[base]\nn_steps = 64\nbatch_size = 64\nn_epochs = 1\nactor_hidden = [8]\ncritic_hidden = [8]\n[base.env]\nmax_episode_steps = 20\n\n[grid]\nlearning_rate = [3e-4]\n\n[judges.as_trained]\nmax_episode_steps = 20\n\n[judges.costly]\nmax_episode_steps = 20\nctrl_cost_weight = 10.0\n";
+    std::fs::write(&grid, text).unwrap();
+    let sweep = || {
+        std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+            .args(["sweep", "--seeds", "2", "--jobs", "2", "--grid"])
+            .arg(&grid)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap()
+    };
+    let o = sweep();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("judge costly"), "the table shows the judges: {stdout}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("sweep.json")).unwrap()).unwrap();
+    let p = &json["points"][0];
+    let finals: Vec<f64> =
+        p["final_returns"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    let judged = |name: &str| -> Vec<f64> {
+        p["judged"][name]["returns"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect()
+    };
+    assert_eq!(judged("as_trained"), finals, "the training settings judge as the final evaluation");
+    for (costly, plain) in judged("costly").iter().zip(&finals) {
+        assert!(costly < plain, "{costly} vs {plain}");
+    }
+    assert_eq!(p["judged"]["costly"]["episodes"].as_u64(), Some(20));
+    // Each run evaluated its checkpoint every 128 steps, the final one last.
+    let evals = centaur::train::read_evaluations(&out.join("p000/seed_1/evaluations.csv")).unwrap();
+    assert_eq!(evals.iter().map(|e| e.step).collect::<Vec<_>>(), [128, 256]);
+    // A judgement lost (killed while judging) is redone alone, to the same figure.
+    let lost = out.join("p000/seed_0/judge_costly.json");
+    let before = std::fs::read_to_string(&lost).unwrap();
+    std::fs::remove_file(&lost).unwrap();
+    let o = sweep();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read_to_string(&lost).unwrap(), before);
+    // A key the gecko does not have, in a judge: named before anything runs.
+    std::fs::write(&grid, text.replace("ctrl_cost_weight = 10.0", "drift_weight = 1.0")).unwrap();
+    std::fs::remove_dir_all(&out).unwrap();
+    let o = sweep();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("judge `costly`") && err.contains("drift_weight"), "{err}");
+    assert!(!out.join("p000").exists(), "a refused sweep ran");
+    std::fs::remove_file(&grid).unwrap();
+}
+
+/// Every study in `studies/` is a grid `centaur sweep` accepts: its points' and judges'
+/// settings fit their robots (checked without running, as `centaur sweep --check` does).
+#[test]
+fn every_study_grid_checks() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("studies");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 15, "{files:?}");
+    for f in &files {
+        let g = centaur::sweep::check_grid(f).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+        assert!(!g.points.is_empty());
+        let name = f.file_name().unwrap().to_string_lossy();
+        if name.starts_with("c_") {
+            assert_eq!(g.grid.judges.keys().collect::<Vec<_>>(), ["full_penalty", "no_penalty"], "{name}");
+        }
+    }
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["sweep", "--check", "--grid"])
+        .arg(dir.join("b_ppo_gecko_observations.toml"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("4 points") && stdout.contains("env.observation = \"hinges\""), "{stdout}");
 }

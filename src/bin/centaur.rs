@@ -65,8 +65,12 @@ struct SweepArgs {
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=1000))]
     seeds: u64,
     /// Output directory; rerunning the same grid keeps finished runs and resumes the rest.
+    #[arg(long, required_unless_present = "check")]
+    out: Option<PathBuf>,
+    /// Check the grid file (every point's and judge's settings) and list its points; run
+    /// nothing.
     #[arg(long)]
-    out: PathBuf,
+    check: bool,
     /// Runs at once, one thread each [default: the available cores].
     #[arg(long, value_parser = positive_count)]
     jobs: Option<usize>,
@@ -77,10 +81,36 @@ struct SweepArgs {
 
 /// `centaur sweep`.
 fn sweep(args: SweepArgs) -> ExitCode {
+    if args.check {
+        return match centaur::sweep::check_grid(&args.grid) {
+            Ok(g) => {
+                let judges: Vec<&String> = g.grid.judges.keys().collect();
+                println!(
+                    "{}: {} on {}, {} steps per run, {} points × {} seeds; judges: {}",
+                    args.grid.display(),
+                    g.grid.algo,
+                    g.grid.env,
+                    g.grid.steps,
+                    g.points.len(),
+                    args.seeds,
+                    if judges.is_empty() { "none".to_string() } else { format!("{judges:?}") }
+                );
+                for p in &g.points {
+                    let values: Vec<String> = p.values.iter().map(|(k, v)| format!("{k} = {v}")).collect();
+                    println!("{}: {}", p.name, values.join(", "));
+                }
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        };
+    }
     let opts = centaur::sweep::SweepOptions {
         grid: args.grid,
         seeds: args.seeds,
-        out: args.out,
+        out: args.out.expect("clap requires --out without --check"),
         jobs: args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())),
         overwrite: args.overwrite,
     };
@@ -194,6 +224,10 @@ struct TrainArgs {
     /// fresh episodes so that a resumed run continues exactly.
     #[arg(long, default_value_t = centaur::train::DEFAULT_CHECKPOINT_EVERY)]
     checkpoint_every: u64,
+    /// Environment steps between deterministic evaluations of the checkpoint, written to
+    /// evaluations.csv (0: only the final one); a multiple of --checkpoint-every.
+    #[arg(long, default_value_t = 0)]
+    eval_every: u64,
     /// Replace the run already in --out (its run files only).
     #[arg(long, conflicts_with = "resume")]
     overwrite: bool,
@@ -202,7 +236,7 @@ struct TrainArgs {
     #[arg(
         long,
         value_name = "DIR",
-        conflicts_with_all = ["env", "algo", "steps", "seed", "out", "config", "envs", "eval_episodes", "checkpoint_every"]
+        conflicts_with_all = ["env", "algo", "steps", "seed", "out", "config", "envs", "eval_episodes", "checkpoint_every", "eval_every"]
     )]
     resume: Option<PathBuf>,
 }
@@ -582,6 +616,7 @@ fn train_command(args: TrainArgs) -> ExitCode {
                 n_envs: args.envs,
                 eval_episodes,
                 checkpoint_every: args.checkpoint_every,
+                eval_every: args.eval_every,
                 overwrite: args.overwrite,
             };
             train(&opts, &mut progress)
