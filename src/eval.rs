@@ -153,7 +153,7 @@ fn plain_stats(
         return_mean: e.mean,
         return_std: e.std,
         episodes: e.returns.len(),
-        length_mean: e.lengths.iter().sum::<usize>() as f64 / e.lengths.len().max(1) as f64,
+        length_mean: e.length_mean(),
         ..AgentStats::default()
     })
 }

@@ -124,7 +124,14 @@ pub fn plot_panels(path: &Path, title: &str, x: &str, panels: &[Panel]) -> Resul
 fn ranges(xs: &[f64], ys: &[f64]) -> (f64, f64, f64, f64) {
     let (x0, x1) = min_max(xs);
     let (y0, y1) = min_max(ys);
-    let pad = ((y1 - y0).abs() * 0.05).max(1e-9);
+    // A flat curve gets ±5 % of its value (±1 at zero), so that its ticks read as its value.
+    let pad = if y1 > y0 {
+        (y1 - y0) * 0.05
+    } else if y0 != 0.0 {
+        (y0.abs() * 0.05).max(1e-300)
+    } else {
+        1.0
+    };
     (x0, if x1 > x0 { x1 } else { x0 + 1.0 }, y0 - pad, y1 + pad)
 }
 
@@ -139,7 +146,7 @@ fn paint<DB: DrawingBackend>(
     figure: &Figure<'_>,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     match figure {
-        Figure::Curves { labels, series, range } => draw(root, labels, series, *range),
+        Figure::Curves { labels, series, range } => draw(root, labels, series, *range, &Frame::FULL),
         Figure::Panels { title, x, panels } => {
             root.fill(&WHITE)?;
             let body = root.titled(title, ("sans-serif", 22))?;
@@ -149,9 +156,9 @@ fn paint<DB: DrawingBackend>(
                     panel.points.iter().copied().filter(|(x, y)| x.is_finite() && y.is_finite()).collect();
                 let (xs, ys): (Vec<f64>, Vec<f64>) = pts.iter().copied().unzip();
                 let labels = PlotLabels { title: panel.title.clone(), x: x.to_string(), y: String::new() };
-                let series =
-                    Series { label: String::new(), x: xs.clone(), y: ys.clone(), lower: None, upper: None };
-                draw_small(area, &labels, &series, ranges(&xs, &ys))?;
+                let range = ranges(&xs, &ys);
+                let series = Series { label: String::new(), x: xs, y: ys, lower: None, upper: None };
+                draw(area, &labels, std::slice::from_ref(&series), range, &Frame::PANEL)?;
             }
             Ok(())
         }
@@ -188,45 +195,17 @@ fn render(path: &Path, (w, h): (u32, u32), figure: &Figure<'_>) -> Result<(), Pl
     Ok(())
 }
 
-/// One small chart: its title, axes with few ticks, the curve.
-fn draw_small<DB: DrawingBackend>(
-    area: &DrawingArea<DB, plotters::coord::Shift>,
-    labels: &PlotLabels,
-    s: &Series,
-    (x0, x1, y0, y1): (f64, f64, f64, f64),
-) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
-    let mut chart = ChartBuilder::on(area)
-        .caption(&labels.title, ("sans-serif", 15))
-        .margin(8)
-        .x_label_area_size(30)
-        .y_label_area_size(55)
-        .build_cartesian_2d(x0..x1, y0..y1)?;
-    let (x_dec, y_dec) = (decimals(x1 - x0), decimals(y1 - y0));
-    let fx = move |v: &f64| format!("{v:.x_dec$}");
-    // Small quantities (learning rates, KL) in scientific notation.
-    let small = (y1 - y0).abs() < 1e-2;
-    let fy = move |v: &f64| if small { format!("{v:.2e}") } else { format!("{v:.y_dec$}") };
-    chart
-        .configure_mesh()
-        .x_labels(4)
-        .y_labels(5)
-        .x_label_formatter(&fx)
-        .y_label_formatter(&fy)
-        .label_style(("sans-serif", 11))
-        .draw()?;
-    let line: Vec<(f64, f64)> = s.x.iter().copied().zip(s.y.iter().copied()).collect();
-    chart.draw_series(LineSeries::new(line, PALETTE[0].stroke_width(2)))?;
-    Ok(())
-}
-
 /// Decimals for tick labels of an axis spanning `range`.
 fn decimals(range: f64) -> usize {
     if range >= 50.0 {
         0
     } else if range >= 1.0 {
         1
-    } else {
+    } else if range >= 0.1 {
         3
+    } else {
+        // Two digits past the first one that changes across the axis.
+        ((-range.log10()).ceil() as usize + 2).min(8)
     }
 }
 
@@ -234,30 +213,54 @@ fn min_max(v: &[f64]) -> (f64, f64) {
     v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(*x), b.max(*x)))
 }
 
+/// Sizes of a chart's parts (pixels, font points).
+struct Frame {
+    caption: u32,
+    margin: u32,
+    x_area: u32,
+    y_area: u32,
+    labels: u32,
+    /// Tick labels on x and y (`None`: plotters' default).
+    ticks: Option<(usize, usize)>,
+}
+
+impl Frame {
+    /// A whole figure.
+    const FULL: Frame = Frame { caption: 24, margin: 15, x_area: 45, y_area: 70, labels: 14, ticks: None };
+    /// One of [`plot_panels`]'s small charts.
+    const PANEL: Frame =
+        Frame { caption: 15, margin: 8, x_area: 40, y_area: 60, labels: 11, ticks: Some((4, 5)) };
+}
+
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, plotters::coord::Shift>,
     labels: &PlotLabels,
     series: &[Series],
     (x0, x1, y0, y1): (f64, f64, f64, f64),
+    frame: &Frame,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(root)
-        .caption(&labels.title, ("sans-serif", 24))
-        .margin(15)
-        .x_label_area_size(45)
-        .y_label_area_size(70)
+        .caption(&labels.title, ("sans-serif", frame.caption))
+        .margin(frame.margin)
+        .x_label_area_size(frame.x_area)
+        .y_label_area_size(frame.y_area)
         .build_cartesian_2d(x0..x1, y0..y1)?;
     let (x_dec, y_dec) = (decimals(x1 - x0), decimals(y1 - y0));
     let fx = move |v: &f64| format!("{v:.x_dec$}");
-    let fy = move |v: &f64| format!("{v:.y_dec$}");
-    chart
-        .configure_mesh()
-        .x_label_formatter(&fx)
+    // Small quantities (learning rates, KL) in scientific notation.
+    let tiny = y0.abs().max(y1.abs()) < 1e-2;
+    let fy = move |v: &f64| if tiny { format!("{v:.2e}") } else { format!("{v:.y_dec$}") };
+    let mut mesh = chart.configure_mesh();
+    if let Some((nx, ny)) = frame.ticks {
+        mesh.x_labels(nx).y_labels(ny);
+    }
+    mesh.x_label_formatter(&fx)
         .y_label_formatter(&fy)
         .x_desc(&labels.x)
         .y_desc(&labels.y)
-        .label_style(("sans-serif", 14))
-        .axis_desc_style(("sans-serif", 16))
+        .label_style(("sans-serif", frame.labels))
+        .axis_desc_style(("sans-serif", frame.labels + 2))
         .draw()?;
     for (k, s) in series.iter().enumerate() {
         let color = PALETTE[k % PALETTE.len()];

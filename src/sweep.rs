@@ -57,6 +57,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::compare::band;
 use crate::eval::{EvalOptions, run_eval};
+use crate::experiment::AgentStats;
 use crate::plot::{PlotError, PlotLabels, plot_curves};
 use crate::registry::EnvSource;
 use crate::rundir::write_atomic;
@@ -611,17 +612,10 @@ fn summarise(grid: &Grid, points: &[Point], opts: &SweepOptions) -> Result<Sweep
     Ok(summary)
 }
 
-/// What `summarise` reads of a judge's `eval.json`.
+/// What `summarise` reads of a judge's `eval.json` ([`crate::eval::EvalReport`]).
 #[derive(Deserialize)]
 struct JudgeFile {
-    stats: JudgeStats,
-}
-
-#[derive(Deserialize)]
-struct JudgeStats {
-    return_mean: f64,
-    falls: usize,
-    episodes: usize,
+    stats: AgentStats,
 }
 
 /// The summary as a Markdown table (a column per judge after the final return's).

@@ -586,13 +586,15 @@ pub fn read_evaluations(path: &Path) -> std::io::Result<Vec<Evaluation>> {
     lines
         .map(|line| {
             let c: Vec<&str> = line.split(',').collect();
-            let f = |i: usize| c.get(i).and_then(|s| s.parse::<f64>().ok()).ok_or_else(|| bad(line));
-            let step = c.first().and_then(|s| s.parse().ok()).ok_or_else(|| bad(line))?;
-            let episodes = c.get(4).and_then(|s| s.parse().ok()).ok_or_else(|| bad(line))?;
-            if c.len() != 5 {
-                return Err(bad(line));
-            }
-            Ok(Evaluation { step, return_mean: f(1)?, return_std: f(2)?, length_mean: f(3)?, episodes })
+            let [step, mean, std, length, episodes] = c[..] else { return Err(bad(line)) };
+            let f = |s: &str| s.parse::<f64>().map_err(|_| bad(line));
+            Ok(Evaluation {
+                step: step.parse().map_err(|_| bad(line))?,
+                return_mean: f(mean)?,
+                return_std: f(std)?,
+                length_mean: f(length)?,
+                episodes: episodes.parse().map_err(|_| bad(line))?,
+            })
         })
         .collect()
 }
@@ -608,13 +610,12 @@ fn write_evaluations(path: &Path, rows: &[Evaluation]) -> std::io::Result<()> {
 
 impl Evaluation {
     fn new(step: u64, stats: &centaur_rl::EvalStats) -> Evaluation {
-        let n = stats.lengths.len();
         Evaluation {
             step,
             return_mean: stats.mean,
             return_std: stats.std,
-            length_mean: stats.lengths.iter().sum::<usize>() as f64 / n.max(1) as f64,
-            episodes: n,
+            length_mean: stats.length_mean(),
+            episodes: stats.lengths.len(),
         }
     }
 }

@@ -545,8 +545,7 @@ impl Algorithm for A2c {
             self.compute_advantages();
             let mut m = UpdateMetrics::empty();
             m.explained_variance = self.explained_variance();
-            m.value_mean = self.rollout.values.iter().map(|&v| f64::from(v)).sum::<f64>()
-                / self.rollout.values.len().max(1) as f64;
+            m.value_mean = self.rollout.mean_value();
             self.update(lr as f32, lr_critic as f32, &mut m)?;
             self.updates += 1;
             let dt = t0.elapsed().as_secs_f64();

@@ -163,6 +163,12 @@ pub struct RolloutBuffer {
 }
 
 impl RolloutBuffer {
+    /// The mean of the critic's values `V(s_t)` over the rollout (the logged `value_mean`,
+    /// in the learner's reward units: scaled when rewards are normalised).
+    pub fn mean_value(&self) -> f64 {
+        self.values.iter().map(|&v| f64::from(v)).sum::<f64>() / self.values.len().max(1) as f64
+    }
+
     /// A buffer for `steps` steps of `n_envs` environments.
     pub fn new(steps: usize, n_envs: usize, obs_dim: usize, act_dim: usize) -> RolloutBuffer {
         let len = steps * n_envs;

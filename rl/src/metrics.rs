@@ -46,7 +46,8 @@ pub struct UpdateMetrics {
     pub alpha: f64,
     /// Learning rate in use.
     pub learning_rate: f64,
-    /// Mean state value `V(s)` the critic predicts over the rollout (on-policy).
+    /// Mean state value `V(s)` the critic predicts over the rollout (on-policy; in the
+    /// learner's reward units, scaled when rewards are normalised).
     pub value_mean: f64,
     /// Mean environment reward per step since the previous record (as the env returns it,
     /// before any normalisation).

@@ -235,6 +235,13 @@ pub struct EvalStats {
     pub std: f64,
 }
 
+impl EvalStats {
+    /// Mean episode length (0 without an episode).
+    pub fn length_mean(&self) -> f64 {
+        self.lengths.iter().sum::<usize>() as f64 / self.lengths.len().max(1) as f64
+    }
+}
+
 /// Runs `episodes` episodes with the deterministic policy; episode `k` starts with
 /// `reset(seed + k)`.
 pub fn evaluate(
