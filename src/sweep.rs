@@ -379,6 +379,39 @@ pub fn run_sweep(
     opts: &SweepOptions,
     report: &(dyn Fn(&str, u64, &Summary) + Sync),
 ) -> Result<SweepSummary, SweepError> {
+    let (grid, points, kept) = execute(opts, None, report)?;
+    let mut summary = summarise(&grid, &points, opts)?;
+    summary.kept_runs = kept;
+    Ok(summary)
+}
+
+/// A sweep's runs, `(point, seed)` in the order [`run_sweep`] takes them: the unit that a
+/// cluster scheduler hands to its machines ([`run_sweep_runs`]; the Python package's
+/// `centaur.ray.sweep` does this with Ray tasks).
+pub fn sweep_runs(grid: &Path, seeds: u64) -> Result<Vec<(String, u64)>, SweepError> {
+    let points = check_grid(grid)?.points;
+    Ok(points.iter().flat_map(|p| (0..seeds).map(|s| (p.name.clone(), s))).collect())
+}
+
+/// Runs (or resumes) only the listed runs of the sweep, writing its directory as
+/// [`run_sweep`] does, without the summary; returns how many of them were already finished. Runs
+/// of one sweep may go to several processes or machines sharing `opts.out` at once; when
+/// all have finished, [`run_sweep`] keeps them and writes the summary.
+pub fn run_sweep_runs(
+    opts: &SweepOptions,
+    runs: &[(String, u64)],
+    report: &(dyn Fn(&str, u64, &Summary) + Sync),
+) -> Result<usize, SweepError> {
+    execute(opts, Some(runs), report).map(|(_, _, kept)| kept)
+}
+
+/// Sets up the sweep's directory and runs its unfinished runs (those in `only`, if given):
+/// the grid, its points and the number of finished runs kept.
+fn execute(
+    opts: &SweepOptions,
+    only: Option<&[(String, u64)]>,
+    report: &(dyn Fn(&str, u64, &Summary) + Sync),
+) -> Result<(Grid, Vec<Point>, usize), SweepError> {
     let grid_err = |message: String| SweepError::Grid { path: opts.grid.clone(), message };
     if opts.seeds == 0 || opts.jobs == 0 {
         return Err(grid_err("--seeds and --jobs must be at least 1".into()));
@@ -426,6 +459,14 @@ pub fn run_sweep(
     }
     let judges_dir = opts.out.join("judges");
     let judged = |dir: &Path| grid.judges.keys().all(|name| dir.join(format!("judge_{name}.json")).exists());
+    if let Some(only) = only {
+        if let Some((p, seed)) =
+            only.iter().find(|(p, seed)| !tasks.iter().any(|t| t.0 == *p && t.1 == *seed))
+        {
+            return Err(grid_err(format!("the sweep has no run {p}/seed_{seed}")));
+        }
+        tasks.retain(|t| only.iter().any(|(p, seed)| t.0 == *p && t.1 == *seed));
+    }
     // Finished (and judged) runs are kept as they are.
     let before = tasks.len();
     tasks.retain(|(_, _, _, dir)| !dir.join("summary.json").exists() || !judged(dir));
@@ -501,9 +542,7 @@ pub fn run_sweep(
     if let Some(e) = failure.into_inner().unwrap_or_else(|e| e.into_inner()) {
         return Err(e);
     }
-    let mut summary = summarise(&grid, &points, opts)?;
-    summary.kept_runs = kept;
-    Ok(summary)
+    Ok((grid, points, kept))
 }
 
 /// Removes a sweep's files from `dir`: `sweep.*`, `sweep_curves.*`, `judges/` and the

@@ -27,6 +27,7 @@ CRATES = {  # crate dir -> crate name as used in paths
     "mpc": "centaur_mpc",
     "rl": "centaur_rl",
     "envs": "centaur_envs",
+    "python": "_native",
 }
 
 

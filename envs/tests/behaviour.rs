@@ -230,3 +230,18 @@ fn observation_options_add_joint_history_and_drop_orientation() {
     assert_eq!(walker.qpos()[1] as f32, wobs[0], "the height stays");
     assert_eq!(walker.qpos()[3] as f32, wobs[1], "the torso angle (qpos[2]) is gone");
 }
+
+/// Found from Python (`gymnasium.make("centaur/Minitaur-v0", distance_limit=-1.0)` was
+/// accepted and ended every episode at its first step): a distance limit must be positive.
+#[test]
+fn minitaur_refuses_a_distance_limit_that_is_not_positive() {
+    for limit in [-1.0, 0.0, f64::NAN] {
+        let err = MinitaurEnv::new(MinitaurConfig { distance_limit: limit, ..MinitaurConfig::default() })
+            .err()
+            .unwrap_or_else(|| panic!("distance_limit {limit} accepted"));
+        assert!(err.to_string().contains("distance_limit"), "{err}");
+    }
+    for limit in [f64::INFINITY, 3.0] {
+        MinitaurEnv::new(MinitaurConfig { distance_limit: limit, ..MinitaurConfig::default() }).unwrap();
+    }
+}

@@ -171,6 +171,11 @@ impl MinitaurConfig {
                 return bad("reward weights must be finite");
             }
         }
+        // Infinite is allowed (no limit, the default); zero or less would end every episode
+        // at its first step.
+        if self.distance_limit.is_nan() || self.distance_limit <= 0.0 {
+            return bad("distance_limit must be positive (m; inf for no limit)");
+        }
         if self.action == MinitaurAction::Pwm && !matches!(self.motor_control, MotorControl::Accurate(_)) {
             return bad("PWM actions need the accurate motor model");
         }
