@@ -4,8 +4,8 @@ Gymnasium's own MuJoCo vector envs beside them, in one run.
     python python/bench/throughput.py [--envs 16] [--threads N] [--steps 300] [--repeats 3]
 
 For each robot: the Rust `VecEnv` stepping random actions with no Python in the loop
-(`centaur._native.bench_vec_env`), the same envs on the same threads driven from Python
-through `gymnasium.make_vec(..., vectorization_mode="vector_entry_point")`, and where
+(`centaur._native.bench_vec_env`), the same envs on the same threads with the same actions
+and seed (so the same episodes) driven from Python through `gymnasium.make_vec(..., vectorization_mode="vector_entry_point")`, and where
 `mujoco` is installed Gymnasium's MuJoCo robot of the same name in its "sync" (one
 process, a Python loop over the envs) and "async" (one process per env) vector envs.
 Each figure is the median of `--repeats` runs, the variants alternating; the ratio column
@@ -30,15 +30,30 @@ ROBOTS = [("Ant", "ant", "centaur/Ant-v5", "Ant-v5"), ("Humanoid", "humanoid", "
           ("Minitaur", "minitaur", "centaur/Minitaur-v0", None)]
 
 
-def python_rate(envs, steps, seed=0):
+def random_actions(envs, steps, seed):
     rng = np.random.default_rng(seed)
     lo, hi = envs.action_space.low, envs.action_space.high
-    actions = rng.uniform(lo, hi, size=(steps, *envs.action_space.shape)).astype(envs.action_space.dtype)
+    return rng.uniform(lo, hi, size=(steps, *envs.action_space.shape)).astype(envs.action_space.dtype)
+
+
+def python_rate(envs, actions, seed=0):
+    steps = len(actions)
     envs.reset(seed=seed)
     start = time.perf_counter()
     for a in actions:
         envs.step(a)
     return envs.num_envs * steps / (time.perf_counter() - start)
+
+
+def cpu_name() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
 
 
 def main():
@@ -57,7 +72,7 @@ def main():
         have_mujoco = False
 
     print(f"{args.envs} envs, {args.threads} threads, {args.steps} batch steps × {args.repeats} repeats; "
-          f"{platform.processor() or platform.machine()}, {os.cpu_count()} logical CPUs; centaur {centaur.__version__}")
+          f"{cpu_name()}, {os.cpu_count()} logical CPUs; centaur {centaur.__version__}")
     print()
     print("| robot | Rust VecEnv (steps/s) | Python, native vector env | Python / Rust | Gymnasium MuJoCo sync | Gymnasium MuJoCo async |")
     print("|---|---|---|---|---|---|")
@@ -70,11 +85,14 @@ def main():
             mj["sync"] = gym.make_vec(mujoco_id, num_envs=args.envs, vectorization_mode="sync")
             mj["async"] = gym.make_vec(mujoco_id, num_envs=args.envs, vectorization_mode="async")
         for r in range(args.repeats):
-            rust.append(_native.bench_vec_env(name, args.envs, args.threads, args.steps, seed=r))
-            py.append(python_rate(native, args.steps, seed=r))
+            # The same actions and seed for Rust and Python: the same episodes.
+            actions = random_actions(native, args.steps, seed=r)
+            rust.append(_native.bench_vec_env(name, args.envs, args.threads, actions, seed=r))
+            py.append(python_rate(native, actions, seed=r))
             if mj:
-                sync.append(python_rate(mj["sync"], args.steps, seed=r))
-                asyn.append(python_rate(mj["async"], args.steps, seed=r))
+                mj_actions = random_actions(mj["sync"], args.steps, seed=r)
+                sync.append(python_rate(mj["sync"], mj_actions, seed=r))
+                asyn.append(python_rate(mj["async"], mj_actions, seed=r))
         for e in mj.values():
             e.close()
         med = statistics.median

@@ -5,9 +5,9 @@ use std::time::Instant;
 
 use centaur::registry::{EnvSource, env_names};
 use centaur::settings::EnvSettings;
-use centaur_gym::{BoxSpace, Env as RustEnv, MAX_REWARD_TERMS, Rng, StepInfo, VecEnv as RustVecEnv, VecStep};
+use centaur_gym::{BoxSpace, Env as RustEnv, MAX_REWARD_TERMS, StepInfo, VecEnv as RustVecEnv, VecStep};
 use numpy::prelude::*;
-use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 
@@ -215,35 +215,33 @@ impl VecEnv {
     }
 }
 
-/// Steps/s of the Rust `VecEnv` alone: `num_envs` copies of `name` on `threads` threads,
-/// `steps` batch steps with uniform random actions drawn before the clock starts (seed
-/// `seed`), no Python in the loop. The bench compares the Python vector env against it.
+/// Steps/s of the Rust `VecEnv` alone: `num_envs` copies of `name` on `threads` threads
+/// reset with `seed`, then stepped with `actions` (`(steps, num_envs, act_dim)` float32,
+/// copied before the clock starts), no Python in the loop. The bench gives the Python
+/// vector env the same actions, so both run the same episodes.
 #[pyfunction]
-#[pyo3(signature = (name, num_envs, threads, steps, seed=0, settings=None))]
+#[pyo3(signature = (name, num_envs, threads, actions, seed=0, settings=None))]
 fn bench_vec_env(
     py: Python<'_>,
     name: &str,
     num_envs: usize,
     threads: usize,
-    steps: usize,
+    actions: PyReadonlyArray3<'_, f32>,
     seed: u64,
     settings: Option<&str>,
 ) -> PyResult<f64> {
-    if num_envs == 0 || threads == 0 || steps == 0 {
-        return Err(error("num_envs, threads and steps must be at least 1"));
+    if num_envs == 0 || threads == 0 {
+        return Err(error("num_envs and threads must be at least 1"));
     }
     let mut envs = source(name, settings)?.make_vec(num_envs, threads).map_err(error)?;
+    let (n, a) = (envs.len(), envs.action_space().dim());
+    let shape = actions.shape();
+    if shape[1] != n || shape[2] != a || shape[0] == 0 {
+        return Err(error(format!("actions have shape {shape:?}, expected (steps ≥ 1, {n}, {a})")));
+    }
+    let steps = shape[0];
+    let actions = actions.as_slice().map_err(error)?.to_vec();
     py.detach(|| {
-        let (n, a) = (envs.len(), envs.action_space().dim());
-        let len = n
-            .checked_mul(a)
-            .and_then(|x| x.checked_mul(steps))
-            .ok_or_else(|| error("num_envs × steps overflows"))?;
-        let mut actions = vec![0.0f32; len];
-        let mut rng = Rng::seed_from_u64(seed);
-        for row in actions.chunks_mut(a) {
-            envs.action_space().sample(&mut rng, row);
-        }
         let mut obs = vec![0.0; n * envs.observation_space().dim()];
         envs.reset(seed, &mut obs).map_err(error)?;
         let mut out = envs.make_step_buffers();

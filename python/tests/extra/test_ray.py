@@ -1,6 +1,6 @@
 """Ray: RLlib's PPO runs a Centaur env with two env-runner processes on a local two-node
 Ray cluster, and a sweep run as Ray tasks equals the same sweep run by `centaur sweep`
-(needs ray[rllib] and torch: `tools/python_extra_tests.sh`)."""
+(needs ray[rllib] and torch: `tools/python_tests.sh`)."""
 
 import importlib.util
 import json

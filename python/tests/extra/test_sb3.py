@@ -1,5 +1,5 @@
 """Stable-Baselines3's SAC and PPO learn on Centaur environments through `CentaurSb3VecEnv`
-(needs stable-baselines3 and torch: `tools/python_extra_tests.sh`)."""
+(needs stable-baselines3 and torch: `tools/python_tests.sh`)."""
 
 import numpy as np
 import pytest
