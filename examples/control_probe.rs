@@ -182,7 +182,7 @@ fn main() {
         } else {
             ctrl.tick(env.robot_state(), &command, t)
         };
-        mapping.action(env.as_ref(), cmd, &mut action);
+        mapping.action(env.as_mut(), cmd, &mut action);
         if noise_frac > 0.0 {
             centaur::control::perturb_action(&mut action, env.action_space(), noise_frac, &mut noise);
         }

@@ -322,7 +322,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         let start = Instant::now();
         let cmd = mapping.tick(&mut ctrl, env.as_ref(), &command, t);
         ticks.push(start.elapsed().as_secs_f64() * 1e6);
-        mapping.action(env.as_ref(), cmd, &mut action);
+        mapping.action(env.as_mut(), cmd, &mut action);
         if opts.action_noise > 0.0 {
             perturb_action(&mut action, &space, opts.action_noise, &mut noise);
         }

@@ -13,7 +13,7 @@
 //! [`crate::deploy::RobotInterface`] (anything that reports a state and takes actions).
 
 use centaur_dynamics::{Model, RobotState};
-use centaur_envs::RobotEnv;
+use centaur_envs::{RobotEnv, Servo};
 use centaur_mpc::{Command, ConfigError, Gait, JointCommand, LocomotionController};
 
 /// What the hybrid's pieces refuse.
@@ -370,6 +370,24 @@ impl CommandTorques {
         }
         &self.tau
     }
+
+    /// The feed-forward torques `τ_ff` of `cmd` alone.
+    pub fn feed_forward(&mut self, cmd: &JointCommand) -> &[f64] {
+        for (t, &(k, _, _)) in self.tau.iter_mut().zip(&self.map) {
+            *t = cmd.tau[k];
+        }
+        &self.tau
+    }
+
+    /// The servo targets `[q*, q̇*, kp, kd]` of `cmd`, in actuator order, into `out`.
+    pub fn servo_targets(&self, cmd: &JointCommand, out: &mut [Vec<f64>; 4]) {
+        for (i, &(k, _, _)) in self.map.iter().enumerate() {
+            out[0][i] = cmd.q_des[k];
+            out[1][i] = cmd.qd_des[k];
+            out[2][i] = cmd.kp[k];
+            out[3][i] = cmd.kd[k];
+        }
+    }
 }
 
 /// The controller's contact points matched by link name with a robot's contact sensors,
@@ -422,8 +440,11 @@ impl ContactMap {
 /// controller with the robot's measured foot contacts.
 ///
 /// Each environment step the controller ticks once on the robot state the simulator
-/// reports (its only view of the robot); its command becomes joint torques at that state
-/// ([`CommandTorques`]), and the environment turns torques into its own actions
+/// reports (its only view of the robot). Where the robot has a joint servo
+/// ([`RobotEnv::set_servo`]: the torque-actuated Gymnasium robots) the command's PD part
+/// goes to it, evaluated at every physics step as motor drivers would, and the action
+/// carries the feed-forward torque; otherwise the command becomes joint torques at that
+/// state ([`CommandTorques`]). The environment turns torques into its own actions
 /// ([`RobotEnv::action_for_torques`]: torque/gear for the Gymnasium robots, the inverted DC
 /// motor model and leg model for the Minitaur). Every runner — `centaur control`, the hybrid
 /// env, the experiment's controller baseline and the deployed stack — ticks the controller
@@ -433,6 +454,7 @@ impl ContactMap {
 pub struct ActionMapping {
     torques: CommandTorques,
     contacts: ContactMap,
+    servo: [Vec<f64>; 4],
 }
 
 impl ActionMapping {
@@ -440,7 +462,12 @@ impl ActionMapping {
     /// points by name.
     pub fn new(env: &dyn RobotEnv, controller: &LocomotionController) -> Result<ActionMapping, HybridError> {
         let torques = CommandTorques::new(env.model(), env.actuated_joints(), controller)?;
-        Ok(ActionMapping { torques, contacts: ContactMap::new(controller, env.foot_frames()) })
+        let n = env.actuated_joints().len();
+        Ok(ActionMapping {
+            torques,
+            contacts: ContactMap::new(controller, env.foot_frames()),
+            servo: std::array::from_fn(|_| vec![0.0; n]),
+        })
     }
 
     /// One controller tick at the env's state and time `t`: with the env's measured foot
@@ -465,10 +492,18 @@ impl ActionMapping {
         self.torques.torques(env.robot_state(), cmd)
     }
 
-    /// The env action realising `cmd` at the env's current state.
-    pub fn action(&mut self, env: &dyn RobotEnv, cmd: &JointCommand, out: &mut [f32]) {
-        let tau = self.torques.torques(env.robot_state(), cmd);
-        env.action_for_torques(tau, out);
+    /// The env action realising `cmd` at the env's current state, after handing the
+    /// command's PD part to the env's servo where it has one.
+    pub fn action(&mut self, env: &mut dyn RobotEnv, cmd: &JointCommand, out: &mut [f32]) {
+        self.torques.servo_targets(cmd, &mut self.servo);
+        let [q, qd, kp, kd] = &self.servo;
+        if env.set_servo(Some(Servo { q, qd, kp, kd })) {
+            let tau = self.torques.feed_forward(cmd);
+            env.action_for_torques(tau, out);
+        } else {
+            let tau = self.torques.torques(env.robot_state(), cmd);
+            env.action_for_torques(tau, out);
+        }
     }
 }
 

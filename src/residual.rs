@@ -163,7 +163,7 @@ impl ResidualEnv {
     fn update_reference(&mut self) {
         let t = self.env.episode_time();
         let cmd = self.mapping.tick(&mut self.controller, self.env.as_ref(), &self.command, t);
-        self.mapping.action(self.env.as_ref(), cmd, &mut self.reference);
+        self.mapping.action(self.env.as_mut(), cmd, &mut self.reference);
     }
 
     fn write_obs(&self, obs: &mut [f32]) {

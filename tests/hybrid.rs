@@ -21,7 +21,7 @@ fn controller_alone(env_name: &str, command: Command, steps: usize) -> Vec<u64> 
     for _ in 0..steps {
         let t = env.episode_time();
         let cmd = mapping.tick(&mut ctrl, env.as_ref(), &command, t);
-        mapping.action(env.as_ref(), cmd, &mut action);
+        mapping.action(env.as_mut(), cmd, &mut action);
         let s = env.step(&action, &mut obs).unwrap();
         trace.extend(obs.iter().map(|x| x.to_bits() as u64));
         trace.push(s.reward.to_bits());

@@ -34,23 +34,27 @@ SPEED_ROWS = [
     ("minitaur", "walk", 0.5),
     ("ant", "stand", 0.0),
     ("ant", "trot", 0.3),
+    ("ant", "trot", 0.6),
+    ("ant", "trot", 1.0),
+    ("ant", "trot", 1.2),
+    ("ant", "walk", 0.3),
     ("walker2d", "stand", 0.0),
     ("walker2d", "walk", 0.5),
     ("humanoid", "stand", 0.0),
-    ("humanoid", "walk", 0.3),
 ]
 # Targets the presets do not rate (run with --unrated): why they are not offered.
 UNRATED_ROWS = [
-    ("ant", "trot", 0.6),
-    ("ant", "trot", 1.0),
+    ("ant", "trot", 1.5),
+    ("ant", "walk", 0.5),
     ("walker2d", "walk", 1.0),
+    ("humanoid", "walk", 0.3),
     ("humanoid", "walk", 0.5),
     ("minitaur", "trot", 2.75),
     ("minitaur", "bound", 1.0),
     ("minitaur", "gallop", 1.0),
     ("minitaur", "pace", 1.0),
     ("minitaur", "pronk", 1.0),
-    ("ant", "walk", 0.3),
+    ("ant", "pace", 0.3),
     ("ant", "bound", 0.3),
     ("ant", "gallop", 0.3),
 ]
@@ -63,6 +67,7 @@ PUSH_ROWS = [
     ("minitaur", "trot", 2.0, 20), ("minitaur", "trot", 2.0, -20),
     ("minitaur", "stand", 0.0, 20), ("minitaur", "stand", 0.0, -20),
     ("ant", "trot", 0.3, 40), ("ant", "trot", 0.3, -40),
+    ("ant", "trot", 1.0, 40), ("ant", "trot", 1.0, -40),
     ("humanoid", "stand", 0.0, 40), ("humanoid", "stand", 0.0, -40),
 ]
 # (robot, gait, speed, action noise as a fraction of each entry's half-range)
@@ -72,10 +77,12 @@ NOISE_ROWS = [
     ("minitaur", "trot", 2.0, 0.1),
     ("ant", "trot", 0.3, 0.1),
     ("ant", "trot", 0.6, 0.1),
+    ("ant", "trot", 1.0, 0.1),
 ]
 # (robot, gait, speed, yaw rate rad/s)
 TURN_ROWS = [
     ("ant", "trot", 0.3, 0.5), ("ant", "trot", 0.3, -0.5),
+    ("ant", "trot", 1.0, 0.5), ("ant", "trot", 1.0, -0.5),
     ("minitaur", "trot", 0.5, 0.5), ("minitaur", "trot", 0.5, -0.5),
 ]
 # (robot, gait, schedule)

@@ -41,7 +41,7 @@ use centaur_gym::{check_action, check_observation};
 
 use crate::error::RobotEnvError;
 use crate::mujoco::MjRobot;
-use crate::robot::{FootContact, JointHistory, ObsOptions, Push, RobotEnv};
+use crate::robot::{FootContact, JointHistory, ObsOptions, Push, RobotEnv, Servo};
 use crate::sim::{Sim, SimConfig};
 
 /// Which robot.
@@ -315,6 +315,9 @@ pub struct LocomotionEnv {
     actuated: Vec<usize>,
     /// Torques applied at the last step, per actuator.
     applied: Vec<f64>,
+    /// The servo targets ([`RobotEnv::set_servo`]): `[q*, q̇*, kp, kd]` per actuator.
+    servo: [Vec<f64>; 4],
+    servo_on: bool,
     history: JointHistory,
     joint_scratch: Vec<f32>,
     base_obs: Vec<f32>,
@@ -354,6 +357,8 @@ impl LocomotionEnv {
             foot_frames: feet_names,
             contacts: vec![FootContact::default(); config.robot.feet().len()],
             applied: vec![0.0; actuated.len()],
+            servo: std::array::from_fn(|_| vec![0.0; actuated.len()]),
+            servo_on: false,
             actuated,
             history: JointHistory::new(config.obs.joint_history, n_joints_obs),
             joint_scratch: vec![0.0; n_joints_obs],
@@ -586,6 +591,7 @@ impl Env for LocomotionEnv {
             self.rng = Rng::seed_from_u64(s);
         }
         self.sim = self.robot.build_sim(&self.config.sim)?;
+        self.servo_on = false;
         self.index_feet();
         let a = self.config.reset_noise_scale;
         let normal_velocity =
@@ -635,8 +641,14 @@ impl Env for LocomotionEnv {
             self.applied[k] = self.tau[*iv];
         }
         let mut energy = 0.0;
+        // Under the servo the control cost is charged on what the actuators applied, the
+        // mean over the physics steps of Σ (τ/gear)², not on the feed-forward action alone.
+        let mut servo_ctrl_sq = 0.0;
         let base = self.base_joint();
         for _ in 0..self.config.frame_skip {
+            if self.servo_on {
+                servo_ctrl_sq += self.apply_servo(action);
+            }
             self.push.apply(&mut self.sim, base, self.episode_time);
             self.sim.step();
             self.episode_time += self.config.sim.dt;
@@ -665,7 +677,12 @@ impl Env for LocomotionEnv {
         let healthy = self.is_healthy();
         let forward = c.forward_reward_weight * velocity.x;
         let healthy_reward = if healthy { c.healthy_reward } else { 0.0 };
-        let ctrl_cost = c.ctrl_cost_weight * action.iter().map(|a| (*a as f64) * (*a as f64)).sum::<f64>();
+        let ctrl_sq = if self.servo_on {
+            servo_ctrl_sq / c.frame_skip as f64
+        } else {
+            action.iter().map(|a| (*a as f64) * (*a as f64)).sum::<f64>()
+        };
+        let ctrl_cost = c.ctrl_cost_weight * ctrl_sq;
         let contact_cost = if c.contact_cost_weight > 0.0 {
             let (lo, hi) = c.contact_force_range;
             (c.contact_cost_weight * self.cfrc.iter().map(|w| w.clamp(lo, hi).powi(2)).sum::<f64>())
@@ -690,6 +707,25 @@ impl Env for LocomotionEnv {
 }
 
 impl LocomotionEnv {
+    /// The action's torque plus the servo's PD torque at the joints' current state, each
+    /// within its actuator's range `gear · ctrlrange`, set on the simulator; returns
+    /// `Σ (τ/gear)²`, the control those torques amount to.
+    fn apply_servo(&mut self, action: &[f32]) -> f64 {
+        let mut ctrl_sq = 0.0;
+        let [q_des, qd_des, kp, kd] = &self.servo;
+        for (k, ((iv, gear), a)) in self.robot.actuators.iter().zip(action).enumerate() {
+            let (lo, hi) = (self.act_space.low[k] as f64, self.act_space.high[k] as f64);
+            let (q, qd) = self.sim.joint_state(self.robot.model.joint_of_dof(*iv));
+            let pd = kp[k] * (q_des[k] - q) + kd[k] * (qd_des[k] - qd);
+            let t = gear * (*a as f64).clamp(lo, hi) + pd;
+            self.tau[*iv] = t.clamp(gear * lo, gear * hi);
+            self.applied[k] = self.tau[*iv];
+            ctrl_sq += (self.tau[*iv] / gear).powi(2);
+        }
+        self.sim.set_joint_torques(&self.tau);
+        ctrl_sq
+    }
+
     /// Model joint of the body pushes act on: the free base, or the torso of planar robots.
     fn base_joint(&self) -> usize {
         if self.robot.model.has_floating_base() {
@@ -738,5 +774,23 @@ impl RobotEnv for LocomotionEnv {
         for (k, ((_, gear), o)) in self.robot.actuators.iter().zip(out.iter_mut()).enumerate() {
             *o = ((tau[k] / gear) as f32).clamp(self.act_space.low[k], self.act_space.high[k]);
         }
+    }
+
+    fn set_servo(&mut self, servo: Option<Servo<'_>>) -> bool {
+        match servo {
+            Some(Servo { q, qd, kp, kd }) => {
+                let n = self.applied.len();
+                assert!(
+                    q.len() == n && qd.len() == n && kp.len() == n && kd.len() == n,
+                    "servo targets for {n} actuators expected"
+                );
+                for (dst, src) in self.servo.iter_mut().zip([q, qd, kp, kd]) {
+                    dst.copy_from_slice(src);
+                }
+                self.servo_on = true;
+            }
+            None => self.servo_on = false,
+        }
+        true
     }
 }

@@ -38,6 +38,21 @@ pub enum JointTarget<'a> {
     },
 }
 
+/// Joint servo targets for the actuated joints, in [`RobotEnv::actuated_joints`] order:
+/// the PD part `kp (q* − q) + kd (q̇* − q̇)` of a controller's joint command
+/// ([`RobotEnv::set_servo`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Servo<'a> {
+    /// Target positions.
+    pub q: &'a [f64],
+    /// Target velocities.
+    pub qd: &'a [f64],
+    /// Position gains (N·m/rad).
+    pub kp: &'a [f64],
+    /// Velocity gains (N·m·s/rad).
+    pub kd: &'a [f64],
+}
+
 /// Robot-level access for controllers: the model the simulator was built from, the state in
 /// the dynamics conventions, foot contacts, and external pushes.
 pub trait RobotEnv: Env {
@@ -64,6 +79,17 @@ pub trait RobotEnv: Env {
     /// Torques the actuators applied during the last physics step (N·m or N, joint frame,
     /// [`RobotEnv::actuated_joints`] order).
     fn last_torques(&self) -> &[f64];
+    /// Holds joint servo targets for the following steps (until replaced, removed with
+    /// `None`, or the next reset): at every physics step the env adds their PD torque at the
+    /// joints' current state to the action's torque, within the actuators' range. This is a
+    /// robot's motor drivers under a controller that ticks at the control rate; the action
+    /// then carries the feed-forward torque (and a learner's residual). Returns whether the
+    /// env has such a servo: the torque-actuated robots do; the Minitaur's actions are
+    /// already motor positions servoed at the physics rate, so it has none.
+    fn set_servo(&mut self, servo: Option<Servo<'_>>) -> bool {
+        let _ = servo;
+        false
+    }
 }
 
 /// Observation options shared by every environment (one seed paper ablates them).

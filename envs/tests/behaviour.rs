@@ -2,7 +2,8 @@
 //! bad actions, blow-ups, vectorised stepping and the observation options.
 
 use centaur_envs::{
-    LocomotionConfig, LocomotionEnv, LocomotionRobot, MinitaurConfig, MinitaurEnv, ObsOptions,
+    LocomotionConfig, LocomotionEnv, LocomotionRobot, MinitaurConfig, MinitaurEnv, ObsOptions, RobotEnv,
+    Servo,
 };
 use centaur_gym::{Env, EnvError, Rng, VecEnv};
 
@@ -244,4 +245,58 @@ fn minitaur_refuses_a_distance_limit_that_is_not_positive() {
     for limit in [f64::INFINITY, 3.0] {
         MinitaurEnv::new(MinitaurConfig { distance_limit: limit, ..MinitaurConfig::default() }).unwrap();
     }
+}
+
+/// The joint servo under a controller (`RobotEnv::set_servo`): with zero gains it changes
+/// nothing; stiff targets at the standing pose hold the joints where random actions move
+/// them; the control cost is charged on what the actuators applied; a reset removes it;
+/// the Minitaur, servoed already, has none.
+#[test]
+fn the_servo_adds_its_pd_torque_at_every_physics_step() {
+    let run = |servo: Option<(f64, f64)>, steps: usize| {
+        let mut env = LocomotionEnv::new(LocomotionConfig::ant()).unwrap();
+        let mut obs = vec![0.0f32; env.observation_space().dim()];
+        env.reset(Some(4), &mut obs).unwrap();
+        let n = env.actuated_joints().len();
+        let q0: Vec<f64> =
+            env.actuated_joints().iter().map(|&j| env.robot_state().q[env.model().joints[j].idx_q]).collect();
+        if let Some((kp, kd)) = servo {
+            let (zeros, kps, kds) = (vec![0.0; n], vec![kp; n], vec![kd; n]);
+            assert!(env.set_servo(Some(Servo { q: &q0, qd: &zeros, kp: &kps, kd: &kds })));
+        }
+        let mut rng = Rng::seed_from_u64(8);
+        let (mut rewards, mut action) = (Vec::new(), vec![0.0f32; n]);
+        for _ in 0..steps {
+            env.action_space().sample(&mut rng, &mut action);
+            action.iter_mut().for_each(|a| *a *= 0.3);
+            rewards.push(env.step(&action, &mut obs).unwrap().reward);
+        }
+        let q: Vec<f64> =
+            env.actuated_joints().iter().map(|&j| env.robot_state().q[env.model().joints[j].idx_q]).collect();
+        let moved = q.iter().zip(&q0).map(|(a, b)| (a - b).abs()).sum::<f64>() / n as f64;
+        (obs, rewards, moved, env)
+    };
+    let (plain_obs, plain_rewards, plain_moved, _) = run(None, 10);
+    let (zero_obs, zero_rewards, _, _) = run(Some((0.0, 0.0)), 10);
+    assert_eq!(plain_obs, zero_obs, "a servo with zero gains changed the motion");
+    for (a, b) in plain_rewards.iter().zip(&zero_rewards) {
+        assert!((a - b).abs() < 1e-12, "{a} vs {b}: the control cost of the same torques differs");
+    }
+    let (_, _, held, mut env) = run(Some((200.0, 10.0)), 10);
+    // (The Ant lands from its 0.75 m drop meanwhile: the servo, within 150 N·m, holds the
+    // joints closer to the standing pose, not exactly at it.)
+    assert!(
+        held < 0.6 * plain_moved,
+        "held joints moved {held:.3} rad on average, free ones {plain_moved:.3}"
+    );
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    env.reset(Some(4), &mut obs).unwrap();
+    let (mut fresh, mut fresh_obs) = (LocomotionEnv::new(LocomotionConfig::ant()).unwrap(), obs.clone());
+    fresh.reset(Some(4), &mut fresh_obs).unwrap();
+    let action = vec![0.2f32; 8];
+    env.step(&action, &mut obs).unwrap();
+    fresh.step(&action, &mut fresh_obs).unwrap();
+    assert_eq!(obs, fresh_obs, "the servo outlived the reset");
+    let mut minitaur = MinitaurEnv::new(MinitaurConfig::default()).unwrap();
+    assert!(!minitaur.set_servo(None));
 }

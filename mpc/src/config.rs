@@ -257,17 +257,26 @@ impl ControllerConfig {
     /// HL = leg 2 (−x, +y), HR = leg 3 (−x, −y). Standing pose: the XML's custom
     /// `init_qpos` (ankles ±1 rad).
     ///
-    /// Torques are held for 50 ms, so the task gains are chosen for a zero-order hold of
-    /// `T = 0.05` s (`k_p T² ≤ 0.5`, `k_d T ≤ 1`: swing 200/20, body 100/15); gaits run at
-    /// twice their table periods (a 0.6 s trot, six ticks per half cycle) and the MPC steps
-    /// with the control period. A two-dof leg with its foot planted locks the body's height,
-    /// roll and pitch to its forward motion, so stance legs also get joint PD targets
-    /// (200 N·m/rad, 15 N·m·s/rad) that carry the body along its reference over the feet
-    /// (the stance target of the contacts stage, `controller/contacts.rs`); the height task is soft (20/s²) and the WBC
-    /// follows the MPC forces loosely (weight 1). Touch-down detection is off: a 20 Hz
-    /// swing reaches the ground late often enough that waiting for contact costs more than
-    /// it saves. A standing Ant is not re-centred: planted two-dof legs cannot move the
-    /// body sideways without sliding their feet.
+    /// The controller ticks at the env's 20 Hz; its joint PD part runs on the env's servo
+    /// at the physics rate (100 Hz, `RobotEnv::set_servo`, as motor drivers would), and
+    /// only the feed-forward torque is held for 50 ms. The task-space gains are still
+    /// chosen for a 50 ms hold of the WBC's accelerations (`k_p T² ≤ 0.5`, `k_d T ≤ 1`:
+    /// body 100/15); the swing legs' 400/30 pass through the servo. Gaits run at their table
+    /// periods (a 0.3 s trot) and the MPC steps with the control period. A two-dof leg with
+    /// its foot planted locks the body's height, roll and pitch to its forward motion, so
+    /// stance legs also get joint PD targets (200 N·m/rad, 15 N·m·s/rad) that carry the body
+    /// along its reference over the feet (the stance target of the contacts stage,
+    /// `controller/contacts.rs`); the height task is soft (20/s²), the heading is weighted
+    /// 10× the other body axes, and the WBC follows the MPC forces loosely (weight 1).
+    /// Touch-down detection is off: at 20 Hz a swing reaches the ground late often enough
+    /// that waiting for contact costs more than it saves (with it the 1 m/s trot made
+    /// 0.42–0.48 m/s). A standing Ant is not re-centred: planted two-dof legs cannot move
+    /// the body sideways without sliding their feet.
+    ///
+    /// Measured on seeds 0–4 (2026-11-26): before the servo, with the torques held 50 ms, a
+    /// 0.6 s trot and swing gains 200/20, it trotted 0.3 m/s but made only 0.34–0.59 and
+    /// 0.24–0.41 m/s at 0.6 and 1.0; the servo alone raised 1.0 m/s to 0.41–0.52, and the
+    /// 0.3 s trot with the stiffer swing to 0.95–0.98.
     pub fn ant() -> Self {
         let contacts = vec![
             ContactSpec { frame: "ankle_1_body".into(), offset: [0.4, 0.4, 0.0], radius: 0.08, leg: 0 },
@@ -293,8 +302,8 @@ impl ControllerConfig {
         });
         c.swing_height = 0.08;
         c.mpc.dt = 0.05;
-        c.gait_period_scale = 2.0;
-        c.swing_gains = (200.0, 20.0);
+        c.gait_period_scale = 1.0;
+        c.swing_gains = (400.0, 30.0);
         c.body_kp_pos = [0.0, 0.0, 20.0];
         c.body_kd_vel = [15.0; 3];
         c.body_kp_ori = [100.0; 3];
@@ -305,13 +314,19 @@ impl ControllerConfig {
         c.recenter_speed = 0.0;
         c.touchdown_detection = false;
         c.wbc.w_force = 1.0;
+        // Heading held 10× harder than the other body axes: at 1 m/s yaw drifted up to
+        // 0.25 rad with equal weights, 0.02–0.06 with this (seeds 0–2).
+        c.wbc.body_axis_weights[5] = 10.0;
         c.mpc.force_weight = FIRM_FORCE_WEIGHT;
-        // Rated to the speed it tracks within 15 % over seeds 0–4 (0.28–0.30 m/s at 0.3):
-        // commanded 0.6 and 1.0 m/s it stays up but makes only 0.34–0.60 and 0.24–0.41 m/s
-        // (its feet land up to 0.2 m off their footholds at 20 Hz). Its walk, pace, bound,
-        // pronk and gallop stay up but make 0.03–0.22 m/s at 0.3, some turning 2 rad, so they
-        // are not offered.
-        c.gaits = vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Trot, 0.3)];
+        // Rated to the speeds tracked within 15 % on seeds 0–4: the trot to 1.2 m/s
+        // (1.03–1.17 m/s at 1.2), the static walk to 0.3 (0.294–0.298; at 0.4 one seed made
+        // 0.32). Pace, bound and gallop stay up at 0.3 m/s but fall short or turn up to 1 rad,
+        // so they are not offered.
+        c.gaits = vec![
+            GaitOffer::new(Gait::Stand, 0.0),
+            GaitOffer::new(Gait::Walk, 0.3),
+            GaitOffer::new(Gait::Trot, 1.2),
+        ];
         c
     }
 

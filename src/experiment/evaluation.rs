@@ -127,7 +127,7 @@ impl Driver {
             Driver::Controller { env, controller, mapping, command } => {
                 let t = env.episode_time();
                 let cmd = mapping.tick(controller, env.as_ref(), command, t);
-                mapping.action(env.as_ref(), cmd, action);
+                mapping.action(env.as_mut(), cmd, action);
                 rec.reference.clone_from_slice(action);
                 rec.applied.clone_from_slice(action);
                 rec.planned_com.clear();
