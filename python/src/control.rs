@@ -3,7 +3,6 @@
 use std::sync::Mutex;
 
 use centaur_dynamics::RobotState;
-use centaur_dynamics::nalgebra::DVector;
 use centaur_mpc::{Command, ControllerConfig, Gait, LocomotionController};
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
@@ -158,8 +157,8 @@ impl Controller {
         }
         let command = Command { forward_velocity, lateral_velocity, yaw_rate, body_height, gait };
         let State { controller, state, torques, q: qj, qd: qdj } = &mut *s;
-        state.q.copy_from(&DVector::from_column_slice(q));
-        state.v.copy_from(&DVector::from_column_slice(v));
+        state.q.as_mut_slice().copy_from_slice(q);
+        state.v.as_mut_slice().copy_from_slice(v);
         // A non-finite state is the controller's to handle (posture PD, said in the status).
         let cmd = match &contacts {
             Some(c) => controller.tick_with_contacts(state, &command, t, c),
