@@ -455,6 +455,9 @@ pub struct ActionMapping {
     torques: CommandTorques,
     contacts: ContactMap,
     servo: [Vec<f64>; 4],
+    /// Whether the env took servo targets (known after the first action; an env without a
+    /// servo is not asked again, so the Minitaur's ticks do no servo work).
+    has_servo: Option<bool>,
 }
 
 impl ActionMapping {
@@ -467,6 +470,7 @@ impl ActionMapping {
             torques,
             contacts: ContactMap::new(controller, env.foot_frames()),
             servo: std::array::from_fn(|_| vec![0.0; n]),
+            has_servo: None,
         })
     }
 
@@ -495,15 +499,19 @@ impl ActionMapping {
     /// The env action realising `cmd` at the env's current state, after handing the
     /// command's PD part to the env's servo where it has one.
     pub fn action(&mut self, env: &mut dyn RobotEnv, cmd: &JointCommand, out: &mut [f32]) {
-        self.torques.servo_targets(cmd, &mut self.servo);
-        let [q, qd, kp, kd] = &self.servo;
-        if env.set_servo(Some(Servo { q, qd, kp, kd })) {
-            let tau = self.torques.feed_forward(cmd);
-            env.action_for_torques(tau, out);
-        } else {
-            let tau = self.torques.torques(env.robot_state(), cmd);
-            env.action_for_torques(tau, out);
+        if self.has_servo != Some(false) {
+            self.torques.servo_targets(cmd, &mut self.servo);
+            let [q, qd, kp, kd] = &self.servo;
+            let taken = env.set_servo(Some(Servo { q, qd, kp, kd }));
+            self.has_servo = Some(taken);
+            if taken {
+                let tau = self.torques.feed_forward(cmd);
+                env.action_for_torques(tau, out);
+                return;
+            }
         }
+        let tau = self.torques.torques(env.robot_state(), cmd);
+        env.action_for_torques(tau, out);
     }
 }
 

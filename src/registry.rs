@@ -409,11 +409,15 @@ pub fn make_env(name: &str) -> Result<Box<dyn Env>, RegistryError> {
     make_env_with(name, &EnvSettings::default())
 }
 
-/// [`make_env`] with `[env]` settings over the preset (none for the Pendulum).
+/// [`make_env`] with `[env]` settings over the preset (only `max_episode_steps` for the
+/// Pendulum).
 pub fn make_env_with(name: &str, settings: &EnvSettings) -> Result<Box<dyn Env>, RegistryError> {
     if name == "pendulum" {
-        settings.none_for("the Pendulum")?;
-        return Ok(Box::new(Pendulum::new()));
+        if settings.max_episode_steps == Some(0) {
+            let message = "max_episode_steps must be positive".to_string();
+            return Err(RobotEnvError::InvalidConfig { config: "Pendulum", message }.into());
+        }
+        return Ok(Box::new(settings.pendulum(Pendulum::new())?));
     }
     if let Some(robot) = name.strip_suffix("-residual")
         && self::robot(robot).is_some_and(|r| r.residual.is_some())

@@ -26,9 +26,11 @@
 //! | `ctrl_cost_weight`, `reset_noise_scale` | | ✓ | ✓ |
 //! | `observation` (`"full"`, `"hinges_orientation"`, `"hinges"`) | | | ✓ |
 //!
-//! Checkpoints and run records keep the settings (an empty table is the preset).
+//! The Pendulum takes `max_episode_steps` only. Checkpoints and run records keep the
+//! settings (an empty table is the preset).
 
 use centaur_envs::{LocomotionConfig, MinitaurConfig, ModularConfig, ModularObservation};
+use centaur_gym::pendulum::Pendulum;
 use serde::{Deserialize, Serialize};
 
 /// The `[env]` table: each `Some` field replaces the preset's value.
@@ -180,12 +182,16 @@ impl EnvSettings {
         }
     }
 
-    /// Refuses every key: for an environment without settings (the Pendulum).
-    pub fn none_for(&self, env: &'static str) -> Result<(), NotApplicable> {
-        match self.given().first() {
-            Some(&key) => Err(NotApplicable { key, env, keys: Vec::new() }),
-            None => Ok(()),
+    /// The Pendulum with these settings: only `max_episode_steps` applies.
+    pub fn pendulum(&self, mut p: Pendulum) -> Result<Pendulum, NotApplicable> {
+        const KEYS: [&str; 1] = ["max_episode_steps"];
+        if let Some(key) = self.given().into_iter().find(|k| !KEYS.contains(k)) {
+            return Err(NotApplicable { key, env: "the Pendulum", keys: KEYS.to_vec() });
         }
+        if let Some(n) = self.max_episode_steps {
+            p.max_episode_steps = n;
+        }
+        Ok(p)
     }
 
     /// The Minitaur's config with these settings.
@@ -280,8 +286,10 @@ mod tests {
         let e = s.locomotion(LocomotionConfig::ant()).unwrap_err();
         assert_eq!(e.key, "energy_weight");
         assert!(e.to_string().contains("healthy_reward"), "{e}");
-        assert!(s.none_for("pendulum").is_err());
-        assert!(EnvSettings::default().none_for("pendulum").is_ok());
+        assert_eq!(s.pendulum(Pendulum::new()).unwrap_err().key, "energy_weight");
+        assert_eq!(EnvSettings::default().pendulum(Pendulum::new()).unwrap().max_episode_steps, 200);
+        let (s, _) = split_run_toml("[env]\nmax_episode_steps = 50\n").unwrap();
+        assert_eq!(s.pendulum(Pendulum::new()).unwrap().max_episode_steps, 50);
 
         let (s, _) = split_run_toml("[env]\nhealthy_reward = 5.0\nhealthy_z_range = [0.3, 1.0]\n").unwrap();
         let ant = s.locomotion(LocomotionConfig::ant()).unwrap();

@@ -661,7 +661,8 @@ fn the_env_table_of_a_run_file_configures_the_environment() {
 
     for (env, text, says) in [
         ("walker2d", "[env]\nenergy_weight = 0.1\n", "energy_weight does not apply"),
-        ("pendulum", "[env]\nmax_episode_steps = 5\n", "the Pendulum"),
+        ("pendulum", "[env]\nframe_skip = 5\n", "frame_skip does not apply to the Pendulum"),
+        ("pendulum", "[env]\nmax_episode_steps = 0\n", "max_episode_steps must be positive"),
         ("walker2d", "[env]\nmax_episode_step = 5\n", "max_episode_step"),
     ] {
         std::fs::write(&config, text).unwrap();

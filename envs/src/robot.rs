@@ -18,26 +18,6 @@ pub struct FootContact {
     pub point: Vector3<f64>,
 }
 
-/// How joint commands reach the robot when a controller drives it directly.
-#[derive(Clone, Debug, PartialEq)]
-pub enum JointTarget<'a> {
-    /// Torques (N·m) for the actuated joints, in [`RobotEnv::actuated_joints`] order.
-    Torques(&'a [f64]),
-    /// PD targets for the actuated joints: `τ = kp (q* − q) + kd (q̇* − q̇) + τ_ff`.
-    Pd {
-        /// Target positions.
-        q: &'a [f64],
-        /// Target velocities.
-        qd: &'a [f64],
-        /// Position gains.
-        kp: &'a [f64],
-        /// Velocity gains.
-        kd: &'a [f64],
-        /// Feed-forward torques.
-        tau_ff: &'a [f64],
-    },
-}
-
 /// Joint servo targets for the actuated joints, in [`RobotEnv::actuated_joints`] order:
 /// the PD part `kp (q* − q) + kd (q̇* − q̇)` of a controller's joint command
 /// ([`RobotEnv::set_servo`]).

@@ -27,7 +27,7 @@ pub const MAX_SPEED: f64 = 8.0;
 pub const MAX_TORQUE: f64 = 2.0;
 /// Time step (s).
 pub const DT: f64 = 0.05;
-/// Episode length (steps).
+/// Gymnasium's episode length (steps): [`Pendulum::max_episode_steps`]'s default.
 pub const MAX_EPISODE_STEPS: usize = 200;
 
 /// The pendulum swing-up task.
@@ -35,6 +35,9 @@ pub const MAX_EPISODE_STEPS: usize = 200;
 pub struct Pendulum {
     /// Gravity (m/s², default 10).
     pub g: f64,
+    /// Episode length (steps) after which `truncated` is set (default: 200, Gymnasium's;
+    /// 0 is treated as 1).
+    pub max_episode_steps: usize,
     theta: f64,
     theta_dot: f64,
     steps: usize,
@@ -61,6 +64,7 @@ impl Pendulum {
     pub fn new() -> Pendulum {
         Pendulum {
             g: 10.0,
+            max_episode_steps: MAX_EPISODE_STEPS,
             theta: 0.0,
             theta_dot: 0.0,
             steps: 0,
@@ -109,7 +113,7 @@ impl Env for Pendulum {
     }
 
     fn max_episode_steps(&self) -> usize {
-        MAX_EPISODE_STEPS
+        self.max_episode_steps.max(1)
     }
 
     fn dt(&self) -> f64 {
@@ -156,7 +160,7 @@ impl Env for Pendulum {
         self.theta_dot = new_thdot;
         self.steps += 1;
         self.observe(obs);
-        let truncated = self.steps >= MAX_EPISODE_STEPS;
+        let truncated = self.steps >= self.max_episode_steps.max(1);
         if truncated {
             self.needs_reset = true;
         }

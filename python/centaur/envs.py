@@ -24,8 +24,6 @@ _SEED_BOUND = 2**63
 # The environment's own episode limit when Gymnasium's TimeLimit wrapper keeps time
 # instead (2^53 steps: never reached).
 _NO_LIMIT = 2**53
-# Environments whose episode length is fixed (no `max_episode_steps` option).
-_FIXED_LENGTH = {"pendulum": 200}
 
 
 def _native_name(name: str | None, body: str | os.PathLike | None) -> str:
@@ -40,13 +38,8 @@ def _native_name(name: str | None, body: str | os.PathLike | None) -> str:
 
 def _length_option(name: str, options: dict[str, Any], steps: int | None) -> None:
     """Puts the episode length `steps` into `options` (None: the preset's)."""
-    if steps is None:
-        return
-    if name in _FIXED_LENGTH:
-        if steps not in (_FIXED_LENGTH[name], _NO_LIMIT):
-            raise _native.CentaurError(f"`{name}` has a fixed episode length of {_FIXED_LENGTH[name]} steps")
-        return
-    options["max_episode_steps"] = steps
+    if steps is not None:
+        options["max_episode_steps"] = steps
 
 
 def _settings(options: dict[str, Any]) -> str | None:

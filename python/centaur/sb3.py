@@ -13,7 +13,6 @@ Needs `pip install "centaur[sb3]"` (stable-baselines3 and torch).
 
 from __future__ import annotations
 
-import os
 import time
 from typing import Any
 
@@ -23,7 +22,7 @@ from stable_baselines3.common.vec_env import VecEnv
 
 from centaur import _native
 from centaur._registration import ENV_IDS
-from centaur.envs import _length_option, _settings, _spaces
+from centaur.envs import CentaurVectorEnv
 
 
 class CentaurSb3VecEnv(VecEnv):
@@ -39,19 +38,18 @@ class CentaurSb3VecEnv(VecEnv):
     """
 
     def __init__(self, env: str, num_envs: int = 1, num_threads: int | None = None, **options: Any):
-        name = ENV_IDS.get(env, env)
-        steps = options.pop("max_episode_steps", None)
-        if steps is None and env in gymnasium.registry:
-            steps = gymnasium.spec(env).max_episode_steps
-        _length_option(name, options, steps)
-        if num_threads is None:
-            num_threads = min(num_envs, os.cpu_count() or 1)
-        self._env = _native.VecEnv(name, int(num_envs), int(num_threads), _settings(options))
-        _, obs_space, act_space, self.max_episode_steps, self.dt, self.reward_term_names = _spaces(
-            self._env.describe()
+        if options.get("max_episode_steps") is None and env in gymnasium.registry:
+            options["max_episode_steps"] = gymnasium.spec(env).max_episode_steps
+        # The native vector env under the Gymnasium one; SB3's API steps it directly.
+        venv = CentaurVectorEnv(ENV_IDS.get(env, env), num_envs, num_threads, **options)
+        self._env = venv._env
+        self.max_episode_steps, self.dt, self.reward_term_names = (
+            venv.max_episode_steps,
+            venv.dt,
+            venv.reward_term_names,
         )
         self.render_mode = None
-        super().__init__(int(num_envs), obs_space, act_space)
+        super().__init__(venv.num_envs, venv.single_observation_space, venv.single_action_space)
         self._actions: np.ndarray | None = None
         self._rng = np.random.default_rng()
         self._start = time.time()

@@ -5,7 +5,7 @@ use std::sync::Mutex;
 
 use centaur::registry::make_robot_env_with;
 use centaur::settings::EnvSettings;
-use centaur_dynamics::nalgebra::{DMatrix, DVector, Matrix6xX};
+use centaur_dynamics::nalgebra::{DMatrix, DVector, Dim, Matrix, Matrix6xX, RawStorage};
 use centaur_dynamics::{
     BaseKind, Data, Model as RustModel, ReferenceFrame, Se3, aba, center_of_mass, compute_joint_jacobians,
     crba, difference, forward_kinematics, frame_jacobian, frame_placement, gravity_torques, integrate,
@@ -47,10 +47,14 @@ fn vector<'a>(name: &str, a: &'a PyReadonlyArray1<'_, f64>, expected: usize) -> 
     Ok(s)
 }
 
-/// A matrix as a numpy array of its shape.
-fn matrix<'py>(py: Python<'py>, m: &DMatrix<f64>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    // nalgebra is column-major; numpy's default is row-major.
-    PyArray1::from_vec(py, m.transpose().as_slice().to_vec()).reshape([m.nrows(), m.ncols()])
+/// A matrix as a numpy array of its shape (row-major, numpy's default; nalgebra's storage
+/// is column-major).
+fn matrix<'py, R: Dim, C: Dim, S: RawStorage<f64, R, C>>(
+    py: Python<'py>,
+    m: &Matrix<f64, R, C, S>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let (r, c) = m.shape();
+    PyArray1::from_iter(py, (0..r).flat_map(|i| (0..c).map(move |j| m[(i, j)]))).reshape([r, c])
 }
 
 /// A placement as the 4 × 4 homogeneous matrix `[R p; 0 1]`.
@@ -214,7 +218,7 @@ impl Model {
         compute_joint_jacobians(m, &mut d, q);
         let mut j = Matrix6xX::zeros(m.nv);
         frame_jacobian(m, &d, f, rf, &mut j);
-        matrix(py, &DMatrix::from_column_slice(6, m.nv, j.as_slice()))
+        matrix(py, &j)
     }
 
     /// `q ⊕ v`: the configuration reached from `q` with velocity `v` in unit time.
