@@ -71,9 +71,15 @@ fn minitaur_residual() -> ResidualConfig {
     }
 }
 
-/// The Ant's hybrid: 30 % of the control range around a 0.3 m/s trot.
+/// The Ant's hybrid: 30 % of the control range around a 1 m/s trot whose speed the policy
+/// steers within ±0.5 m/s (the controller clamps it to the trot's 1.2 m/s rating); a gentle
+/// start as the Minitaur's (σ 0.3 on the residual, 0.5 on the steering).
 fn ant_residual() -> ResidualConfig {
-    ResidualConfig::new(0.3, Command::forward(0.3, Gait::Trot))
+    ResidualConfig {
+        steering: Steering { speed: 0.5, yaw_rate: 0.0 },
+        exploration: Some(Exploration { residual: 0.1, steering: 0.5 }),
+        ..ResidualConfig::new(0.3, Command::forward(1.0, Gait::Trot))
+    }
 }
 
 /// Walker2d's hybrid: 10 % of the control range around a 0.5 m/s walk (PPO's exploration
