@@ -157,10 +157,10 @@ impl HybridArgs {
 #[derive(Clone, Debug, Default, clap::Args)]
 pub struct ExampleArgs {
     /// Environment steps per agent [default: the example's budget]
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub steps: Option<u64>,
     /// Seed of both agents' training (the evaluation seeds follow from it)
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
     pub seed: u64,
     /// Run directory, refused if it already holds a run unless --overwrite [default:
     /// runs/EXAMPLE, the example's name, or runs/EXAMPLE-2, -3, … if that holds a run]
@@ -170,14 +170,14 @@ pub struct ExampleArgs {
     #[arg(long)]
     pub overwrite: bool,
     /// Parallel environments per agent [default: the example's]
-    #[arg(long, value_parser = positive_count)]
+    #[arg(long, allow_negative_numbers = true, value_parser = positive_count)]
     pub envs: Option<usize>,
     /// Threads stepping each agent's environments, at most one per environment; with more
     /// than one the two agents train side by side [default: the available cores]
-    #[arg(long, value_parser = positive_count)]
+    #[arg(long, allow_negative_numbers = true, value_parser = positive_count)]
     pub threads: Option<usize>,
     /// Deterministic evaluation episodes per agent
-    #[arg(long, default_value_t = 10, value_parser = positive_count)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = positive_count)]
     pub eval_episodes: usize,
     /// TOML file of hyperparameters for both agents [default: the tuned set for the robot and
     /// algorithm, see `tuned_config`]

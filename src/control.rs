@@ -34,6 +34,17 @@ pub enum ControlError {
     /// A bad option.
     #[error("{0}")]
     Invalid(String),
+    /// The simulation blew up (non-finite state or an absurd base speed), e.g. under a push
+    /// far beyond what the robot and the integrator can take; no summary is written.
+    #[error(
+        "the simulation diverged at t = {t:.3} s (base speed {base_speed:.3e} m/s): its results would be meaningless"
+    )]
+    Diverged {
+        /// Simulated time (s).
+        t: f64,
+        /// Norm of the base's linear velocity (m/s), NaN when the state is not finite.
+        base_speed: f64,
+    },
     /// Writing the summary failed.
     #[error("{path}: {source}")]
     Io {
@@ -43,6 +54,17 @@ pub enum ControlError {
         source: std::io::Error,
     },
 }
+
+/// The longest control run (simulated seconds): one hour; longer runs are refused before
+/// anything is allocated for them.
+pub const MAX_SECONDS: f64 = 3600.0;
+
+/// The largest push force (N) a control run takes: far beyond any robot here (the Humanoid
+/// weighs ≈ 400 N), below what breaks the simulator's integration.
+pub const MAX_PUSH_FORCE: f64 = 10_000.0;
+
+/// A base speed (m/s) no legged robot here reaches: above it the run is reported as diverged.
+const MAX_BASE_SPEED: f64 = 100.0;
 
 /// A push during a control run: force (N, world frame) on the base from `at` for `duration` s.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -226,8 +248,47 @@ fn planar_pose(env: &dyn RobotEnv) -> (f64, f64, f64) {
 
 /// Runs the controller alone on a robot environment and summarises the run.
 pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError> {
-    if !(opts.seconds > 0.0 && opts.seconds.is_finite() && opts.speed.is_finite()) {
-        return Err(ControlError::Invalid("seconds must be positive and speed finite".into()));
+    if !(opts.seconds > 0.0 && opts.seconds <= MAX_SECONDS && opts.speed.is_finite()) {
+        return Err(ControlError::Invalid(format!(
+            "seconds = {}: expected more than 0 and at most {MAX_SECONDS} s of simulated time, and a finite speed",
+            opts.seconds
+        )));
+    }
+    if !(opts.measure_from.is_finite() && opts.measure_from >= 0.0 && opts.measure_from < opts.seconds) {
+        return Err(ControlError::Invalid(format!(
+            "measure from {} s: expected a time from 0 to before the run's end ({} s)",
+            opts.measure_from, opts.seconds
+        )));
+    }
+    if opts.gait == Gait::Stand
+        && (opts.speed != 0.0 || opts.yaw_rate != 0.0 || !opts.speed_schedule.is_empty())
+    {
+        return Err(ControlError::Invalid(
+            "a stand keeps its feet where they are: it takes speed 0 and yaw rate 0 (no speed schedule); \
+             command a walking gait to move"
+                .into(),
+        ));
+    }
+    if let Some(p) = &opts.push {
+        let magnitude = p.force.iter().map(|f| f * f).sum::<f64>().sqrt();
+        if !(magnitude.is_finite() && magnitude <= MAX_PUSH_FORCE) {
+            return Err(ControlError::Invalid(format!(
+                "push force {:?} N: expected finite components and a magnitude of at most {MAX_PUSH_FORCE} N",
+                p.force
+            )));
+        }
+        if !(p.duration.is_finite() && p.duration > 0.0 && p.at.is_finite() && p.at >= 0.0) {
+            return Err(ControlError::Invalid(format!(
+                "push at {} s for {} s: expected a start >= 0 and a positive duration",
+                p.at, p.duration
+            )));
+        }
+        if p.at + p.duration > opts.seconds {
+            return Err(ControlError::Invalid(format!(
+                "push at {} s for {} s ends after the run ({} s)",
+                p.at, p.duration, opts.seconds
+            )));
+        }
     }
     if !opts.yaw_rate.is_finite() {
         return Err(ControlError::Invalid("the yaw rate must be finite".into()));
@@ -244,10 +305,30 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         if i > 0 && at <= opts.speed_schedule[i - 1].0 {
             return Err(ControlError::Invalid("speed schedule times must increase".into()));
         }
+        if at >= opts.seconds {
+            return Err(ControlError::Invalid(format!(
+                "speed schedule entry {i} starts at {at} s, after the run's end ({} s)",
+                opts.seconds
+            )));
+        }
     }
     let probe = make_robot_env(&opts.env, None)?;
-    let steps = (opts.seconds / probe.dt()).round() as usize;
+    let dt = probe.dt();
+    let steps = (opts.seconds / dt).round() as usize;
+    let planar = !probe.robot_state().has_floating_base();
     drop(probe);
+    if steps == 0 {
+        return Err(ControlError::Invalid(format!(
+            "seconds = {}: shorter than one control step of {} ({dt} s)",
+            opts.seconds, opts.env
+        )));
+    }
+    if planar && (opts.yaw_rate != 0.0 || opts.push.is_some_and(|p| p.force[1] != 0.0)) {
+        return Err(ControlError::Invalid(format!(
+            "{} moves in the x–z plane only: a yaw rate or a lateral (y) push has no effect on it",
+            opts.env
+        )));
+    }
     let mut env = make_robot_env(&opts.env, Some(steps + 1))?;
     let mut config = controller_config(&opts.env)?;
     if opts.background_mpc {
@@ -338,6 +419,11 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         let step = env.step(&action, &mut obs)?;
         ret += step.reward;
         t = (k + 1) as f64 * env.dt();
+        let state = env.robot_state();
+        let base_speed = state.v.rows(0, state.v.len().min(3)).norm();
+        if !(base_speed <= MAX_BASE_SPEED && state.q.iter().all(|x| x.is_finite())) {
+            return Err(ControlError::Diverged { t, base_speed });
+        }
         let (x_now, y_now, yaw_now) = planar_pose(env.as_ref());
         yaw_turned += centaur_mpc::wrap_pi(yaw_now - yaw_prev);
         forward_path += (x_now - x_prev) * yaw_prev.cos() + (y_now - y_prev) * yaw_prev.sin();

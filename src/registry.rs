@@ -188,6 +188,9 @@ pub enum RegistryError {
     /// The robot environment could not be built.
     #[error(transparent)]
     RobotEnv(#[from] RobotEnvError),
+    /// `modular:` with no file after it.
+    #[error("`modular:` needs the body file after the colon: modular:FILE.json")]
+    NoBodyFile,
     /// A modular robot's body file cannot be read.
     #[error("{path}: {source}")]
     Io {
@@ -256,6 +259,9 @@ pub const MAX_BODY_BYTES: u64 = 16 << 20;
 /// The text of a body file, bounded by [`MAX_BODY_BYTES`].
 fn read_body_file(path: &Path) -> Result<String, RegistryError> {
     use std::io::Read;
+    if path.as_os_str().is_empty() {
+        return Err(RegistryError::NoBodyFile);
+    }
     let io = |source| RegistryError::Io { path: path.to_path_buf(), source };
     let mut text = String::new();
     std::fs::File::open(path).map_err(io)?.take(MAX_BODY_BYTES + 1).read_to_string(&mut text).map_err(io)?;
@@ -270,6 +276,8 @@ fn read_body_file(path: &Path) -> Result<String, RegistryError> {
 
 /// The configuration of a modular body given as JSON `text` (from `path`, which names it).
 fn modular_text_config(path: &Path, text: &str) -> Result<ModularConfig, RegistryError> {
+    // A byte-order mark (which some editors write) is not JSON; it is skipped.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let body =
         Body::from_json(text).map_err(|source| RegistryError::Body { path: path.to_path_buf(), source })?;
     let stem = path.file_stem().map_or("modular".to_string(), |s| s.to_string_lossy().into_owned());
@@ -470,6 +478,13 @@ mod tests {
     fn unknown_and_uncontrolled_names_are_typed_errors() {
         assert!(matches!(make_env("nope"), Err(RegistryError::UnknownEnv { .. })));
         assert!(matches!(controller_config("hopper"), Err(RegistryError::NoController { .. })));
+        assert!(matches!(make_env("modular:"), Err(RegistryError::NoBodyFile)));
+        assert!(matches!(EnvSource::read("modular:"), Err(RegistryError::NoBodyFile)));
+        // A byte-order mark before the JSON is skipped (reliability probe).
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/modular/snake.json");
+        let text = format!("\u{feff}{}", std::fs::read_to_string(path).unwrap());
+        let with_bom = modular_text_config(Path::new("snake.json"), &text).unwrap();
+        assert_eq!(with_bom, modular_text_config(Path::new("snake.json"), &text[3..]).unwrap());
         assert!(matches!(make_env("hopper-residual"), Err(RegistryError::UnknownEnv { .. })));
         let msg = controller_config("gecko").unwrap_err().to_string();
         assert!(msg.contains("minitaur") && msg.contains("walker2d"), "{msg}");

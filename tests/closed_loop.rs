@@ -330,6 +330,7 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
         (vec!["--env", "minitaur", "--gait", "trot", "--speed", "3"], "rated 2.5 m/s"),
         (vec!["--env", "minitaur", "--speed-schedule", "0:0,1:x"], "x"),
         (vec!["--env", "minitaur", "--action-noise", "nan"], "noise"),
+        (vec!["--env", "minitaur", "--push-at", "1"], "--push-force"),
     ] {
         let o = Process::new(env!("CARGO_BIN_EXE_centaur"))
             .arg("control")
@@ -342,4 +343,49 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(err.contains(needle), "{args:?}: the error does not name `{needle}`: {err}");
     }
+}
+
+/// The reliability probe's silent acceptances of `centaur control`: every option that made
+/// a run do nothing, something else than asked, or blow up unreported is refused by name
+/// before the run, and a simulation that diverges is an error, not a summary.
+#[test]
+fn control_refuses_options_it_would_ignore_or_that_break_the_run() {
+    let base = ControlOptions { seconds: 1.0, ..ControlOptions::default() };
+    let push = |at: f64, force: f64, duration: f64| Some(Push { at, force: [0.0, force, 0.0], duration });
+    let cases: Vec<(ControlOptions, &str)> = vec![
+        (ControlOptions { push: push(0.5, f64::NAN, 0.1), ..base.clone() }, "push force"),
+        (ControlOptions { push: push(0.5, 1e9, 0.1), ..base.clone() }, "at most 10000 N"),
+        (ControlOptions { push: push(0.5, 10.0, f64::INFINITY), ..base.clone() }, "positive duration"),
+        (ControlOptions { push: push(-1.0, 10.0, 0.1), ..base.clone() }, "start >= 0"),
+        (ControlOptions { push: push(0.95, 10.0, 0.1), ..base.clone() }, "ends after the run"),
+        (ControlOptions { measure_from: f64::NAN, ..base.clone() }, "measure from"),
+        (ControlOptions { measure_from: 5.0, ..base.clone() }, "measure from"),
+        (ControlOptions { seconds: 0.001, ..base.clone() }, "shorter than one control step"),
+        (ControlOptions { seconds: 1e9, ..base.clone() }, "at most 3600 s"),
+        (
+            ControlOptions { speed_schedule: vec![(0.0, 0.3), (2.0, 1.0)], ..base.clone() },
+            "after the run's end",
+        ),
+        (ControlOptions { gait: Gait::Stand, speed: 0.3, ..base.clone() }, "speed 0"),
+        (
+            ControlOptions {
+                env: "walker2d".into(),
+                gait: Gait::Walk,
+                push: push(0.5, 50.0, 0.1),
+                ..base.clone()
+            },
+            "x–z plane",
+        ),
+        (
+            ControlOptions { env: "walker2d".into(), gait: Gait::Walk, yaw_rate: 0.5, ..base.clone() },
+            "x–z plane",
+        ),
+    ];
+    for (opts, needle) in cases {
+        let err = run_control(&opts).expect_err(needle).to_string();
+        assert!(err.contains(needle), "the error does not name `{needle}`: {err}");
+    }
+    // 10 kN for 0.1 s throws the 4.8 kg Minitaur at ≈ 200 m/s: reported, not summarised.
+    let err = run_control(&ControlOptions { push: push(0.5, 10_000.0, 0.1), ..base.clone() }).unwrap_err();
+    assert!(matches!(err, centaur::control::ControlError::Diverged { .. }), "{err}");
 }

@@ -429,6 +429,11 @@ fn bodies_read_back_from_json_and_bad_documents_are_refused() {
         + "{\"kind\": \"brick\"}"
         + &"}".repeat(10_001);
     assert!(matches!(parse(&deep), ModularError::Parse(_)));
+    // Regression (reliability probe): an unknown kind of 5 MB is named by its start and
+    // length, not echoed whole.
+    let long = format!("{{\"kind\": \"core\", \"left\": {{\"kind\": \"{}\"}}}}", "x".repeat(5_000_000));
+    let msg = parse(&long).to_string();
+    assert!(msg.len() < 300 && msg.contains("5000000 bytes"), "{}", &msg[..msg.len().min(300)]);
     // The example body in the assets.
     let snake = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/modular/snake.json"))
         .unwrap();

@@ -28,7 +28,7 @@ use serde::{Deserialize, Serialize};
 use crate::algorithm::Algorithm;
 use crate::buffer::{ReplayBatch, concat_obs_act};
 use crate::checkpoint::Checkpoint;
-use crate::error::{RlError, check, check_critic_lr};
+use crate::error::{MAX_NOISE, RlError, check, check_critic_lr};
 use crate::metrics::UpdateMetrics;
 use crate::nn::{Activation, Init, Mlp, MlpBuffers, polyak, tanh_fast};
 use crate::off_policy::{self, Collector, LoopSettings, OffPolicyLearner};
@@ -144,13 +144,20 @@ impl DdpgConfig {
             self.ou_theta,
             "must be ≥ 0",
         )?;
-        check(self.ou_dt.is_finite() && self.ou_dt > 0.0, A, "ou_dt", self.ou_dt, "must be positive")?;
+        check(self.ou_dt > 0.0 && self.ou_dt <= 1.0, A, "ou_dt", self.ou_dt, "must be in (0, 1]")?;
         check(
-            self.exploration_noise.is_finite() && self.exploration_noise >= 0.0,
+            self.ou_theta * self.ou_dt <= 1.0,
+            A,
+            "ou_theta",
+            self.ou_theta,
+            "times ou_dt must be at most 1 (the Euler step of the OU process overshoots its mean beyond)",
+        )?;
+        check(
+            (0.0..=MAX_NOISE).contains(&self.exploration_noise),
             A,
             "exploration_noise",
             self.exploration_noise,
-            "must be ≥ 0",
+            "must be in [0, 10]",
         )?;
         check(
             !self.actor_hidden.is_empty() && self.actor_hidden.iter().all(|&h| h > 0),

@@ -64,13 +64,57 @@ pub(crate) fn check(
     if ok { Ok(()) } else { Err(RlError::InvalidConfig { algo, field, value: format!("{value:?}"), reason }) }
 }
 
+/// The largest exploration or target-policy noise σ (and noise clip) a learner takes, in
+/// units of the policy's `[-1, 1]` output: beyond a few ranges every noisy action is clipped
+/// to a bound, so larger values (`1e300` in the reliability probe) are typos, not settings.
+pub const MAX_NOISE: f64 = 10.0;
+
+/// The largest entropy coefficient |c| (PPO, A2C): the bonus is per unit of the policy
+/// loss, whose advantages are normalised; above 1 it drowns the objective.
+pub const MAX_ENT_COEF: f64 = 1.0;
+
+/// The largest value-loss coefficient (PPO, A2C).
+pub const MAX_VF_COEF: f64 = 100.0;
+
+/// The smallest gradient-norm clip (PPO, A2C): below it every update is clipped to nothing.
+pub const MIN_MAX_GRAD_NORM: f64 = 1e-6;
+
+/// The smallest observation and reward clip (in running standard deviations): below it
+/// the normalised signal is clipped away.
+pub const MIN_NORM_CLIP: f64 = 1e-3;
+
+/// Checks the on-policy learners' (PPO, A2C) loss terms: the entropy and value-loss
+/// coefficients and the gradient-norm clip.
+pub(crate) fn check_loss_terms(
+    algo: &'static str,
+    ent_coef: f64,
+    vf_coef: f64,
+    max_grad_norm: f64,
+) -> Result<(), RlError> {
+    check(ent_coef.abs() <= MAX_ENT_COEF, algo, "ent_coef", ent_coef, "must be in [-1, 1]")?;
+    check((0.0..=MAX_VF_COEF).contains(&vf_coef), algo, "vf_coef", vf_coef, "must be in [0, 100]")?;
+    check(
+        max_grad_norm.is_finite() && max_grad_norm >= MIN_MAX_GRAD_NORM,
+        algo,
+        "max_grad_norm",
+        max_grad_norm,
+        "must be at least 1e-6",
+    )
+}
+
+/// Checks the observation and reward normalisers' clips (in running standard deviations).
+pub(crate) fn check_norm_clips(algo: &'static str, clip_obs: f64, clip_reward: f64) -> Result<(), RlError> {
+    check(clip_obs >= MIN_NORM_CLIP, algo, "clip_obs", clip_obs, "must be at least 1e-3")?;
+    check(clip_reward >= MIN_NORM_CLIP, algo, "clip_reward", clip_reward, "must be at least 1e-3")
+}
+
 /// Checks an optional `critic_learning_rate`: unset, or finite and positive.
 pub(crate) fn check_critic_lr(algo: &'static str, lr: Option<f64>) -> Result<(), RlError> {
     check(
         lr.is_none_or(|lr| lr.is_finite() && lr > 0.0),
         algo,
         "critic_learning_rate",
-        lr,
+        format_args!("{}", lr.unwrap_or_default()),
         "must be positive",
     )
 }

@@ -60,7 +60,7 @@ use crate::algorithm::Algorithm;
 use crate::buffer::{RolloutBuffer, gae, n_step_returns};
 use crate::checkpoint::Checkpoint;
 use crate::distributions::{gaussian_entropy, gaussian_log_prob, gaussian_log_prob_grad};
-use crate::error::{RlError, check, check_critic_lr};
+use crate::error::{RlError, check, check_critic_lr, check_loss_terms, check_norm_clips};
 use crate::metrics::{EpisodeWindow, UpdateMetrics};
 use crate::nn::{Activation, Init, Mlp, MlpBuffers};
 use crate::normalizer::{RewardScaler, RunningMeanStd};
@@ -259,20 +259,12 @@ impl PpoConfig {
             self.clip_coef,
             "must be positive",
         )?;
-        check(self.ent_coef.is_finite(), A, "ent_coef", self.ent_coef, "must be finite")?;
-        check(self.vf_coef.is_finite() && self.vf_coef >= 0.0, A, "vf_coef", self.vf_coef, "must be ≥ 0")?;
-        check(
-            self.max_grad_norm.is_finite() && self.max_grad_norm > 0.0,
-            A,
-            "max_grad_norm",
-            self.max_grad_norm,
-            "must be positive",
-        )?;
+        check_loss_terms(A, self.ent_coef, self.vf_coef, self.max_grad_norm)?;
         check(
             self.target_kl.is_none_or(|k| k.is_finite() && k > 0.0),
             A,
             "target_kl",
-            self.target_kl,
+            format_args!("{}", self.target_kl.unwrap_or_default()),
             "must be positive",
         )?;
         check(
@@ -289,8 +281,7 @@ impl PpoConfig {
             self.kl_coef_init,
             "must be ≥ 0",
         )?;
-        check(self.clip_obs > 0.0, A, "clip_obs", self.clip_obs, "must be positive")?;
-        check(self.clip_reward > 0.0, A, "clip_reward", self.clip_reward, "must be positive")?;
+        check_norm_clips(A, self.clip_obs, self.clip_reward)?;
         check(
             !self.actor_hidden.is_empty() && self.actor_hidden.iter().all(|&h| h > 0),
             A,

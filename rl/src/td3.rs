@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 use crate::algorithm::Algorithm;
 use crate::buffer::{ReplayBatch, concat_obs_act};
 use crate::checkpoint::Checkpoint;
-use crate::error::{RlError, check, check_critic_lr};
+use crate::error::{MAX_NOISE, RlError, check, check_critic_lr};
 use crate::metrics::UpdateMetrics;
 use crate::nn::{Activation, Init, Mlp, MlpBuffers, polyak, tanh_fast};
 use crate::off_policy::{self, Collector, LoopSettings, OffPolicyLearner};
@@ -137,25 +137,25 @@ impl Td3Config {
         check(self.gradient_steps > 0, A, "gradient_steps", self.gradient_steps, "must be positive")?;
         check(self.policy_delay > 0, A, "policy_delay", self.policy_delay, "must be positive")?;
         check(
-            self.target_policy_noise.is_finite() && self.target_policy_noise >= 0.0,
+            (0.0..=MAX_NOISE).contains(&self.target_policy_noise),
             A,
             "target_policy_noise",
             self.target_policy_noise,
-            "must be ≥ 0",
+            "must be in [0, 10]",
         )?;
         check(
-            self.target_noise_clip.is_finite() && self.target_noise_clip >= 0.0,
+            (0.0..=MAX_NOISE).contains(&self.target_noise_clip),
             A,
             "target_noise_clip",
             self.target_noise_clip,
-            "must be ≥ 0",
+            "must be in [0, 10]",
         )?;
         check(
-            self.exploration_noise.is_finite() && self.exploration_noise >= 0.0,
+            (0.0..=MAX_NOISE).contains(&self.exploration_noise),
             A,
             "exploration_noise",
             self.exploration_noise,
-            "must be ≥ 0",
+            "must be in [0, 10]",
         )?;
         check(
             !self.actor_hidden.is_empty() && self.actor_hidden.iter().all(|&h| h > 0),

@@ -325,6 +325,24 @@ fn bad_files_and_configs_are_typed_errors() {
         }
         assert_eq!(field(config.build(&env)), "critic_hidden", "{}", kind.name());
     }
+    // Regression (reliability probe, silent acceptance): finite but absurd scales that make
+    // a run meaningless are refused by name, and no message shows Rust's `Some(…)`.
+    assert_eq!(ppo(PpoConfig { ent_coef: 1e30, ..small_ppo() }), "ent_coef");
+    assert_eq!(ppo(PpoConfig { max_grad_norm: 1e-300, ..small_ppo() }), "max_grad_norm");
+    assert_eq!(ppo(PpoConfig { clip_reward: 1e-300, ..small_ppo() }), "clip_reward");
+    assert_eq!(ppo(PpoConfig { vf_coef: 1e9, ..small_ppo() }), "vf_coef");
+    let a2c = A2cConfig { clip_obs: 1e-300, ..A2cConfig::default() };
+    assert_eq!(field(AlgoConfig::A2c(a2c).build(&four)), "clip_obs");
+    let td3 = |c: Td3Config| field(AlgoConfig::Td3(c).build(&env));
+    assert_eq!(td3(Td3Config { exploration_noise: 1e300, ..Td3Config::default() }), "exploration_noise");
+    assert_eq!(td3(Td3Config { target_policy_noise: 1e300, ..Td3Config::default() }), "target_policy_noise");
+    let ddpg = |c: DdpgConfig| field(AlgoConfig::Ddpg(c).build(&env));
+    assert_eq!(ddpg(DdpgConfig { exploration_noise: 1e300, ..DdpgConfig::default() }), "exploration_noise");
+    assert_eq!(ddpg(DdpgConfig { ou_dt: 1e300, ..DdpgConfig::default() }), "ou_dt");
+    assert_eq!(ddpg(DdpgConfig { ou_theta: 500.0, ..DdpgConfig::default() }), "ou_theta");
+    let msg =
+        Ppo::for_env(PpoConfig { target_kl: Some(0.0), ..small_ppo() }, &four).err().unwrap().to_string();
+    assert!(!msg.contains("Some("), "{msg}");
     // A learner refuses an environment with other spaces or a different count.
     let mut algo = Ppo::for_env(small_ppo(), &env).unwrap();
     let mut two = pendulums(2, 1);

@@ -62,7 +62,7 @@ struct SweepArgs {
     #[arg(long)]
     grid: PathBuf,
     /// Seeds per point (0..seeds).
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=1000))]
     seeds: u64,
     /// Output directory; rerunning the same grid keeps finished runs and resumes the rest.
     #[arg(long, required_unless_present = "check")]
@@ -72,7 +72,7 @@ struct SweepArgs {
     #[arg(long)]
     check: bool,
     /// Runs at once, one thread each [default: the available cores].
-    #[arg(long, value_parser = positive_count)]
+    #[arg(long, allow_negative_numbers = true, value_parser = positive_count)]
     jobs: Option<usize>,
     /// Replace a sweep of another grid in --out.
     #[arg(long)]
@@ -152,10 +152,10 @@ struct EvalArgs {
     #[arg(long)]
     env: Option<String>,
     /// Deterministic episodes.
-    #[arg(long, default_value_t = 10, value_parser = positive_count)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = positive_count)]
     episodes: usize,
     /// Episode k resets with seed + k.
-    #[arg(long, default_value_t = 1_000_000)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1_000_000)]
     seed: u64,
     /// Record the first episode as an MCAP file for Foxglove (robot environments).
     #[arg(long)]
@@ -199,10 +199,10 @@ struct TrainArgs {
     #[arg(long, value_parser = parse_algo, required_unless_present = "resume")]
     algo: Option<AlgoKind>,
     /// Environment steps to train for.
-    #[arg(long, required_unless_present = "resume")]
+    #[arg(long, allow_negative_numbers = true, required_unless_present = "resume")]
     steps: Option<u64>,
     /// Seed [default: the config file's `seed`, else 0].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     seed: Option<u64>,
     /// Output directory (refused if it already holds a run, unless --overwrite).
     #[arg(long, required_unless_present = "resume")]
@@ -212,21 +212,21 @@ struct TrainArgs {
     #[arg(long)]
     config: Option<PathBuf>,
     /// Threads stepping the environments (results do not depend on it).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1)]
     threads: usize,
     /// Number of parallel environments.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1)]
     envs: usize,
     /// Deterministic evaluation episodes at the end (at least 10).
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 10)]
     eval_episodes: usize,
     /// Environment steps between checkpoints (0: only at the end); each checkpoint starts
     /// fresh episodes so that a resumed run continues exactly.
-    #[arg(long, default_value_t = centaur::train::DEFAULT_CHECKPOINT_EVERY)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = centaur::train::DEFAULT_CHECKPOINT_EVERY)]
     checkpoint_every: u64,
     /// Environment steps between deterministic evaluations of the checkpoint, written to
     /// evaluations.csv (0: only the final one); a multiple of --checkpoint-every.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
     eval_every: u64,
     /// Replace the run already in --out (its run files only).
     #[arg(long, conflicts_with = "resume")]
@@ -251,7 +251,7 @@ struct RobustnessArgs {
     #[arg(long)]
     run: PathBuf,
     /// Deterministic episodes per agent and condition.
-    #[arg(long, default_value_t = 10, value_parser = positive_count)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = positive_count)]
     episodes: usize,
     /// The hybrid's setup the run was trained with (the robot's preset by default).
     #[command(flatten)]
@@ -314,7 +314,7 @@ struct ControlArgs {
     #[arg(long, default_value_t = 10.0)]
     seconds: f64,
     /// Reset seed.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
     seed: u64,
     /// Output directory.
     #[arg(long)]
@@ -323,10 +323,10 @@ struct ControlArgs {
     #[arg(long, allow_negative_numbers = true)]
     push_force: Option<f64>,
     /// Start of the push (s).
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = 3.0, requires = "push_force")]
     push_at: f64,
     /// Duration of the push (s).
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, requires = "push_force")]
     push_duration: f64,
     /// Measure distance, speed and drifts from this time (s), e.g. after a landing.
     #[arg(long, default_value_t = 0.0)]
@@ -379,10 +379,10 @@ struct CompareArgs {
     #[arg(long, value_parser = parse_algo)]
     algo: AlgoKind,
     /// Number of seeds (0..seeds).
-    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=10_000))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=10_000))]
     seeds: u64,
     /// Training steps per agent and seed.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     steps: u64,
     /// Output directory.
     #[arg(long)]
@@ -392,18 +392,18 @@ struct CompareArgs {
     #[arg(long)]
     config: Option<PathBuf>,
     /// Parallel environments per agent (default: 4 for PPO and A2C, 1 otherwise).
-    #[arg(long, value_parser = positive_count)]
+    #[arg(long, allow_negative_numbers = true, value_parser = positive_count)]
     envs: Option<usize>,
     /// Threads stepping each agent's environments; with more than one, a seed's two agents
     /// also train side by side (results unchanged).
-    #[arg(long, default_value_t = 1, value_parser = positive_count)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = positive_count)]
     threads: usize,
     /// Evaluation episodes per agent and seed.
-    #[arg(long, default_value_t = 10, value_parser = positive_count)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = positive_count)]
     eval_episodes: usize,
     /// Evaluate both learners deterministically every this many training steps (and at
     /// the end); 0: at the end only.
-    #[arg(long, default_value_t = 100_000)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 100_000)]
     eval_every: u64,
     /// Keep the seeds already finished in --out with the same options and run the rest (a
     /// killed comparison loses at most the seed it was running).

@@ -50,8 +50,15 @@ impl ModuleDoc {
                 "hinge" => ModuleKind::ActiveHinge,
                 "core" => return Err(ModularError::SecondCore),
                 other => {
+                    // A long name is shown by its start and length, not echoed whole.
+                    let shown: String = other.chars().take(40).collect();
+                    let shown = if shown.len() < other.len() {
+                        format!("`{shown}…` ({} bytes)", other.len())
+                    } else {
+                        format!("`{shown}`")
+                    };
                     return Err(ModularError::Parse(format!(
-                        "unknown module kind `{other}` at the {} face of {} (core, brick, hinge)",
+                        "unknown module kind {shown} at the {} face of {} (core, brick, hinge)",
                         face.name(),
                         body.path_of(id)
                     )));
