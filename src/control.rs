@@ -519,11 +519,23 @@ pub fn write_summary(
         let path = path.to_path_buf();
         move |source| ControlError::Io { path, source }
     };
+    check_out_dir(dir)?;
     std::fs::create_dir_all(dir).map_err(io(dir))?;
     let path = dir.join("summary.json");
     let json = serde_json::to_string_pretty(summary).expect("a summary of numbers and strings serialises");
-    std::fs::write(&path, json + "\n").map_err(io(&path))?;
+    crate::rundir::write_atomic(&path, &(json + "\n")).map_err(io(&path))?;
     Ok(path)
+}
+
+/// Refuses an output path that exists and is not a directory; call it before a run, so
+/// that a long run is not lost to a typo in `--out`.
+pub fn check_out_dir(dir: &std::path::Path) -> Result<(), ControlError> {
+    if dir.exists() && !dir.is_dir() {
+        let source =
+            std::io::Error::new(std::io::ErrorKind::AlreadyExists, "--out is a file, not a directory");
+        return Err(ControlError::Io { path: dir.to_path_buf(), source });
+    }
+    Ok(())
 }
 
 /// Parses a gait name.

@@ -320,6 +320,17 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
     assert_eq!(json["env"], "minitaur");
     assert!((json["seconds"].as_f64().unwrap() - 1.0).abs() < 0.02);
     let _ = std::fs::remove_dir_all(&out);
+    // Regression (reliability probe): `--out` naming a file is refused before the run.
+    let file = std::env::temp_dir().join(format!("centaur-control-file-{}", std::process::id()));
+    std::fs::write(&file, "not a directory").unwrap();
+    let o = Process::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["control", "--env", "minitaur", "--seconds", "3600", "--out"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("not a directory"), "{err}");
+    let _ = std::fs::remove_file(&file);
 
     for (args, needle) in [
         (vec!["--env", "pendulum", "--gait", "trot"], "pendulum"),

@@ -147,6 +147,27 @@ fn bad_residuals_and_configs_are_refused() {
             .is_err()
     );
     assert!(make_residual_env("hopper", ResidualConfig::default()).is_err(), "no controller for the Hopper");
+    // Regression (reliability probe): a comparison with a learner setting out of range is
+    // refused by the field's name before it writes anything (it left empty seed folders).
+    let out = std::env::temp_dir().join(format!("centaur-bad-compare-{}", std::process::id()));
+    let algo = centaur_rl::AlgoConfig::Ppo(centaur_rl::PpoConfig { gamma: 2.0, ..Default::default() });
+    let opts = centaur::compare::CompareOptions {
+        env: "minitaur".into(),
+        algo,
+        seeds: 1,
+        steps: 10,
+        out: out.clone(),
+        n_envs: 1,
+        threads: 1,
+        eval_episodes: 10,
+        residual: residual_config("minitaur").unwrap(),
+        eval_every: None,
+        resume: false,
+        overwrite: false,
+    };
+    let err = centaur::compare::run_compare(&opts, &mut |_, _, _| {}).unwrap_err();
+    assert!(err.to_string().contains("gamma"), "{err}");
+    assert!(!out.exists(), "a refused comparison left {}", out.display());
 }
 
 #[test]

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use centaur::cli::{HybridArgs, TrainingProgress, positive_count, progress_style};
 use centaur::compare::{CompareOptions, run_compare};
-use centaur::control::{ControlOptions, Push, parse_gait, run_control, write_summary};
+use centaur::control::{ControlOptions, Push, check_out_dir, parse_gait, run_control, write_summary};
 use centaur::experiment::{Condition, RobustnessOptions, robustness_table, run_robustness};
 use centaur::experiment::{Phase, tuned_config};
 use centaur::registry::residual_config;
@@ -529,7 +529,9 @@ fn control(args: ControlArgs) -> ExitCode {
         action_noise: args.action_noise,
         unrated: args.unrated,
     };
-    let result = run_control(&opts).and_then(|s| write_summary(&args.out, &s).map(|path| (s, path)));
+    let result = check_out_dir(&args.out)
+        .and_then(|()| run_control(&opts))
+        .and_then(|s| write_summary(&args.out, &s).map(|path| (s, path)));
     match result {
         Ok((s, path)) => {
             println!(

@@ -192,6 +192,8 @@ pub fn run_experiment(
     controller_config(&opts.env)?;
     // And a residual setup that does not fit the robot, before anything is written.
     make_residual_env(&opts.env, opts.residual.clone())?;
+    // And a learner configuration out of range (reliability probe: no empty run directory).
+    opts.algo.validate()?;
     prepare_run_dir(opts)?;
     // Pure RL on the robot environment, the hybrid on the residual environment.
     // Set when one training fails, to stop the other one running side by side.
