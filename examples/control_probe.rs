@@ -74,6 +74,7 @@ fn main() {
                 "w_posture" => cfg.wbc.w_posture = x,
                 "swing_height" => cfg.swing_height = x,
                 "period" => cfg.gait_period_scale = x,
+                "stagger" => cfg.turn_stagger = x,
                 "mpc_period" => cfg.mpc_period = x,
                 "swing_kp" => cfg.swing_gains.0 = x,
                 "swing_kd" => cfg.swing_gains.1 = x,

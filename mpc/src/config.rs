@@ -159,6 +159,12 @@ pub struct ControllerConfig {
     pub recenter_speed: f64,
     /// Rate limit of the commanded yaw rate (rad/s²) (default: 2.0).
     pub max_yaw_acceleration: f64,
+    /// Stagger of the trot's diagonal partners per rad/s of commanded yaw rate, as a
+    /// fraction of the cycle, clamped to [`crate::MAX_STAGGER`]
+    /// ([`crate::GaitPattern::staggered`]: the inner legs lead, so that each pair's stance
+    /// opens and closes on one foot, where a robot without abduction can yaw) (default: 0,
+    /// off; only the trot is staggered).
+    pub turn_stagger: f64,
     /// Multiplies every gait period (default: 1.0).
     pub gait_period_scale: f64,
     /// Damping `λ` of the damped-least-squares IK (m) (default: 0.02).
@@ -213,6 +219,7 @@ impl ControllerConfig {
             position_leash: 0.1,
             recenter_speed: 0.05,
             max_yaw_acceleration: 2.0,
+            turn_stagger: 0.0,
             gait_period_scale: 1.0,
             ik_damping: 0.02,
             fallback_decay: 0.9,
@@ -589,6 +596,7 @@ impl ControllerConfig {
             ("position_leash", self.position_leash),
             ("recenter_speed", self.recenter_speed),
             ("max_yaw_acceleration", self.max_yaw_acceleration),
+            ("turn_stagger", self.turn_stagger),
             ("ik_damping", self.ik_damping),
         ];
         for (field, v) in finite_nonneg {

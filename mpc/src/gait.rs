@@ -16,6 +16,10 @@
 /// Largest number of legs a gait table describes.
 pub const MAX_LEGS: usize = 4;
 
+/// Largest stagger of the trot's diagonal partners ([`GaitPattern::staggered`]), as a
+/// fraction of the cycle: each stance is then 0.3 of it, 0.2 on one foot at each end.
+pub const MAX_STAGGER: f64 = 0.2;
+
 /// A named gait.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum Gait {
@@ -125,6 +129,34 @@ impl GaitPattern {
         }
     }
 
+    /// The pattern with the trot's diagonal partners staggered by `s` of the cycle for
+    /// turning (`|s|` ≤ [`MAX_STAGGER`], clamped): positive `s` (a left turn) lets the left
+    /// legs lead their pairs (FL before HR, HL before FR), negative the right legs, and every
+    /// stance shortens to `0.5 − |s|`. Each pair's stance then opens with the leading foot
+    /// alone and closes with the trailing one alone. Without abduction a foot pair in contact
+    /// cannot yaw (the feet would have to slide sideways in the body frame), but on one foot
+    /// the body can, and the fore-aft force of that foot, offset sideways from the centre of
+    /// mass, turns it: braking on the inner front foot as its stance opens and pushing with
+    /// the outer hind foot as it closes both yaw toward the inside. Other gaits, and `s = 0`,
+    /// are returned unchanged.
+    pub fn staggered(mut self, s: f64) -> GaitPattern {
+        let s = if s.is_finite() { s.clamp(-MAX_STAGGER, MAX_STAGGER) } else { 0.0 };
+        if self.gait != Gait::Trot || self.n_legs != 4 || s == 0.0 {
+            return self;
+        }
+        let d = s.abs();
+        // Legs FL 0, FR 1, HL 2, HR 3: (leader, trailer) of the pair starting at 0 and of
+        // the pair starting at 0.5.
+        let ((a_lead, a_trail), (b_lead, b_trail)) =
+            if s > 0.0 { ((0, 3), (2, 1)) } else { ((3, 0), (1, 2)) };
+        self.offsets[a_lead] = 0.0;
+        self.offsets[a_trail] = d;
+        self.offsets[b_lead] = 0.5;
+        self.offsets[b_trail] = 0.5 + d;
+        self.duty = [0.5 - d; 4];
+        self
+    }
+
     /// The leg's own phase `ψᵢ = (φ − oᵢ) mod 1`.
     #[inline]
     pub fn leg_phase(&self, phase: f64, leg: usize) -> f64 {
@@ -186,6 +218,8 @@ pub struct GaitScheduler {
     period_scales: [f64; Gait::ALL.len()],
     pattern: GaitPattern,
     pending: Option<GaitPattern>,
+    /// Stagger for turning ([`GaitPattern::staggered`]) the next cycle takes.
+    stagger: f64,
     phase: f64,
     last_t: Option<f64>,
 }
@@ -217,7 +251,7 @@ impl GaitScheduler {
             period_scales[stand] = 1.0;
         }
         pattern.period *= period_scales[stand];
-        Self { n_legs, period_scales, pattern, pending: None, phase: 0.0, last_t: None }
+        Self { n_legs, period_scales, pattern, pending: None, stagger: 0.0, phase: 0.0, last_t: None }
     }
 
     /// The pattern in force.
@@ -238,6 +272,26 @@ impl GaitScheduler {
     /// Number of legs.
     pub fn n_legs(&self) -> usize {
         self.n_legs
+    }
+
+    /// Sets the trot's stagger for turning ([`GaitPattern::staggered`]); it takes effect
+    /// at the next cycle boundary, as a gait switch does, so that no leg's contact jumps.
+    pub fn set_stagger(&mut self, stagger: f64) {
+        self.stagger = stagger;
+    }
+
+    /// The pattern the next cycle takes if it differs from the one in force: a pending gait,
+    /// or the current gait with a new stagger.
+    fn upcoming(&self) -> Option<GaitPattern> {
+        match self.pending {
+            Some(p) => Some(p.staggered(self.stagger)),
+            None => {
+                let mut p = GaitPattern::new(self.pattern.gait, self.n_legs)?;
+                p.period *= self.period_scales[self.pattern.gait.index()];
+                let p = p.staggered(self.stagger);
+                (p != self.pattern).then_some(p)
+            }
+        }
     }
 
     /// Back to standing at phase 0 and forget the clock.
@@ -270,18 +324,18 @@ impl GaitScheduler {
         if self.pattern.gait == Gait::Stand
             && let Some(p) = self.pending.take()
         {
-            self.pattern = p;
+            self.pattern = p.staggered(self.stagger);
             self.phase = 0.0;
             return true;
         }
         let next = self.phase + dt / self.pattern.period;
         if next >= 1.0 {
-            if let Some(p) = self.pending.take() {
+            if let Some(p) = self.upcoming() {
                 // Switch at the boundary; carry the remaining time into the new period.
+                changed = self.pending.take().is_some();
                 let rest = (next - 1.0) * self.pattern.period;
                 self.pattern = p;
                 self.phase = wrap01(rest / p.period);
-                changed = true;
             } else {
                 self.phase = wrap01(next);
             }
@@ -306,8 +360,13 @@ impl GaitScheduler {
     pub fn predict(&self, tau: f64) -> (GaitPattern, f64) {
         let next = self.phase + tau / self.pattern.period;
         match self.pending {
-            Some(p) if self.pattern.gait == Gait::Stand => (p, wrap01(tau / p.period)),
-            Some(p) if next >= 1.0 => (p, wrap01((next - 1.0) * self.pattern.period / p.period)),
+            Some(p) if self.pattern.gait == Gait::Stand => {
+                (p.staggered(self.stagger), wrap01(tau / p.period))
+            }
+            _ if next >= 1.0 => match self.upcoming() {
+                Some(p) => (p, wrap01((next - 1.0) * self.pattern.period / p.period)),
+                None => (self.pattern, wrap01(next)),
+            },
             _ => (self.pattern, wrap01(next)),
         }
     }
@@ -446,5 +505,70 @@ mod tests {
         assert_eq!(s.phase(), 0.0);
         s.update(4.0, Gait::Trot);
         assert_eq!(s.phase(), 0.0);
+    }
+
+    /// The stances in force at phase `phi`, as FL FR HL HR flags.
+    fn stances(p: &GaitPattern, phi: f64) -> [bool; 4] {
+        [0, 1, 2, 3].map(|l| p.in_stance(phi, l))
+    }
+
+    #[test]
+    fn a_staggered_trot_opens_and_closes_each_stance_on_the_inner_foot_then_the_outer() {
+        let trot = GaitPattern::new(Gait::Trot, 4).unwrap();
+        assert_eq!(trot.staggered(0.0), trot);
+        assert_eq!(trot.staggered(f64::NAN), trot);
+        let stand = GaitPattern::new(Gait::Stand, 4).unwrap();
+        assert_eq!(stand.staggered(0.1), stand, "only the trot is staggered");
+        // A left turn, stagger 0.1: FL alone, FL + HR, HR alone; then HL alone, HL + FR, FR.
+        let left = trot.staggered(0.1);
+        assert_eq!(left.duty, [0.4; 4]);
+        for (phi, expected) in [
+            (0.05, [true, false, false, false]),
+            (0.25, [true, false, false, true]),
+            (0.45, [false, false, false, true]),
+            (0.55, [false, false, true, false]),
+            (0.75, [false, true, true, false]),
+            (0.95, [false, true, false, false]),
+        ] {
+            assert_eq!(stances(&left, phi), expected, "left turn, phase {phi}");
+        }
+        // A right turn: the right legs lead (HR before FL, FR before HL).
+        let right = trot.staggered(-0.1);
+        assert_eq!(stances(&right, 0.05), [false, false, false, true]);
+        assert_eq!(stances(&right, 0.45), [true, false, false, false]);
+        assert_eq!(stances(&right, 0.55), [false, true, false, false]);
+        assert_eq!(stances(&right, 0.95), [false, false, true, false]);
+        // Clamped to MAX_STAGGER.
+        assert_eq!(trot.staggered(5.0), trot.staggered(MAX_STAGGER));
+        // Always one or two feet down: no flight phase, no foot pair across a side.
+        for k in 0..1000 {
+            let n = stances(&trot.staggered(MAX_STAGGER), k as f64 / 1000.0).iter().filter(|&&c| c).count();
+            assert!((1..=2).contains(&n), "{n} feet at phase {k}/1000");
+        }
+    }
+
+    #[test]
+    fn the_scheduler_staggers_at_the_next_cycle_boundary() {
+        let mut s = GaitScheduler::new(4, 1.0);
+        s.update(0.0, Gait::Trot);
+        let trot = *s.pattern();
+        s.set_stagger(0.1);
+        s.update(0.1, Gait::Trot);
+        assert_eq!(*s.pattern(), trot, "not within a cycle");
+        // The prediction past the boundary already uses the staggered pattern.
+        let (ahead, _) = s.predict(0.25);
+        assert_eq!(ahead, trot.staggered(0.1));
+        let run_to = |s: &mut GaitScheduler, from: usize, to: usize| {
+            for k in from..=to {
+                s.update(k as f64 * 0.01, Gait::Trot);
+            }
+        };
+        run_to(&mut s, 11, 29);
+        assert_eq!(*s.pattern(), trot, "not before the boundary at 0.3 s");
+        run_to(&mut s, 30, 31);
+        assert_eq!(*s.pattern(), trot.staggered(0.1));
+        s.set_stagger(0.0);
+        run_to(&mut s, 32, 61);
+        assert_eq!(*s.pattern(), trot, "back to the table's trot at the next boundary");
     }
 }

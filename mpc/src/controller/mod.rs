@@ -234,6 +234,7 @@ impl LocomotionController {
         let shaped = self.reference.shape(cfg, est, command, dt, airborne, self.robot.nominal_com_height);
         self.status.refused_gaits += u64::from(shaped.refused);
         self.status.clamped_commands += u64::from(shaped.clamped);
+        self.gait.set_stagger(cfg.turn_stagger * self.reference.yaw_rate_cmd);
         let gait_changed = self.gait.update(t, shaped.gait);
         let standing = self.gait.pattern().gait == Gait::Stand;
         self.reference.update_position(cfg, est, dt, &shaped.target_velocity, standing);
