@@ -11,7 +11,7 @@
 //!
 //! | part | file | types | maths |
 //! |---|---|---|---|
-//! | gait schedule (stand, walk, trot, pace, bound, pronk, gallop; biped walk) | `gait.rs` | [`Gait`], [`GaitPattern`], [`GaitScheduler`] | offsets `oᵢ`, duty `dᵢ`, `ψᵢ = (φ − oᵢ) mod 1`, stance iff `ψᵢ < dᵢ` |
+//! | gait schedule (stand, walk, trot, pace, bound, pronk, gallop; biped walk; a staggered trot for turning without abduction) | `gait.rs` | [`Gait`], [`GaitPattern`], [`GaitScheduler`], [`GaitPattern::staggered`] | offsets `oᵢ`, duty `dᵢ`, `ψᵢ = (φ − oᵢ) mod 1`, stance iff `ψᵢ < dᵢ` |
 //! | friction | `friction.rs` | [`FrictionModel`] | `‖(f_x, f_y)‖ ≤ μ f_z` (SOC) or a 4-sided pyramid |
 //! | convex MPC | `convex_mpc/` | [`ConvexMpc`], [`MpcConfig`], [`MpcSolver`] | Di Carlo et al. 2018, single rigid body, yaw-linearised; our interior point with a Riccati recursion (`ipm.rs`, `riccati.rs`, `cones.rs`), Clarabel as the reference (`clarabel.rs`) |
 //! | whole-body QP | `wbc.rs` | [`WholeBodyQp`], [`WbcConfig`] | `[q̈, f, λ]`, floating-base rows as equalities, torque limits, weighted tasks |
