@@ -277,11 +277,8 @@ pub fn run_compare(
     opts: &CompareOptions,
     progress: &mut dyn FnMut(u64, Phase, &UpdateMetrics),
 ) -> Result<CompareSummary, ExperimentError> {
-    if opts.out.exists() && !opts.out.is_dir() {
-        let source =
-            std::io::Error::new(std::io::ErrorKind::AlreadyExists, "--out is a file, not a directory");
-        return Err(ExperimentError::Io { path: opts.out.clone(), source });
-    }
+    crate::rundir::check_not_file(&opts.out)
+        .map_err(|source| ExperimentError::Io { path: opts.out.clone(), source })?;
     if !opts.resume && !opts.overwrite {
         let taken = |f: &str| opts.out.join(f).exists();
         if let Some(file) = ["compare.json", "seed_0"].into_iter().find(|f| taken(f)) {

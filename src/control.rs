@@ -530,12 +530,7 @@ pub fn write_summary(
 /// Refuses an output path that exists and is not a directory; call it before a run, so
 /// that a long run is not lost to a typo in `--out`.
 pub fn check_out_dir(dir: &std::path::Path) -> Result<(), ControlError> {
-    if dir.exists() && !dir.is_dir() {
-        let source =
-            std::io::Error::new(std::io::ErrorKind::AlreadyExists, "--out is a file, not a directory");
-        return Err(ControlError::Io { path: dir.to_path_buf(), source });
-    }
-    Ok(())
+    crate::rundir::check_not_file(dir).map_err(|source| ControlError::Io { path: dir.to_path_buf(), source })
 }
 
 /// Parses a gait name.

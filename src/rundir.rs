@@ -19,6 +19,18 @@ pub fn write_atomic(path: &Path, text: &str) -> std::io::Result<()> {
     })
 }
 
+/// Refuses an output directory path that exists as something else (a file): checked before
+/// a run starts, so that no run's work is lost to a typo in `--out`.
+pub fn check_not_file(dir: &Path) -> std::io::Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::AlreadyExists,
+            "--out is a file, not a directory",
+        ));
+    }
+    Ok(())
+}
+
 /// Why a directory could not be claimed for a new run.
 #[derive(Debug)]
 pub enum Claim {
@@ -32,11 +44,7 @@ pub enum Claim {
 /// any of them, refuses ([`Claim::Taken`]) unless `replace`, which removes those (and
 /// nothing else).
 pub fn claim(dir: &Path, files: &[&'static str], replace: bool) -> Result<(), Claim> {
-    if dir.exists() && !dir.is_dir() {
-        let source =
-            std::io::Error::new(std::io::ErrorKind::AlreadyExists, "--out is a file, not a directory");
-        return Err(Claim::Io(dir.to_path_buf(), source));
-    }
+    check_not_file(dir).map_err(|e| Claim::Io(dir.to_path_buf(), e))?;
     if let Some(&file) = files.iter().find(|f| dir.join(f).exists()) {
         if !replace {
             return Err(Claim::Taken(file));
