@@ -13,13 +13,15 @@
 //! | `eval_curves.png`, `.svg`; `eval_curves_wall.png`, `.svg` | the deterministic evaluations at each budget (`--eval-every`): IQM over seeds with its 95 % CI, against steps and against training wall-clock seconds |
 
 use std::path::PathBuf;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use centaur_rl::{AlgoConfig, UpdateMetrics};
 use serde::Serialize;
 
 use crate::experiment::{
-    AgentStats, BudgetEval, Curve, ExperimentError, ExperimentOptions, ExperimentSummary, Phase,
-    finished_experiment, run_experiment,
+    AgentStats, BudgetEval, Curve, ExperimentError, ExperimentOptions, ExperimentResult, ExperimentSummary,
+    Phase, finished_experiment, run_experiment,
 };
 use crate::hybrid::ResidualConfig;
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
@@ -43,6 +45,9 @@ pub struct CompareOptions {
     /// Threads stepping each agent's environments; with more than one, a seed's two agents
     /// also train side by side (results unchanged).
     pub threads: usize,
+    /// Seeds run at once, each on its own `threads` (results unchanged: every seed's run
+    /// depends on its seed alone).
+    pub jobs: usize,
     /// Evaluation episodes per agent and seed.
     pub eval_episodes: usize,
     /// The hybrid's residual setup.
@@ -273,9 +278,12 @@ pub fn band(label: &str, curves: &[Curve], steps: u64, points: usize) -> Series 
 }
 
 /// Runs the comparison and writes the output directory.
+///
+/// `progress` is called with the seed, the phase and the update's metrics; with
+/// `jobs > 1` it is called from the seeds' threads (one at a time).
 pub fn run_compare(
     opts: &CompareOptions,
-    progress: &mut dyn FnMut(u64, Phase, &UpdateMetrics),
+    progress: &mut (dyn FnMut(u64, Phase, &UpdateMetrics) + Send),
 ) -> Result<CompareSummary, ExperimentError> {
     crate::rundir::check_not_file(&opts.out)
         .map_err(|source| ExperimentError::Io { path: opts.out.clone(), source })?;
@@ -285,8 +293,8 @@ pub fn run_compare(
             return Err(ExperimentError::RunExists { dir: opts.out.clone(), file });
         }
     }
-    let (mut runs, mut pure_curves, mut hybrid_curves) = (Vec::new(), Vec::new(), Vec::new());
-    for seed in 0..opts.seeds.max(1) {
+    let seeds = opts.seeds.max(1);
+    let run_seed = |seed: u64, progress: &mut dyn FnMut(u64, Phase, &UpdateMetrics)| {
         let exp = ExperimentOptions {
             env: opts.env.clone(),
             algo: opts.algo.clone(),
@@ -302,22 +310,64 @@ pub fn run_compare(
             // A seed's partial run (killed before its summary) is replaced on resume.
             overwrite: opts.resume || opts.overwrite,
         };
-        let kept = if opts.resume { finished_experiment(&exp) } else { None };
-        let r = match kept {
+        match opts.resume.then(|| finished_experiment(&exp)).flatten() {
             Some(r) => {
                 progress(seed, Phase::Evaluate, &UpdateMetrics::default());
-                r
+                Ok(r)
             }
-            None => run_experiment(&exp, &mut |phase, m| progress(seed, phase, m))?,
-        };
-        runs.push(r.summary);
-        pure_curves.push(r.pure_curve);
-        hybrid_curves.push(r.hybrid_curve);
+            None => run_experiment(&exp, &mut |phase, m| progress(seed, phase, m)),
+        }
+    };
+    // Seeds are taken in order from a shared counter by `jobs` workers; each result lands
+    // in its seed's slot, so the summary is the same for any number of jobs.
+    let next = AtomicU64::new(0);
+    let stop = AtomicBool::new(false);
+    let progress = Mutex::new(progress);
+    let slots: Vec<Mutex<Option<Result<ExperimentResult, ExperimentError>>>> =
+        (0..seeds).map(|_| Mutex::new(None)).collect();
+    let worker = || {
+        while !stop.load(Ordering::Relaxed) {
+            let seed = next.fetch_add(1, Ordering::Relaxed);
+            if seed >= seeds {
+                break;
+            }
+            let result = run_seed(seed, &mut |k, phase, m| {
+                let mut p = progress.lock().unwrap_or_else(|e| e.into_inner());
+                (*p)(k, phase, m)
+            });
+            if result.is_err() {
+                stop.store(true, Ordering::Relaxed);
+            }
+            *slots[seed as usize].lock().unwrap_or_else(|e| e.into_inner()) = Some(result);
+        }
+    };
+    let jobs = opts.jobs.clamp(1, seeds as usize);
+    if jobs == 1 {
+        worker();
+    } else {
+        std::thread::scope(|s| {
+            for _ in 0..jobs {
+                s.spawn(worker);
+            }
+        });
+    }
+    let (mut runs, mut pure_curves, mut hybrid_curves) = (Vec::new(), Vec::new(), Vec::new());
+    for slot in slots {
+        match slot.into_inner().unwrap_or_else(|e| e.into_inner()) {
+            Some(Ok(r)) => {
+                runs.push(r.summary);
+                pure_curves.push(r.pure_curve);
+                hybrid_curves.push(r.hybrid_curve);
+            }
+            Some(Err(e)) => return Err(e),
+            // Not started because an earlier seed failed: that failure is returned first.
+            None => {}
+        }
     }
     let summary = CompareSummary {
         env: opts.env.clone(),
         algo: opts.algo.kind().name().to_string(),
-        seeds: opts.seeds.max(1),
+        seeds,
         steps: opts.steps,
         hybrid: aggregate(&runs, |r| &r.hybrid),
         pure_rl: aggregate(&runs, |r| &r.pure_rl),

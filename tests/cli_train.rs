@@ -368,7 +368,8 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     let config = out_dir("compare.toml");
     std::fs::write(&config, "n_steps = 64\nbatch_size = 64\nn_epochs = 2\n").unwrap();
     let args = ["--seeds", "2", "--steps", "512", "--eval-episodes", "1", "--eval-every", "256"];
-    let o = compare_minitaur_ppo(&args, &config, &out);
+    // The two seeds run at once; the resume below reruns seed 1 alone, to the same figures.
+    let o = compare_minitaur_ppo(&[&args[..], &["--jobs", "2"]].concat(), &config, &out);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("| hybrid (residual RL on the controller) |"), "{stdout}");
@@ -402,7 +403,8 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     assert!(!out.join("seed_1").join("hybrid.mcap").exists());
 
     // Reliability probe, data loss 1: the directory is not reused silently. `--resume`
-    // keeps finished seeds and reruns a seed killed before its summary, to the same figures.
+    // keeps finished seeds and reruns a seed killed before its summary, to the same figures
+    // (seed 1 alone now, beside seed 0 before).
     let o = compare_minitaur_ppo(&args, &config, &out);
     assert!(!o.status.success());
     assert!(

@@ -159,6 +159,7 @@ fn bad_residuals_and_configs_are_refused() {
         out: out.clone(),
         n_envs: 1,
         threads: 1,
+        jobs: 1,
         eval_episodes: 10,
         residual: residual_config("minitaur").unwrap(),
         eval_every: None,

@@ -398,6 +398,9 @@ struct CompareArgs {
     /// also train side by side (results unchanged).
     #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = positive_count)]
     threads: usize,
+    /// Seeds run at once, each on its own --threads (results unchanged).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = positive_count)]
+    jobs: usize,
     /// Evaluation episodes per agent and seed.
     #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = positive_count)]
     eval_episodes: usize,
@@ -406,7 +409,7 @@ struct CompareArgs {
     #[arg(long, allow_negative_numbers = true, default_value_t = 100_000)]
     eval_every: u64,
     /// Keep the seeds already finished in --out with the same options and run the rest (a
-    /// killed comparison loses at most the seed it was running).
+    /// killed comparison loses at most the seeds it was running).
     #[arg(long, conflicts_with = "overwrite")]
     resume: bool,
     /// Replace the comparison already in --out (its run files only).
@@ -451,6 +454,7 @@ fn compare(args: CompareArgs) -> ExitCode {
         out: args.out,
         n_envs: args.envs.unwrap_or(if on_policy { 4 } else { 1 }),
         threads: args.threads,
+        jobs: args.jobs,
         eval_episodes: args.eval_episodes,
         residual,
         eval_every: (args.eval_every > 0).then_some(args.eval_every),
@@ -462,17 +466,19 @@ fn compare(args: CompareArgs) -> ExitCode {
     bar.set_style(progress_style());
     let steps = opts.steps;
     let learner = opts.algo.kind().name().to_uppercase();
-    let mut training = TrainingProgress::default();
+    // One progress record per seed: with --jobs, several seeds report at once.
+    let mut training = vec![TrainingProgress::default(); seeds as usize];
+    let mut done = vec![0; seeds as usize];
     let result = run_compare(&opts, &mut |seed, phase, m| {
+        let k = seed as usize;
         if phase == Phase::Evaluate {
-            training = TrainingProgress::default(); // the next seed starts afresh
             bar.set_message(format!("seed {seed} evaluating"));
-            bar.set_position((seed + 1) * 2 * steps);
-            return;
+            done[k] = 2 * steps;
+        } else {
+            done[k] = training[k].record(phase, m, steps);
+            bar.set_message(format!("seed {seed} {}", training[k].message(&learner)));
         }
-        let done = training.record(phase, m, steps);
-        bar.set_message(format!("seed {seed} {}", training.message(&learner)));
-        bar.set_position(seed * 2 * steps + done);
+        bar.set_position(done.iter().sum());
     });
     bar.finish_and_clear();
     match result {
