@@ -118,6 +118,10 @@ pub struct HybridArgs {
     /// Initial exploration σ of the steering, in policy units (PPO and A2C) [default: the robot's]
     #[arg(long)]
     pub explore_steering: Option<f64>,
+    /// Off-policy learners (SAC, SAC v1, TD3, DDPG) warm up with the hybrid's own
+    /// exploration around the controller instead of uniformly random actions
+    #[arg(long)]
+    pub warmup_with_policy: bool,
 }
 
 impl HybridArgs {
@@ -148,6 +152,7 @@ impl HybridArgs {
                 steering: self.explore_steering.unwrap_or(e.steering),
             });
         }
+        preset.warmup_with_policy |= self.warmup_with_policy;
         preset
     }
 }

@@ -124,6 +124,10 @@ pub struct ResidualConfig {
     /// learner's own, e.g. PPO's `log_std_init`). Only learners with a per-entry Gaussian
     /// (PPO, A2C) take it.
     pub exploration: Option<Exploration>,
+    /// Off-policy learners (SAC, SAC v1, TD3, DDPG) warm up with the policy's own
+    /// exploration around its zero output, i.e. the controller plus noise, instead of
+    /// uniformly random actions (default: false, Stable-Baselines3's uniform warm-up).
+    pub warmup_with_policy: bool,
     /// Append the reference action to the observation (default: true).
     pub include_reference: bool,
     /// The command the controller follows (default: trot at 0.3 m/s); with steering, the
@@ -138,6 +142,7 @@ impl Default for ResidualConfig {
             joint_residual: true,
             steering: Steering::OFF,
             exploration: None,
+            warmup_with_policy: false,
             include_reference: true,
             command: Command::forward(0.3, Gait::Trot),
         }

@@ -73,7 +73,8 @@ fn minitaur_residual() -> ResidualConfig {
 
 /// The Ant's hybrid: 30 % of the control range around a 1 m/s trot whose speed the policy
 /// steers within ±0.5 m/s (the controller clamps it to the trot's 1.2 m/s rating); a gentle
-/// start as the Minitaur's (σ 0.3 on the residual, 0.5 on the steering).
+/// start with σ 0.1 on the residual and 0.5 on the steering (its first rollout scores 98 % of
+/// the controller alone, 75 % at the Minitaur's σ 0.3 on the residual).
 fn ant_residual() -> ResidualConfig {
     ResidualConfig {
         steering: Steering { speed: 0.5, yaw_rate: 0.0 },

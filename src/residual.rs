@@ -32,8 +32,10 @@ use crate::hybrid::{ActionMapping, HybridError, Residual, ResidualConfig};
 /// Makes a freshly built learner of kind `kind` start a hybrid as its controller: its mean
 /// output zero (the untrained hybrid acts exactly like the controller) and, for learners
 /// that explore with a per-entry Gaussian (PPO, A2C), the initial exploration per action
-/// part that `config` asks for (a gentle start). `policy_dim` is the hybrid env's action
-/// dimension. Used by the experiment runner and `centaur train` on `<robot>-residual`.
+/// part that `config` asks for (a gentle start); for off-policy learners, a warm-up with the
+/// policy's own exploration if `config.warmup_with_policy` (an on-policy learner asked for
+/// it is refused). `policy_dim` is the hybrid env's action dimension. Used by the
+/// experiment runner and `centaur train` on `<robot>-residual`.
 pub fn start_as_controller(
     algo: &mut dyn Algorithm,
     kind: AlgoKind,
@@ -45,6 +47,9 @@ pub fn start_as_controller(
         && kind.takes_exploration_std()
     {
         algo.set_exploration_std(&std)?;
+    }
+    if config.warmup_with_policy {
+        algo.set_warmup_with_policy()?;
     }
     Ok(())
 }

@@ -409,3 +409,54 @@ fn an_untrained_ant_hybrid_explores_gently() {
     // The Ant's episodes are 1000 control steps; the 1 m/s trot scores ≈ 1250.
     assert_explores_gently("ant", 1000, 1000.0);
 }
+
+/// The return of the first training episode of a TD3 hybrid on the Ant during its warm-up
+/// (1,000 steps, no gradient step), with the preset's residual setup and
+/// `warmup_with_policy` as given.
+fn td3_warmup_return(warmup_with_policy: bool) -> f64 {
+    use centaur::residual::start_as_controller;
+    use centaur_gym::VecEnv;
+    use centaur_rl::{AlgoKind, Algorithm, Td3, Td3Config};
+    use std::ops::ControlFlow;
+    let config = ResidualConfig { warmup_with_policy, ..residual_config("ant").unwrap() };
+    let env = Box::new(make_residual_env("ant", config.clone()).unwrap()) as Box<dyn Env>;
+    let mut venv = VecEnv::new(vec![env], 1).unwrap();
+    let td3_config = Td3Config { learning_starts: 1000, log_interval: 1000, seed: 0, ..Td3Config::default() };
+    let mut td3 = Td3::for_env(td3_config, &venv).unwrap();
+    start_as_controller(&mut td3, AlgoKind::Td3, &config, venv.action_space().dim()).unwrap();
+    let mut first = None;
+    td3.learn(&mut venv, 1000, &mut |m| {
+        first = Some(*m);
+        ControlFlow::Break(())
+    })
+    .unwrap();
+    let m = first.expect("one record");
+    assert_eq!(m.episodes, 1, "one 1000-step episode");
+    m.episode_return_mean
+}
+
+#[test]
+fn an_off_policy_hybrid_can_warm_up_on_its_controller() {
+    // Uniformly random warm-up actions (Stable-Baselines3's) steer and perturb the trot at
+    // full scale; with `warmup_with_policy` the zero-output policy plus TD3's N(0, 0.1)
+    // exploration keeps the episode close to the controller alone.
+    let controller = controller_return(&residual_config("ant").unwrap(), "ant", 0);
+    let with_policy = td3_warmup_return(true);
+    let uniform = td3_warmup_return(false);
+    assert!(
+        with_policy >= 0.9 * controller,
+        "policy warm-up {with_policy:.1} against the controller's {controller:.1}"
+    );
+    assert!(with_policy > uniform, "policy warm-up {with_policy:.1} against uniform {uniform:.1}");
+    // On-policy learners have no warm-up: asking for one is refused, not ignored.
+    use centaur_gym::VecEnv;
+    use centaur_rl::{AlgoKind, Ppo, PpoConfig};
+    let config = ResidualConfig { warmup_with_policy: true, ..residual_config("ant").unwrap() };
+    let env = Box::new(make_residual_env("ant", config.clone()).unwrap()) as Box<dyn Env>;
+    let venv = VecEnv::new(vec![env], 1).unwrap();
+    let mut ppo = Ppo::for_env(PpoConfig::default(), &venv).unwrap();
+    let err =
+        centaur::residual::start_as_controller(&mut ppo, AlgoKind::Ppo, &config, venv.action_space().dim())
+            .unwrap_err();
+    assert!(err.to_string().contains("warm-up"), "{err}");
+}

@@ -52,6 +52,17 @@ pub trait Algorithm {
     /// on top of its reference controller. Exploration noise is unchanged.
     fn zero_policy_output(&mut self);
 
+    /// Makes an off-policy learner's warm-up (its first `learning_starts` steps) act with
+    /// its own exploration instead of uniformly random actions (the config's
+    /// `warmup_with_policy`; kept in its checkpoints). On-policy learners refuse with
+    /// [`RlError::Incompatible`] (the default).
+    fn set_warmup_with_policy(&mut self) -> Result<(), RlError> {
+        Err(RlError::Incompatible {
+            algo: "on-policy",
+            reason: "the learner has no warm-up phase (only SAC, SAC v1, TD3 and DDPG have one)".into(),
+        })
+    }
+
     /// Sets the initial exploration, per action entry, as the standard deviation of the
     /// Gaussian the learner samples around its mean action (in the [−1, 1] action scale):
     /// a hybrid starts with little noise on the parts that would knock its controller over.

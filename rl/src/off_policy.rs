@@ -4,7 +4,8 @@
 //!
 //! ```text
 //! until steps_done = total_steps:
-//!     a = uniform(−1, 1) during the first `learning_starts` steps, else the learner's exploration
+//!     a = uniform(−1, 1) during the first `learning_starts` steps (unless `warmup_with_policy`),
+//!         else the learner's exploration
 //!     step the VecEnv with a rescaled to the action bounds
 //!     store (s, a, r, s', terminated, truncated), s' = the final observation at an episode end
 //!     after warm-up: `gradient_steps` gradient steps
@@ -33,6 +34,8 @@ pub(crate) struct LoopSettings {
     pub seed: u64,
     /// Uniformly random steps before the first gradient step.
     pub learning_starts: u64,
+    /// Warm up with the learner's exploration instead of uniform actions.
+    pub warmup_with_policy: bool,
     /// Gradient steps per vectorised step (one step of every environment).
     pub gradient_steps: usize,
     /// Environment steps between metric records.
@@ -188,7 +191,7 @@ pub(crate) fn learn<L: OffPolicyLearner>(
     let mut next_record = (c.steps_done / s.log_interval + 1) * s.log_interval;
     while learner.parts().0.steps_done < total_steps {
         let (c, rng) = learner.parts();
-        if c.steps_done < s.learning_starts {
+        if c.steps_done < s.learning_starts && !s.warmup_with_policy {
             c.actions[..n * ad].iter_mut().for_each(|a| *a = rng.range(-1.0, 1.0) as f32);
         } else {
             learner.explore(n);
@@ -265,6 +268,7 @@ macro_rules! loop_settings {
         $crate::off_policy::LoopSettings {
             seed: c.seed,
             learning_starts: c.learning_starts,
+            warmup_with_policy: c.warmup_with_policy,
             gradient_steps: c.gradient_steps,
             log_interval: c.log_interval,
             learning_rate: c.learning_rate,

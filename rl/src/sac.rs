@@ -53,6 +53,12 @@ pub struct SacConfig {
     pub buffer_size: usize,
     /// Environment steps of uniformly random actions before learning starts (default: 100).
     pub learning_starts: u64,
+    /// During the first `learning_starts` steps, act with the policy's own exploration
+    /// instead of uniformly random actions (default: false). A residual policy whose output
+    /// starts at zero then fills the replay buffer with its controller's behaviour plus the
+    /// exploration noise, as residual RL does (Johannink et al. 2019); uniform actions are
+    /// Stable-Baselines3's warm-up.
+    pub warmup_with_policy: bool,
     /// Minibatch size (default: 256).
     pub batch_size: usize,
     /// Learning rate of the actor and the temperature (default: 3e-4).
@@ -91,6 +97,7 @@ impl Default for SacConfig {
             seed: 0,
             buffer_size: 1_000_000,
             learning_starts: 100,
+            warmup_with_policy: false,
             batch_size: 256,
             learning_rate: 3e-4,
             critic_learning_rate: None,
@@ -422,6 +429,11 @@ impl Algorithm for Sac {
 
     fn zero_policy_output(&mut self) {
         self.actor.zero_output_rows(0..self.collector.act_space.dim());
+    }
+
+    fn set_warmup_with_policy(&mut self) -> Result<(), RlError> {
+        self.config.warmup_with_policy = true;
+        Ok(())
     }
 
     fn steps_done(&self) -> u64 {
