@@ -75,6 +75,8 @@ fn main() {
                 "swing_height" => cfg.swing_height = x,
                 "period" => cfg.gait_period_scale = x,
                 "stagger" => cfg.turn_stagger = x,
+                "turn_swing_height" => cfg.turn_swing_height = x,
+                "turn_max_speed" => cfg.turn_max_speed = x,
                 "mpc_period" => cfg.mpc_period = x,
                 "swing_kp" => cfg.swing_gains.0 = x,
                 "swing_kd" => cfg.swing_gains.1 = x,
@@ -172,6 +174,7 @@ fn main() {
         (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z))
     };
     let mut yaw0 = if env.model().has_floating_base() { yaw_of(env.robot_state().q.as_slice()) } else { 0.0 };
+    let (mut heading, mut yaw_prev) = (0.0f64, yaw0);
     let mut fell = false;
     let mut max_tilt = 0.0f64;
     for k in 0..steps {
@@ -291,6 +294,13 @@ fn main() {
         let comv_before = ctrl.status().com_velocity;
         let qdd_plan = ctrl.planned_accelerations().clone();
         let step = env.step(&action, &mut obs).expect("step");
+        if env.model().has_floating_base() {
+            // The unwrapped heading change since the measurement started.
+            let yaw = yaw_of(env.robot_state().q.as_slice());
+            let d = yaw - yaw_prev;
+            heading += (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+            yaw_prev = yaw;
+        }
         if let Some(t0) = measure_from
             && (t - t0).abs() < 0.5 * dt
         {
@@ -299,6 +309,7 @@ fn main() {
             y0 = env.robot_state().q[1];
             yaw0 = if env.model().has_floating_base() { yaw_of(env.robot_state().q.as_slice()) } else { 0.0 };
             t_start = t;
+            heading = 0.0;
         }
         if every > 0 && k % every == 0 && flag("--qdd").is_some() {
             let v_after = &env.robot_state().v;
@@ -366,12 +377,13 @@ fn main() {
     let y1 = env.robot_state().q[1];
     let yaw1 = if env.model().has_floating_base() { yaw_of(env.robot_state().q.as_slice()) } else { 0.0 };
     println!(
-        "RESULT fell {fell} t {t:.2} dist {:.3} speed {:.3} lat {:.3} yaw {:.3} tilt {:.3} fails {}",
+        "RESULT fell {fell} t {t:.2} dist {:.3} speed {:.3} lat {:.3} yaw {:.3} tilt {:.3} fails {} heading {heading:.3} yaw_rate {:.3}",
         (x1 - x0) * yaw0.cos() + (y1 - y0) * yaw0.sin(),
         ((x1 - x0) * yaw0.cos() + (y1 - y0) * yaw0.sin()) / (t - t_start).max(1e-9),
         -(x1 - x0) * yaw0.sin() + (y1 - y0) * yaw0.cos(),
         yaw1 - yaw0,
         max_tilt,
-        ctrl.status().mpc_failures + ctrl.status().wbc_failures
+        ctrl.status().mpc_failures + ctrl.status().wbc_failures,
+        heading / (t - t_start).max(1e-9)
     );
 }

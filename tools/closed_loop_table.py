@@ -83,7 +83,10 @@ NOISE_ROWS = [
 TURN_ROWS = [
     ("ant", "trot", 0.3, 0.5), ("ant", "trot", 0.3, -0.5),
     ("ant", "trot", 1.0, 0.5), ("ant", "trot", 1.0, -0.5),
+    ("minitaur", "trot", 0.3, 0.3), ("minitaur", "trot", 0.3, -0.3),
+    ("minitaur", "trot", 0.5, 0.3), ("minitaur", "trot", 0.5, -0.3),
     ("minitaur", "trot", 0.5, 0.5), ("minitaur", "trot", 0.5, -0.5),
+    ("minitaur", "trot", 1.0, 0.5), ("minitaur", "trot", 1.0, -0.5),
 ]
 # (robot, gait, schedule)
 STEP_ROWS = [("minitaur", "trot", "0:0,1:1.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:1.0"), ("minitaur", "trot", "0:0,1:1.0,4:0.3,7:0")]

@@ -165,6 +165,14 @@ pub struct ControllerConfig {
     /// opens and closes on one foot, where a robot without abduction can yaw) (default: 0,
     /// off; only the trot is staggered).
     pub turn_stagger: f64,
+    /// Swing apex height (m) while the trot is staggered for turning; 0: `swing_height`
+    /// (default: 0). On one foot the body rolls toward its swinging legs, and a high swing
+    /// curve lands them late, out of turn (see the Minitaur preset).
+    pub turn_swing_height: f64,
+    /// The trot is staggered for turning only while the commanded forward speed is at most
+    /// this (m/s); above it a yaw-rate command turns the unstaggered trot (default:
+    /// infinite, always).
+    pub turn_max_speed: f64,
     /// Multiplies every gait period (default: 1.0).
     pub gait_period_scale: f64,
     /// Damping `λ` of the damped-least-squares IK (m) (default: 0.02).
@@ -220,6 +228,8 @@ impl ControllerConfig {
             recenter_speed: 0.05,
             max_yaw_acceleration: 2.0,
             turn_stagger: 0.0,
+            turn_swing_height: 0.0,
+            turn_max_speed: f64::INFINITY,
             gait_period_scale: 1.0,
             ik_damping: 0.02,
             fallback_decay: 0.9,
@@ -479,6 +489,19 @@ impl ControllerConfig {
         // of an episode); measured on seeds 0–4 at 0.3, 2.0 (with 10 % action noise, with
         // a 2 N·s push) and 2.5 m/s: 5/5 each, as at 1 m/s².
         c.max_acceleration = 3.0;
+        // Turning without abduction: a foot pair in contact cannot yaw, one foot can, so a
+        // yaw-rate command staggers the trot's diagonal partners (0.6 of the cycle per rad/s,
+        // at most 0.2: each stance opens and closes on one foot). On one foot the body rolls
+        // toward its swinging legs, and with the 7 cm swing they landed early, out of turn:
+        // the Minitaur then turned left on seeds 0–2 but not right (−0.04 to −0.07 rad in
+        // 10 s). With a 3 cm swing while staggered it turns both ways, 0.28–0.33 rad/s
+        // commanded ±0.5 rad/s at 0.3–0.7 m/s (the stagger's ceiling; 0.3 of the cycle fell),
+        // and fell at 0.8 m/s and above on 2 of 3 seeds, so faster trots are not staggered
+        // (`control_probe --set stagger=… --set turn_swing_height=…`, 2026-11-27). Straight
+        // trots (no yaw command) are unchanged, bit for bit.
+        c.turn_stagger = 0.6;
+        c.turn_swing_height = 0.03;
+        c.turn_max_speed = 0.7;
         // Only the gaits measured to work on the Minitaur are offered (`tools/closed_loop_table.py`):
         // the static walk needs a 0.6 s cycle (at the table's 0.8 s it fell on every seed);
         // pace, bound, pronk and gallop fell within 0.2–4 s at 0.3–1 m/s on seeds 0–2 with
@@ -597,8 +620,16 @@ impl ControllerConfig {
             ("recenter_speed", self.recenter_speed),
             ("max_yaw_acceleration", self.max_yaw_acceleration),
             ("turn_stagger", self.turn_stagger),
+            ("turn_swing_height", self.turn_swing_height),
             ("ik_damping", self.ik_damping),
         ];
+        if self.turn_max_speed.is_nan() || self.turn_max_speed < 0.0 {
+            return Err(ConfigError::OutOfRange {
+                field: "turn_max_speed",
+                value: self.turn_max_speed,
+                range: ">= 0 (may be infinite)",
+            });
+        }
         for (field, v) in finite_nonneg {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(ConfigError::OutOfRange { field, value: v, range: "finite, >= 0" });

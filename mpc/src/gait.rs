@@ -96,6 +96,8 @@ pub struct GaitPattern {
     pub duty: [f64; MAX_LEGS],
     /// Cycle period `T` (s).
     pub period: f64,
+    /// The stagger of the trot's diagonal partners ([`GaitPattern::staggered`]; 0: none).
+    pub stagger: f64,
 }
 
 impl GaitPattern {
@@ -111,6 +113,7 @@ impl GaitPattern {
             offsets,
             duty,
             period,
+            stagger: 0.0,
         };
         match (n_legs, gait) {
             (4, Gait::Stand) => Some(p([0.0; 4], [1.0; 4], 0.5)),
@@ -154,6 +157,7 @@ impl GaitPattern {
         self.offsets[b_lead] = 0.5;
         self.offsets[b_trail] = 0.5 + d;
         self.duty = [0.5 - d; 4];
+        self.stagger = s;
         self
     }
 
@@ -538,8 +542,9 @@ mod tests {
         assert_eq!(stances(&right, 0.45), [true, false, false, false]);
         assert_eq!(stances(&right, 0.55), [false, true, false, false]);
         assert_eq!(stances(&right, 0.95), [false, false, true, false]);
-        // Clamped to MAX_STAGGER.
+        // Clamped to MAX_STAGGER; the pattern records its stagger.
         assert_eq!(trot.staggered(5.0), trot.staggered(MAX_STAGGER));
+        assert_eq!((trot.stagger, right.stagger, trot.staggered(-5.0).stagger), (0.0, -0.1, -MAX_STAGGER));
         // Always one or two feet down: no flight phase, no foot pair across a side.
         for k in 0..1000 {
             let n = stances(&trot.staggered(MAX_STAGGER), k as f64 / 1000.0).iter().filter(|&&c| c).count();

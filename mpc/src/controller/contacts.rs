@@ -203,9 +203,14 @@ impl Contacts {
             } else {
                 let sp = swing_progress.unwrap_or(1.0);
                 let t_sw = pat.swing_duration(leg);
-                let mut tg = swing_curve(&self.liftoff[ci], &fh, cfg.swing_height, sp, t_sw);
+                let height = if pat.stagger != 0.0 && cfg.turn_swing_height > 0.0 {
+                    cfg.turn_swing_height
+                } else {
+                    cfg.swing_height
+                };
+                let mut tg = swing_curve(&self.liftoff[ci], &fh, height, sp, t_sw);
                 if dt > 0.0 {
-                    let ahead = swing_curve(&self.liftoff[ci], &fh, cfg.swing_height, sp + dt / t_sw, t_sw);
+                    let ahead = swing_curve(&self.liftoff[ci], &fh, height, sp + dt / t_sw, t_sw);
                     tg.a = (ahead.v - tg.v) / dt;
                 }
                 tg

@@ -234,7 +234,12 @@ impl LocomotionController {
         let shaped = self.reference.shape(cfg, est, command, dt, airborne, self.robot.nominal_com_height);
         self.status.refused_gaits += u64::from(shaped.refused);
         self.status.clamped_commands += u64::from(shaped.clamped);
-        self.gait.set_stagger(cfg.turn_stagger * self.reference.yaw_rate_cmd);
+        let stagger = if self.reference.v_cmd.x.abs() <= cfg.turn_max_speed {
+            cfg.turn_stagger * self.reference.yaw_rate_cmd
+        } else {
+            0.0
+        };
+        self.gait.set_stagger(stagger);
         let gait_changed = self.gait.update(t, shaped.gait);
         let standing = self.gait.pattern().gait == Gait::Stand;
         self.reference.update_position(cfg, est, dt, &shaped.target_velocity, standing);
@@ -368,6 +373,33 @@ mod tests {
             c.tick(&s, &Command::forward(1.0, Gait::Walk), k as f64 * 0.015);
         }
         assert!((c.reference.v_cmd.norm() - 0.3).abs() < 1e-9, "{}", c.reference.v_cmd.norm());
+    }
+
+    #[test]
+    fn a_yaw_command_staggers_the_minitaur_trot_below_its_turning_speed() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/minitaur/minitaur.urdf");
+        let model = Model::from_urdf_file(path, BaseKind::Floating).unwrap();
+        let stagger_after_2s = |speed: f64, yaw_rate: f64| {
+            let mut c = LocomotionController::new(&model, ControllerConfig::minitaur()).unwrap();
+            let s = c.nominal_state();
+            let command = Command { yaw_rate, ..Command::forward(speed, Gait::Trot) };
+            for k in 0..200 {
+                c.tick(&s, &command, k as f64 * 0.01);
+            }
+            c.gait.pattern().stagger
+        };
+        assert_eq!(stagger_after_2s(0.5, 0.0), 0.0, "straight: no stagger");
+        // 0.6 of the cycle per rad/s, clamped at MAX_STAGGER; the left legs lead a left turn.
+        assert!((stagger_after_2s(0.5, 0.2) - 0.12).abs() < 1e-9);
+        assert_eq!(stagger_after_2s(0.5, 0.5), crate::MAX_STAGGER);
+        assert_eq!(stagger_after_2s(0.5, -0.5), -crate::MAX_STAGGER);
+        // Above `turn_max_speed` (0.7 m/s) the trot is not staggered.
+        assert_eq!(stagger_after_2s(1.0, 0.5), 0.0);
+        let bad = |c: ControllerConfig| c.validate().unwrap_err().to_string();
+        let nan = bad(ControllerConfig { turn_max_speed: f64::NAN, ..ControllerConfig::minitaur() });
+        assert!(nan.contains("turn_max_speed"), "{nan}");
+        let low = bad(ControllerConfig { turn_swing_height: -0.01, ..ControllerConfig::minitaur() });
+        assert!(low.contains("turn_swing_height"), "{low}");
     }
 
     #[test]
