@@ -84,8 +84,10 @@ TURN_ROWS = [
     ("ant", "trot", 0.3, 0.5), ("ant", "trot", 0.3, -0.5),
     ("ant", "trot", 1.0, 0.5), ("ant", "trot", 1.0, -0.5),
     ("minitaur", "trot", 0.3, 0.3), ("minitaur", "trot", 0.3, -0.3),
+    ("minitaur", "trot", 0.3, 0.5), ("minitaur", "trot", 0.3, -0.5),
     ("minitaur", "trot", 0.5, 0.3), ("minitaur", "trot", 0.5, -0.3),
     ("minitaur", "trot", 0.5, 0.5), ("minitaur", "trot", 0.5, -0.5),
+    ("minitaur", "trot", 0.6, 0.5), ("minitaur", "trot", 0.6, -0.5),
     ("minitaur", "trot", 1.0, 0.5), ("minitaur", "trot", 1.0, -0.5),
 ]
 # (robot, gait, schedule)

@@ -173,6 +173,9 @@ pub struct ControllerConfig {
     /// this (m/s); above it a yaw-rate command turns the unstaggered trot (default:
     /// infinite, always).
     pub turn_max_speed: f64,
+    /// The whole-body QP's body yaw-axis weight while the trot is staggered for turning;
+    /// 0: `wbc.body_axis_weights[5]` (default: 0).
+    pub turn_yaw_weight: f64,
     /// Multiplies every gait period (default: 1.0).
     pub gait_period_scale: f64,
     /// Damping `λ` of the damped-least-squares IK (m) (default: 0.02).
@@ -230,6 +233,7 @@ impl ControllerConfig {
             turn_stagger: 0.0,
             turn_swing_height: 0.0,
             turn_max_speed: f64::INFINITY,
+            turn_yaw_weight: 0.0,
             gait_period_scale: 1.0,
             ik_damping: 0.02,
             fallback_decay: 0.9,
@@ -495,13 +499,17 @@ impl ControllerConfig {
         // toward its swinging legs, and with the 7 cm swing they landed early, out of turn:
         // the Minitaur then turned left on seeds 0–2 but not right (−0.04 to −0.07 rad in
         // 10 s). With a 3 cm swing while staggered it turns both ways, 0.28–0.33 rad/s
-        // commanded ±0.5 rad/s at 0.3–0.7 m/s (the stagger's ceiling; 0.3 of the cycle fell),
-        // and fell at 0.8 m/s and above on 2 of 3 seeds, so faster trots are not staggered
-        // (`control_probe --set stagger=… --set turn_swing_height=…`, 2026-11-27). Straight
-        // trots (no yaw command) are unchanged, bit for bit.
+        // commanded ±0.5 rad/s at 0.3–0.7 m/s (0.3 of the cycle fell); with the whole-body
+        // QP's yaw axis weighted 20 while staggered (the default 1 lets the swing legs' and
+        // the body's other tasks trade the heading away; 30 and 100 did no better) 0.37–0.50
+        // rad/s. Staggered with that weight it fell at 0.7 m/s on 4 of 5 seeds, so faster
+        // trots are not staggered (`control_probe --set stagger=… --set turn_swing_height=…
+        // --set turn_yaw_weight=…`, 2026-11-27). Straight trots (no yaw command) are
+        // unchanged, bit for bit.
         c.turn_stagger = 0.6;
         c.turn_swing_height = 0.03;
-        c.turn_max_speed = 0.7;
+        c.turn_yaw_weight = 20.0;
+        c.turn_max_speed = 0.5;
         // Only the gaits measured to work on the Minitaur are offered (`tools/closed_loop_table.py`):
         // the static walk needs a 0.6 s cycle (at the table's 0.8 s it fell on every seed);
         // pace, bound, pronk and gallop fell within 0.2–4 s at 0.3–1 m/s on seeds 0–2 with
@@ -621,6 +629,7 @@ impl ControllerConfig {
             ("max_yaw_acceleration", self.max_yaw_acceleration),
             ("turn_stagger", self.turn_stagger),
             ("turn_swing_height", self.turn_swing_height),
+            ("turn_yaw_weight", self.turn_yaw_weight),
             ("ik_damping", self.ik_damping),
         ];
         if self.turn_max_speed.is_nan() || self.turn_max_speed < 0.0 {

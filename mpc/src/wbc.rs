@@ -401,6 +401,14 @@ impl WholeBodyQp {
         Ok(w)
     }
 
+    /// Sets the weight of body axis `axis` (0–2 linear, 3–5 angular; see
+    /// [`WbcConfig::body_axis_weights`]) for the next solves. The controller raises the yaw
+    /// axis while a trot is staggered for turning; the caller passes a validated weight.
+    pub(crate) fn set_body_axis_weight(&mut self, axis: usize, weight: f64) {
+        debug_assert!(weight.is_finite() && weight >= 0.0);
+        self.cfg.body_axis_weights[axis] = weight;
+    }
+
     /// Status of the last solve.
     pub fn status(&self) -> QpStatus {
         self.status

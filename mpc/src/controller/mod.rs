@@ -393,8 +393,9 @@ mod tests {
         assert!((stagger_after_2s(0.5, 0.2) - 0.12).abs() < 1e-9);
         assert_eq!(stagger_after_2s(0.5, 0.5), crate::MAX_STAGGER);
         assert_eq!(stagger_after_2s(0.5, -0.5), -crate::MAX_STAGGER);
-        // Above `turn_max_speed` (0.7 m/s) the trot is not staggered.
+        // Above `turn_max_speed` (0.5 m/s) the trot is not staggered.
         assert_eq!(stagger_after_2s(1.0, 0.5), 0.0);
+        assert_eq!(stagger_after_2s(0.6, -0.5), 0.0);
         let bad = |c: ControllerConfig| c.validate().unwrap_err().to_string();
         let nan = bad(ControllerConfig { turn_max_speed: f64::NAN, ..ControllerConfig::minitaur() });
         assert!(nan.contains("turn_max_speed"), "{nan}");
