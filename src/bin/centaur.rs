@@ -540,13 +540,22 @@ fn control(args: ControlArgs) -> ExitCode {
         .and_then(|s| write_summary(&args.out, &s).map(|path| (s, path)));
     match result {
         Ok((s, path)) => {
+            // A turning run's mean speed along its initial heading says little: report the
+            // yaw rate and the speed along the heading instead.
+            let motion = if s.commanded_yaw_rate != 0.0 {
+                format!(
+                    "mean yaw rate {:.3} rad/s (commanded {}), speed along the heading {:.3} m/s",
+                    s.mean_yaw_rate, s.commanded_yaw_rate, s.mean_forward_speed
+                )
+            } else {
+                format!("mean speed {:.3} m/s", s.mean_speed)
+            };
             println!(
-                "{} {} at {} m/s for {:.1} s: mean speed {:.3} m/s, {}, yaw drift {:.3} rad, tick {:.0} µs mean / {:.0} µs p99 (MPC {:.0} µs, WBC {:.0} µs); wrote {}",
+                "{} {} at {} m/s for {:.1} s: {motion}, {}, yaw drift {:.3} rad, tick {:.0} µs mean / {:.0} µs p99 (MPC {:.0} µs, WBC {:.0} µs); wrote {}",
                 s.env,
                 s.gait,
                 s.commanded_speed,
                 s.seconds,
-                s.mean_speed,
                 if s.fell { "fell" } else { "did not fall" },
                 s.yaw_drift,
                 s.mean_tick_us,
