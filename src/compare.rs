@@ -14,14 +14,13 @@
 
 use std::path::PathBuf;
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use centaur_rl::{AlgoConfig, UpdateMetrics};
 use serde::Serialize;
 
 use crate::experiment::{
-    AgentStats, BudgetEval, Curve, ExperimentError, ExperimentOptions, ExperimentResult, ExperimentSummary,
-    Phase, finished_experiment, run_experiment,
+    AgentStats, BudgetEval, Curve, ExperimentError, ExperimentOptions, ExperimentSummary, Phase,
+    finished_experiment, run_experiment,
 };
 use crate::hybrid::ResidualConfig;
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
@@ -318,42 +317,18 @@ pub fn run_compare(
             None => run_experiment(&exp, &mut |phase, m| progress(seed, phase, m)),
         }
     };
-    // Seeds are taken in order from a shared counter by `jobs` workers; each result lands
-    // in its seed's slot, so the summary is the same for any number of jobs.
-    let next = AtomicU64::new(0);
-    let stop = AtomicBool::new(false);
+    // Seeds run `jobs` at a time, each result kept at its seed: the summary is the same for
+    // any number of jobs.
     let progress = Mutex::new(progress);
-    let slots: Vec<Mutex<Option<Result<ExperimentResult, ExperimentError>>>> =
-        (0..seeds).map(|_| Mutex::new(None)).collect();
-    let worker = || {
-        while !stop.load(Ordering::Relaxed) {
-            let seed = next.fetch_add(1, Ordering::Relaxed);
-            if seed >= seeds {
-                break;
-            }
-            let result = run_seed(seed, &mut |k, phase, m| {
-                let mut p = progress.lock().unwrap_or_else(|e| e.into_inner());
-                (*p)(k, phase, m)
-            });
-            if result.is_err() {
-                stop.store(true, Ordering::Relaxed);
-            }
-            *slots[seed as usize].lock().unwrap_or_else(|e| e.into_inner()) = Some(result);
-        }
-    };
-    let jobs = opts.jobs.clamp(1, seeds as usize);
-    if jobs == 1 {
-        worker();
-    } else {
-        std::thread::scope(|s| {
-            for _ in 0..jobs {
-                s.spawn(worker);
-            }
-        });
-    }
+    let results = crate::jobs::run_indexed(seeds as usize, opts.jobs, |k| {
+        run_seed(k as u64, &mut |seed, phase, m| {
+            let mut p = progress.lock().unwrap_or_else(|e| e.into_inner());
+            (*p)(seed, phase, m)
+        })
+    });
     let (mut runs, mut pure_curves, mut hybrid_curves) = (Vec::new(), Vec::new(), Vec::new());
-    for slot in slots {
-        match slot.into_inner().unwrap_or_else(|e| e.into_inner()) {
+    for result in results {
+        match result {
             Some(Ok(r)) => {
                 runs.push(r.summary);
                 pure_curves.push(r.pure_curve);

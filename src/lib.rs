@@ -32,6 +32,7 @@ pub mod deploy;
 pub mod eval;
 pub mod experiment;
 pub mod hybrid;
+mod jobs;
 pub mod plot;
 pub mod recording;
 pub mod registry;

@@ -49,8 +49,6 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use centaur_rl::{AlgoKind, MetricsCsv};
 use serde::{Deserialize, Serialize};
@@ -472,9 +470,6 @@ fn execute(
     tasks.retain(|(_, _, _, dir)| !dir.join("summary.json").exists() || !judged(dir));
     let kept = before - tasks.len();
 
-    let next = AtomicUsize::new(0);
-    let stop = AtomicBool::new(false);
-    let failure: Mutex<Option<SweepError>> = Mutex::new(None);
     let run_one = |(_, seed, config, dir): &(String, u64, PathBuf, PathBuf)| -> Result<Summary, TrainError> {
         if dir.join("run.json").exists() {
             return resume(dir, 1, &mut |_| {});
@@ -521,25 +516,13 @@ fn execute(
         }
         Ok(summary)
     };
-    std::thread::scope(|s| {
-        for _ in 0..opts.jobs.min(tasks.len()) {
-            s.spawn(|| {
-                while !stop.load(Ordering::Relaxed) {
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(task) = tasks.get(i) else { break };
-                    match run_and_judge(task) {
-                        Ok(summary) => report(&task.0, task.1, &summary),
-                        Err(e) => {
-                            stop.store(true, Ordering::Relaxed);
-                            let mut f = failure.lock().unwrap_or_else(|e| e.into_inner());
-                            f.get_or_insert(e);
-                        }
-                    }
-                }
-            });
-        }
+    let results = crate::jobs::run_indexed(tasks.len(), opts.jobs, |i| {
+        let task = &tasks[i];
+        let summary = run_and_judge(task)?;
+        report(&task.0, task.1, &summary);
+        Ok(())
     });
-    if let Some(e) = failure.into_inner().unwrap_or_else(|e| e.into_inner()) {
+    if let Some(e) = results.into_iter().flatten().find_map(Result::err) {
         return Err(e);
     }
     Ok((grid, points, kept))
