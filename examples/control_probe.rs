@@ -149,7 +149,8 @@ fn main() {
     let mut action = vec![0.0f32; env.action_space().dim()];
     env.reset(Some(seed), &mut obs).expect("reset");
     let yaw_rate: f64 = flag("--yaw-rate").and_then(|s| s.parse().ok()).unwrap_or(0.0);
-    let command = Command { yaw_rate, ..Command::forward(speed, gait) };
+    let body_height: Option<f64> = flag("--height").and_then(|s| s.parse().ok());
+    let command = Command { yaw_rate, body_height, ..Command::forward(speed, gait) };
     let pd_hold: Option<(f64, f64)> = flag("--pd").map(|s| {
         let (a, b) = s.split_once(',').expect("kp,kd");
         (a.parse().expect("kp"), b.parse().expect("kd"))

@@ -87,6 +87,7 @@ TURN_ROWS = [
     ("minitaur", "trot", 0.3, 0.5), ("minitaur", "trot", 0.3, -0.5),
     ("minitaur", "trot", 0.5, 0.3), ("minitaur", "trot", 0.5, -0.3),
     ("minitaur", "trot", 0.5, 0.5), ("minitaur", "trot", 0.5, -0.5),
+    ("minitaur", "trot", 0.6, 0.3), ("minitaur", "trot", 0.6, -0.3),
     ("minitaur", "trot", 0.6, 0.5), ("minitaur", "trot", 0.6, -0.5),
     ("minitaur", "trot", 1.0, 0.5), ("minitaur", "trot", 1.0, -0.5),
 ]

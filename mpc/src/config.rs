@@ -169,7 +169,7 @@ pub struct ControllerConfig {
     /// (default: 0). On one foot the body rolls toward its swinging legs, and a high swing
     /// curve lands them late, out of turn (see the Minitaur preset).
     pub turn_swing_height: f64,
-    /// The trot is staggered for turning only while the commanded forward speed is at most
+    /// The trot is staggered for turning only while the commanded planar speed is at most
     /// this (m/s); above it a yaw-rate command turns the unstaggered trot (default:
     /// infinite, always).
     pub turn_max_speed: f64,
@@ -502,14 +502,18 @@ impl ControllerConfig {
         // commanded ±0.5 rad/s at 0.3–0.7 m/s (0.3 of the cycle fell); with the whole-body
         // QP's yaw axis weighted 20 while staggered (the default 1 lets the swing legs' and
         // the body's other tasks trade the heading away; 30 and 100 did no better) 0.37–0.50
-        // rad/s. Staggered with that weight it fell at 0.7 m/s on 4 of 5 seeds, so faster
-        // trots are not staggered (`control_probe --set stagger=… --set turn_swing_height=…
-        // --set turn_yaw_weight=…`, 2026-11-27). Straight trots (no yaw command) are
+        // rad/s. Staggered with that weight it fell at 0.7 m/s on 4 of 5 seeds and at 1.0 m/s
+        // on 5 of 5 (within 0.5 s with the 3 cm swing; with the 7 cm swing it turned right at
+        // only 0.11 rad/s, and a stagger of 0.1 of the cycle turned at 0.17–0.32 rad/s), while
+        // at 0.6 m/s it turned on 5 of 5 seeds (+0.46–0.50, −0.41–0.46 rad/s commanded ±0.5;
+        // ±0.28–0.30 commanded ±0.3), so trots above 0.6 m/s are not staggered
+        // (`control_probe --set stagger=… --set turn_swing_height=… --set turn_yaw_weight=…
+        // --set turn_max_speed=…`, 2026-11-27). Straight trots (no yaw command) are
         // unchanged, bit for bit.
         c.turn_stagger = 0.6;
         c.turn_swing_height = 0.03;
         c.turn_yaw_weight = 20.0;
-        c.turn_max_speed = 0.5;
+        c.turn_max_speed = 0.6;
         // Only the gaits measured to work on the Minitaur are offered (`tools/closed_loop_table.py`):
         // the static walk needs a 0.6 s cycle (at the table's 0.8 s it fell on every seed);
         // pace, bound, pronk and gallop fell within 0.2–4 s at 0.3–1 m/s on seeds 0–2 with

@@ -234,7 +234,9 @@ impl LocomotionController {
         let shaped = self.reference.shape(cfg, est, command, dt, airborne, self.robot.nominal_com_height);
         self.status.refused_gaits += u64::from(shaped.refused);
         self.status.clamped_commands += u64::from(shaped.clamped);
-        let stagger = if self.reference.v_cmd.x.abs() <= cfg.turn_max_speed {
+        // The planar speed of the (ramped) velocity command, whatever the heading; the
+        // tolerance keeps a command of exactly `turn_max_speed` staggered at every heading.
+        let stagger = if self.reference.v_cmd.xy().norm() <= cfg.turn_max_speed + 1e-9 {
             cfg.turn_stagger * self.reference.yaw_rate_cmd
         } else {
             0.0
@@ -379,23 +381,34 @@ mod tests {
     fn a_yaw_command_staggers_the_minitaur_trot_below_its_turning_speed() {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/minitaur/minitaur.urdf");
         let model = Model::from_urdf_file(path, BaseKind::Floating).unwrap();
-        let stagger_after_2s = |speed: f64, yaw_rate: f64| {
+        let stagger_after_2s_heading = |speed: f64, yaw_rate: f64, heading: f64| {
             let mut c = LocomotionController::new(&model, ControllerConfig::minitaur()).unwrap();
-            let s = c.nominal_state();
+            let mut s = c.nominal_state();
+            // Base orientation (x, y, z, w) of a robot facing `heading`.
+            s.q[5] = (0.5 * heading).sin();
+            s.q[6] = (0.5 * heading).cos();
             let command = Command { yaw_rate, ..Command::forward(speed, Gait::Trot) };
             for k in 0..200 {
                 c.tick(&s, &command, k as f64 * 0.01);
             }
             c.gait.pattern().stagger
         };
+        let stagger_after_2s = |speed: f64, yaw_rate: f64| stagger_after_2s_heading(speed, yaw_rate, 0.0);
         assert_eq!(stagger_after_2s(0.5, 0.0), 0.0, "straight: no stagger");
         // 0.6 of the cycle per rad/s, clamped at MAX_STAGGER; the left legs lead a left turn.
         assert!((stagger_after_2s(0.5, 0.2) - 0.12).abs() < 1e-9);
         assert_eq!(stagger_after_2s(0.5, 0.5), crate::MAX_STAGGER);
         assert_eq!(stagger_after_2s(0.5, -0.5), -crate::MAX_STAGGER);
-        // Above `turn_max_speed` (0.5 m/s) the trot is not staggered.
+        assert_eq!(stagger_after_2s(0.6, -0.5), -crate::MAX_STAGGER);
+        // Above `turn_max_speed` (0.6 m/s) the trot is not staggered.
         assert_eq!(stagger_after_2s(1.0, 0.5), 0.0);
-        assert_eq!(stagger_after_2s(0.6, -0.5), 0.0);
+        assert_eq!(stagger_after_2s(0.7, -0.5), 0.0);
+        // The gate is the planar speed, whatever the heading (it once read the world x
+        // component, and a robot facing sideways was staggered at any speed).
+        for heading in [0.0, 0.8, 1.5, -2.5] {
+            assert_eq!(stagger_after_2s_heading(1.0, 0.5, heading), 0.0, "heading {heading}");
+            assert_eq!(stagger_after_2s_heading(0.6, 0.5, heading), crate::MAX_STAGGER, "heading {heading}");
+        }
         let bad = |c: ControllerConfig| c.validate().unwrap_err().to_string();
         let nan = bad(ControllerConfig { turn_max_speed: f64::NAN, ..ControllerConfig::minitaur() });
         assert!(nan.contains("turn_max_speed"), "{nan}");
