@@ -343,6 +343,23 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
     }
     assert_eq!(json["env"], "minitaur");
     assert!((json["seconds"].as_f64().unwrap() - 1.0).abs() < 0.02);
+    let stdout = String::from_utf8_lossy(&status.stdout);
+    assert!(stdout.contains("minitaur trot at 0.3 m/s for 1.0 s: mean speed"), "{stdout}");
+    let _ = std::fs::remove_dir_all(&out);
+    // A speed schedule reports each segment's command and mean speed, not the unused --speed.
+    let o = Process::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["control", "--env", "minitaur", "--speed-schedule", "0:0,0.5:0.3", "--seconds", "1", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        stdout.contains("on its speed schedule for 1.0 s: mean speed ")
+            && stdout.contains(" m/s from 0 s (commanded 0), ")
+            && stdout.contains(" m/s from 0.5 s (commanded 0.3)"),
+        "{stdout}"
+    );
     let _ = std::fs::remove_dir_all(&out);
     // Regression (reliability probe): `--out` naming a file is refused before the run.
     let file = std::env::temp_dir().join(format!("centaur-control-file-{}", std::process::id()));

@@ -92,7 +92,7 @@ TURN_ROWS = [
     ("minitaur", "trot", 1.0, 0.5), ("minitaur", "trot", 1.0, -0.5),
 ]
 # (robot, gait, schedule)
-STEP_ROWS = [("minitaur", "trot", "0:0,1:1.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:1.0"), ("minitaur", "trot", "0:0,1:1.0,4:0.3,7:0")]
+STEP_ROWS = [("minitaur", "trot", "0:0,1:1.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:1.0"), ("minitaur", "trot", "0:0,1:1.0,4:0.3,7:0")]
 
 
 class Runner:

@@ -547,14 +547,28 @@ fn control(args: ControlArgs) -> ExitCode {
                     "mean yaw rate {:.3} rad/s (commanded {}), speed along the heading {:.3} m/s",
                     s.mean_yaw_rate, s.commanded_yaw_rate, s.mean_forward_speed
                 )
+            } else if s.segments.len() > 1 {
+                // A speed schedule: each segment's command and mean speed.
+                let segs: Vec<String> = s
+                    .segments
+                    .iter()
+                    .map(|g| {
+                        format!("{:.3} m/s from {} s (commanded {})", g.mean_speed, g.from, g.commanded_speed)
+                    })
+                    .collect();
+                format!("mean speed {}", segs.join(", "))
             } else {
                 format!("mean speed {:.3} m/s", s.mean_speed)
             };
+            let command = if s.segments.len() > 1 {
+                "on its speed schedule".to_string()
+            } else {
+                format!("at {} m/s", s.commanded_speed)
+            };
             println!(
-                "{} {} at {} m/s for {:.1} s: {motion}, {}, yaw drift {:.3} rad, tick {:.0} µs mean / {:.0} µs p99 (MPC {:.0} µs, WBC {:.0} µs); wrote {}",
+                "{} {} {command} for {:.1} s: {motion}, {}, yaw drift {:.3} rad, tick {:.0} µs mean / {:.0} µs p99 (MPC {:.0} µs, WBC {:.0} µs); wrote {}",
                 s.env,
                 s.gait,
-                s.commanded_speed,
                 s.seconds,
                 if s.fell { "fell" } else { "did not fall" },
                 s.yaw_drift,
