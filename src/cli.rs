@@ -122,6 +122,11 @@ pub struct HybridArgs {
     /// exploration around the controller instead of uniformly random actions
     #[arg(long)]
     pub warmup_with_policy: bool,
+    /// The controller's rated speed for the hybrid's gait, m/s, replacing the robot's (its
+    /// steered commands are clamped to it); above the robot's rating the controller alone
+    /// is not measured to hold [default: the robot's]
+    #[arg(long)]
+    pub rated_speed: Option<f64>,
 }
 
 impl HybridArgs {
@@ -153,6 +158,9 @@ impl HybridArgs {
             });
         }
         preset.warmup_with_policy |= self.warmup_with_policy;
+        if self.rated_speed.is_some() {
+            preset.rated_speed = self.rated_speed;
+        }
         preset
     }
 }

@@ -14,7 +14,7 @@
 
 use centaur_dynamics::{Model, RobotState};
 use centaur_envs::{RobotEnv, Servo};
-use centaur_mpc::{Command, ConfigError, Gait, JointCommand, LocomotionController};
+use centaur_mpc::{Command, ConfigError, ControllerConfig, Gait, JointCommand, LocomotionController};
 
 /// What the hybrid's pieces refuse.
 #[derive(Debug, thiserror::Error)]
@@ -133,6 +133,12 @@ pub struct ResidualConfig {
     /// The command the controller follows (default: trot at 0.3 m/s); with steering, the
     /// command at zero steering output.
     pub command: Command,
+    /// The controller's rated speed (m/s) for the command's gait, replacing the preset's
+    /// (`None`, the default: the preset's; see [`ResidualConfig::rate_controller`]). The
+    /// controller clamps every steered command to the rating, so the steering cannot take
+    /// the gait faster than this; above the preset's rating the controller alone is not
+    /// measured to hold on every body, and the learner has to find where it does.
+    pub rated_speed: Option<f64>,
 }
 
 impl Default for ResidualConfig {
@@ -145,6 +151,7 @@ impl Default for ResidualConfig {
             warmup_with_policy: false,
             include_reference: true,
             command: Command::forward(0.3, Gait::Trot),
+            rated_speed: None,
         }
     }
 }
@@ -190,9 +197,48 @@ impl ResidualConfig {
         if !self.joint_residual && self.steering.dim() == 0 {
             return Err(HybridError::NothingToLearn);
         }
+        if let Some(value) = self.rated_speed
+            && !(value.is_finite() && value > 0.0 && value <= MAX_RATED_SPEED)
+        {
+            return Err(HybridError::BadSetting {
+                part: "rated_speed",
+                value,
+                expected: "a speed in (0, 20] m/s",
+            });
+        }
+        Ok(())
+    }
+
+    /// `config` with [`ResidualConfig::rated_speed`], if set, as the rating of the
+    /// command's gait: the controller the hybrid (and the controller-alone baseline beside
+    /// it) runs. The gait must be offered and not the stand, which has no speed rating.
+    pub fn rate_controller(&self, config: &mut ControllerConfig) -> Result<(), HybridError> {
+        let Some(value) = self.rated_speed else { return Ok(()) };
+        if !(value.is_finite() && value > 0.0 && value <= MAX_RATED_SPEED) {
+            return Err(HybridError::BadSetting {
+                part: "rated_speed",
+                value,
+                expected: "a speed in (0, 20] m/s",
+            });
+        }
+        let gait = self.command.gait;
+        if gait == Gait::Stand {
+            return Err(HybridError::BadSetting {
+                part: "rated_speed",
+                value,
+                expected: "no rating: the stand has none",
+            });
+        }
+        config.offer(gait)?;
+        for o in config.gaits.iter_mut().filter(|o| o.gait == gait) {
+            o.max_speed = value;
+        }
         Ok(())
     }
 }
+
+/// The largest [`ResidualConfig::rated_speed`] accepted (m/s): far above any robot here.
+pub const MAX_RATED_SPEED: f64 = 20.0;
 
 /// The residual law, the steering of the command and the policy's observation layout,
 /// with the scale resolved per action entry. See the module docs.
@@ -640,5 +686,39 @@ mod tests {
         assert_eq!(config.initial_exploration(1), Some(vec![0.7]));
         config.exploration = None;
         assert_eq!(config.initial_exploration(1), None);
+    }
+
+    #[test]
+    fn a_rated_speed_replaces_the_gaits_rating_and_bad_ones_are_refused() {
+        let preset = ControllerConfig::minitaur();
+        let trot = |c: &ControllerConfig| c.offer(Gait::Trot).unwrap().max_speed;
+        let rated = |v: Option<f64>, gait: Gait| ResidualConfig {
+            rated_speed: v,
+            command: Command::forward(2.0, gait),
+            ..ResidualConfig::default()
+        };
+        // None: the preset, untouched.
+        let mut c = preset.clone();
+        rated(None, Gait::Trot).rate_controller(&mut c).unwrap();
+        assert_eq!(c, preset);
+        // A rating: the command's gait only.
+        rated(Some(3.0), Gait::Trot).rate_controller(&mut c).unwrap();
+        assert_eq!(trot(&c), 3.0);
+        assert_eq!(c.offer(Gait::Walk).unwrap().max_speed, preset.offer(Gait::Walk).unwrap().max_speed);
+        assert!(c.check_command(Gait::Trot, 2.9).is_ok() && preset.check_command(Gait::Trot, 2.9).is_err());
+        // Refused by name, and the config left as it was.
+        for v in [f64::NAN, f64::INFINITY, 0.0, -1.0, 25.0] {
+            let r = rated(Some(v), Gait::Trot);
+            let mut c = preset.clone();
+            assert!(matches!(r.validate(8), Err(HybridError::BadSetting { part: "rated_speed", .. })), "{v}");
+            let err = r.rate_controller(&mut c).unwrap_err().to_string();
+            assert!(err.contains("rated_speed"), "{v}: {err}");
+            assert_eq!(c, preset);
+        }
+        let err = rated(Some(1.0), Gait::Stand).rate_controller(&mut preset.clone()).unwrap_err().to_string();
+        assert!(err.contains("stand"), "{err}");
+        // A gait the robot does not offer: the controller's error, naming those it does.
+        let err = rated(Some(1.0), Gait::Bound).rate_controller(&mut preset.clone()).unwrap_err().to_string();
+        assert!(err.contains("bound") && err.contains("trot (0–2.5 m/s)"), "{err}");
     }
 }

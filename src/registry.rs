@@ -412,7 +412,8 @@ pub fn make_residual_env_with(
     residual: ResidualConfig,
     settings: &EnvSettings,
 ) -> Result<ResidualEnv, RegistryError> {
-    let config = controller_config(name)?;
+    let mut config = controller_config(name)?;
+    residual.rate_controller(&mut config)?;
     let env = make_robot_env_with(name, settings)?;
     let controller = LocomotionController::new(env.model(), config).map_err(HybridError::from)?;
     Ok(ResidualEnv::new(env, controller, residual)?)
@@ -451,6 +452,20 @@ pub fn make_vec_env(name: &str, n: usize, threads: usize) -> Result<VecEnv, Regi
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `rated_speed` reaches the controller the hybrid runs; a bad one is an error, not a
+    /// silently kept preset.
+    #[test]
+    fn a_hybrids_rated_speed_reaches_its_controller() {
+        let preset = residual_config("minitaur").unwrap();
+        let env = make_residual_env("minitaur", ResidualConfig { rated_speed: Some(3.0), ..preset.clone() })
+            .unwrap();
+        assert_eq!(env.controller().config().offer(centaur_mpc::Gait::Trot).unwrap().max_speed, 3.0);
+        let env = make_residual_env("minitaur", preset.clone()).unwrap();
+        assert_eq!(env.controller().config().offer(centaur_mpc::Gait::Trot).unwrap().max_speed, 2.5);
+        let bad = make_residual_env("minitaur", ResidualConfig { rated_speed: Some(f64::NAN), ..preset });
+        assert!(bad.is_err_and(|e| e.to_string().contains("rated_speed")));
+    }
 
     #[test]
     fn every_robot_has_one_entry_and_hybrids_need_a_controller() {

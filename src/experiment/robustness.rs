@@ -128,7 +128,8 @@ pub fn run_robustness(opts: &RobustnessOptions) -> Result<Vec<RobustnessRow>, Ex
             env: opts.env.clone(),
         });
     }
-    let controller_cfg = controller_config(&opts.env)?;
+    let mut controller_cfg = controller_config(&opts.env)?;
+    opts.residual.rate_controller(&mut controller_cfg)?;
     let load = |agent: &str| Policy::load(&opts.run.join(agent).join("checkpoint")).map_err(RlError::from);
     let (pure_policy, hybrid_policy) = (load("pure_rl")?, load("hybrid")?);
     let robot = |c: &Condition| -> Result<Box<dyn RobotEnv>, ExperimentError> {

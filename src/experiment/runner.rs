@@ -295,8 +295,10 @@ pub fn run_experiment(
     };
     let controller = || -> Result<Driver, ExperimentError> {
         let env = make_robot_env(&opts.env, None)?;
-        let controller = LocomotionController::new(env.model(), controller_config(&opts.env)?)
-            .map_err(HybridError::from)?;
+        // The controller the hybrid runs (its rating included), commanded as at zero steering.
+        let mut config = controller_config(&opts.env)?;
+        opts.residual.rate_controller(&mut config)?;
+        let controller = LocomotionController::new(env.model(), config).map_err(HybridError::from)?;
         let mapping = ActionMapping::new(env.as_ref(), &controller)?;
         Ok(Driver::Controller {
             env,
