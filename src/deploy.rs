@@ -116,6 +116,9 @@ impl HybridStack {
         policy: Option<Policy>,
         config: ResidualConfig,
     ) -> Result<HybridStack, HybridError> {
+        // The rating the hybrid was trained with (`ResidualConfig::rated_speed`), if any.
+        let mut controller = controller;
+        config.rate_controller(&mut controller)?;
         let controller = LocomotionController::new(robot.model(), controller)?;
         let torques = CommandTorques::new(robot.model(), robot.actuated_joints(), &controller)?;
         let m = robot.command_space().dim();

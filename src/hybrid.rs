@@ -197,14 +197,8 @@ impl ResidualConfig {
         if !self.joint_residual && self.steering.dim() == 0 {
             return Err(HybridError::NothingToLearn);
         }
-        if let Some(value) = self.rated_speed
-            && !(value.is_finite() && value > 0.0 && value <= MAX_RATED_SPEED)
-        {
-            return Err(HybridError::BadSetting {
-                part: "rated_speed",
-                value,
-                expected: "a speed in (0, 20] m/s",
-            });
+        if let Some(value) = self.rated_speed {
+            check_rated_speed(value)?;
         }
         Ok(())
     }
@@ -214,13 +208,7 @@ impl ResidualConfig {
     /// it) runs. The gait must be offered and not the stand, which has no speed rating.
     pub fn rate_controller(&self, config: &mut ControllerConfig) -> Result<(), HybridError> {
         let Some(value) = self.rated_speed else { return Ok(()) };
-        if !(value.is_finite() && value > 0.0 && value <= MAX_RATED_SPEED) {
-            return Err(HybridError::BadSetting {
-                part: "rated_speed",
-                value,
-                expected: "a speed in (0, 20] m/s",
-            });
-        }
+        check_rated_speed(value)?;
         let gait = self.command.gait;
         if gait == Gait::Stand {
             return Err(HybridError::BadSetting {
@@ -239,6 +227,14 @@ impl ResidualConfig {
 
 /// The largest [`ResidualConfig::rated_speed`] accepted (m/s): far above any robot here.
 pub const MAX_RATED_SPEED: f64 = 20.0;
+
+fn check_rated_speed(value: f64) -> Result<(), HybridError> {
+    if value.is_finite() && value > 0.0 && value <= MAX_RATED_SPEED {
+        Ok(())
+    } else {
+        Err(HybridError::BadSetting { part: "rated_speed", value, expected: "a speed in (0, 20] m/s" })
+    }
+}
 
 /// The residual law, the steering of the command and the policy's observation layout,
 /// with the scale resolved per action entry. See the module docs.

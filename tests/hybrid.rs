@@ -293,9 +293,13 @@ fn the_deployed_stack_acts_exactly_like_the_residual_env_it_was_trained_in() {
     let mut obs = vec![0.0f32; env.observation_space().dim()];
     env.reset(Some(9), &mut obs).unwrap();
     let ctrl = controller_config("minitaur").unwrap();
-    let mut stack =
-        HybridStack::new(&Simulated { env: env.as_ref(), obs: &obs }, ctrl, Some(ppo.policy()), config)
-            .unwrap();
+    let mut stack = HybridStack::new(
+        &Simulated { env: env.as_ref(), obs: &obs },
+        ctrl,
+        Some(ppo.policy()),
+        config.clone(),
+    )
+    .unwrap();
     let mut b: Vec<u32> = obs.iter().map(|x| x.to_bits()).collect();
     let mut command = vec![0.0f32; env.action_space().dim()];
     for _ in 0..60 {
@@ -304,6 +308,12 @@ fn the_deployed_stack_acts_exactly_like_the_residual_env_it_was_trained_in() {
         b.extend(obs.iter().map(|x| x.to_bits()));
     }
     assert!(a == b, "the deployed stack diverged from the training environment");
+
+    // The rating a hybrid was trained with reaches the embedded controller too.
+    let rated = ResidualConfig { rated_speed: Some(3.0), ..config };
+    let ctrl = controller_config("minitaur").unwrap();
+    let stack = HybridStack::new(&Simulated { env: env.as_ref(), obs: &obs }, ctrl, None, rated).unwrap();
+    assert_eq!(stack.controller().config().offer(Gait::Trot).unwrap().max_speed, 3.0);
 }
 
 /// Undiscounted return of the controller alone (zero policy output) on `env_name`'s hybrid
