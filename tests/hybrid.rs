@@ -333,6 +333,41 @@ fn controller_return(config: &ResidualConfig, env_name: &str, seed: u64) -> f64 
     }
 }
 
+/// A Minitaur hybrid steered to the top of its range (+1: 3 m/s commanded) for `steps`
+/// steps from reset seed 3: the observations' and rewards' bits.
+fn full_steer_trace(config: ResidualConfig, steps: usize) -> Vec<u64> {
+    let mut env = make_residual_env("minitaur", config).unwrap();
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    env.reset(Some(3), &mut obs).unwrap();
+    let mut action = vec![0.0f32; env.action_space().dim()];
+    *action.last_mut().unwrap() = 1.0;
+    let mut trace = Vec::new();
+    for _ in 0..steps {
+        let s = env.step(&action, &mut obs).unwrap();
+        trace.extend(obs.iter().map(|x| x.to_bits() as u64));
+        trace.push(s.reward.to_bits());
+        if s.done() {
+            break;
+        }
+    }
+    trace
+}
+
+/// `rated_speed: Some(2.5)` is the trot's own rating: the hybrid runs as the preset does, to
+/// the bit, even steered past it (so runs measured with the preset are reproduced by
+/// `--rated-speed 2.5`); a lifted rating lets the steering through.
+#[test]
+fn the_trots_own_rating_reproduces_the_preset_bit_for_bit() {
+    let preset = residual_config("minitaur").unwrap();
+    assert_eq!(preset.rated_speed, None);
+    let steps = 150;
+    let base = full_steer_trace(preset.clone(), steps);
+    let same = full_steer_trace(ResidualConfig { rated_speed: Some(2.5), ..preset.clone() }, steps);
+    let lifted = full_steer_trace(ResidualConfig { rated_speed: Some(3.0), ..preset }, steps);
+    assert_eq!(base, same, "rated 2.5 differs from the preset");
+    assert_ne!(base, lifted, "a 3.0 rating changed nothing");
+}
+
 #[test]
 fn a_zero_output_with_steering_on_acts_exactly_like_the_controller() {
     let config = residual_config("minitaur").unwrap();
