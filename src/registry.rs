@@ -5,9 +5,9 @@
 //! | name | environment | controller | hybrid `<name>-residual` |
 //! |---|---|---|---|
 //! | `pendulum` | Gymnasium's Pendulum-v1 ([`centaur_gym::pendulum::Pendulum`]) | — | — |
-//! | `minitaur`, `minitaur-fast`, `minitaur-deterministic` | PyBullet's MinitaurBulletEnv-v0 ([`centaur_envs::MinitaurEnv`]; `-fast`: 3.3 ms physics steps; `-deterministic`: no randomisation) | Minitaur | trot 2 m/s steered ±1 m/s, scale 0.25 |
-//! | `ant`, `ant27` | Gymnasium Ant-v5 (`ant27`: the 27-d observation without contact forces) | Ant | trot 0.3 m/s, scale 0.3 |
-//! | `walker2d` | Gymnasium Walker2d-v5 | Walker2d | walk 0.5 m/s, scale 0.1 |
+//! | `minitaur`, `minitaur-fast`, `minitaur-deterministic` | PyBullet's MinitaurBulletEnv-v0 ([`centaur_envs::MinitaurEnv`]; `-fast`: 3.3 ms physics steps; `-deterministic`: no randomisation) | Minitaur | trot 2 m/s steered ±1 m/s (rated 2.5 m/s), scale 0.25, exploration σ 0.3 |
+//! | `ant`, `ant27` | Gymnasium Ant-v5 (`ant27`: the 27-d observation without contact forces) | Ant | trot 1 m/s steered ±0.5 m/s, scale 0.3, exploration σ 0.1 |
+//! | `walker2d` | Gymnasium Walker2d-v5 | Walker2d | walk 0.5 m/s, scale 0.1, exploration σ 0.1 |
 //! | `humanoid` | Gymnasium Humanoid-v5 | Humanoid | stand (steps in place), scale 0.3 |
 //! | `hopper`, `halfcheetah` | Gymnasium Hopper-, HalfCheetah-v5 | — | — |
 //! | `gecko`, `modular-ant`, `spider` | Revolve2's modular robots of those names ([`centaur_envs::ModularEnv`]) | — | — |
