@@ -35,15 +35,28 @@ fn controller_alone(env_name: &str, command: Command, steps: usize) -> Vec<u64> 
 /// Robot observations and rewards (as bits) of `env` under a zero policy output for
 /// `steps` steps from reset seed 3 (the same trace as [`controller_alone`]).
 fn zero_output_trace(env: &mut centaur::residual::ResidualEnv, steps: usize) -> Vec<u64> {
+    let zero = vec![0.0f32; env.action_space().dim()];
     let n_env = env.inner().observation_space().dim();
+    trace(env, &zero, n_env, steps, |s| assert_eq!(s.info.reward_terms[RESIDUAL_TERM], 0.0))
+}
+
+/// The bits of the first `n_obs` observation entries after reset seed 3 and of every
+/// step's observation and reward while `action` is held for `steps` steps (or to the end of
+/// the episode); `check` sees every step.
+fn trace(
+    env: &mut centaur::residual::ResidualEnv,
+    action: &[f32],
+    n_obs: usize,
+    steps: usize,
+    check: impl Fn(&centaur_gym::Step),
+) -> Vec<u64> {
     let mut obs = vec![0.0f32; env.observation_space().dim()];
     env.reset(Some(3), &mut obs).unwrap();
-    let mut trace: Vec<u64> = obs[..n_env].iter().map(|x| x.to_bits() as u64).collect();
-    let zero = vec![0.0f32; env.action_space().dim()];
+    let mut trace: Vec<u64> = obs[..n_obs].iter().map(|x| x.to_bits() as u64).collect();
     for _ in 0..steps {
-        let s = env.step(&zero, &mut obs).unwrap();
-        assert_eq!(s.info.reward_terms[RESIDUAL_TERM], 0.0);
-        trace.extend(obs[..n_env].iter().map(|x| x.to_bits() as u64));
+        let s = env.step(action, &mut obs).unwrap();
+        check(&s);
+        trace.extend(obs[..n_obs].iter().map(|x| x.to_bits() as u64));
         trace.push(s.reward.to_bits());
         if s.done() {
             break;
@@ -337,35 +350,25 @@ fn controller_return(config: &ResidualConfig, env_name: &str, seed: u64) -> f64 
 /// steps from reset seed 3: the observations' and rewards' bits.
 fn full_steer_trace(config: ResidualConfig, steps: usize) -> Vec<u64> {
     let mut env = make_residual_env("minitaur", config).unwrap();
-    let mut obs = vec![0.0f32; env.observation_space().dim()];
-    env.reset(Some(3), &mut obs).unwrap();
     let mut action = vec![0.0f32; env.action_space().dim()];
     *action.last_mut().unwrap() = 1.0;
-    let mut trace = Vec::new();
-    for _ in 0..steps {
-        let s = env.step(&action, &mut obs).unwrap();
-        trace.extend(obs.iter().map(|x| x.to_bits() as u64));
-        trace.push(s.reward.to_bits());
-        if s.done() {
-            break;
-        }
-    }
-    trace
+    let n_obs = env.observation_space().dim();
+    trace(&mut env, &action, n_obs, steps, |_| ())
 }
 
-/// `rated_speed: Some(2.5)` is the trot's own rating: the hybrid runs as the preset does, to
-/// the bit, even steered past it (so runs measured with the preset are reproduced by
-/// `--rated-speed 2.5`); a lifted rating lets the steering through.
+/// `rated_speed: Some(2.5)` is the trot's own rating: the hybrid runs as with no rating of
+/// its own, to the bit, even steered past it (so runs measured before the preset's 3.0
+/// rating are reproduced by `--rated-speed 2.5`); the preset's 3.0 lets the steering through.
 #[test]
-fn the_trots_own_rating_reproduces_the_preset_bit_for_bit() {
+fn the_trots_own_rating_reproduces_the_old_preset_bit_for_bit() {
     let preset = residual_config("minitaur").unwrap();
-    assert_eq!(preset.rated_speed, None);
+    assert_eq!(preset.rated_speed, Some(3.0));
     let steps = 150;
-    let base = full_steer_trace(preset.clone(), steps);
+    let unrated = full_steer_trace(ResidualConfig { rated_speed: None, ..preset.clone() }, steps);
     let same = full_steer_trace(ResidualConfig { rated_speed: Some(2.5), ..preset.clone() }, steps);
-    let lifted = full_steer_trace(ResidualConfig { rated_speed: Some(3.0), ..preset }, steps);
-    assert_eq!(base, same, "rated 2.5 differs from the preset");
-    assert_ne!(base, lifted, "a 3.0 rating changed nothing");
+    let lifted = full_steer_trace(preset, steps);
+    assert_eq!(unrated, same, "rated 2.5 differs from the trot's own rating");
+    assert_ne!(unrated, lifted, "the preset's 3.0 rating changed nothing");
 }
 
 #[test]
@@ -401,9 +404,10 @@ fn steering_the_speed_up_makes_the_robot_run_faster() {
         (ret, env.command().forward_velocity)
     };
     let (slow, v_slow) = run(-1.0);
-    let (fast, v_fast) = run(1.0);
-    // Commanded 1.0 and 3.0 m/s; the controller clamps 3.0 to the trot's 2.5 m/s rating.
-    assert_eq!((v_slow, v_fast), (1.0, 3.0));
+    // +0.5: 2.5 m/s, the controller's own rating (the preset's 3.0, at +1, is the
+    // residual's to hold: the controller alone falls there on this seed).
+    let (fast, v_fast) = run(0.5);
+    assert_eq!((v_slow, v_fast), (1.0, 2.5));
     // 4 s, most of it at the steered speed: ≈ 5 m apart.
     assert!(fast > slow + 3.0, "steering +1 scored {fast:.2}, −1 {slow:.2}");
 }
