@@ -445,18 +445,22 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     for r in rows.as_array().unwrap() {
         assert_eq!(r["controller"]["episodes"].as_u64(), Some(1));
     }
-    // A hybrid trained with steering, evaluated as one without: refused, naming the shapes.
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
-        .args(["robustness", "--episodes", "1", "--parts", "residual", "--run"])
-        .arg(out.join("seed_0"))
-        .output()
-        .unwrap();
-    assert!(!o.status.success());
-    assert!(
-        String::from_utf8_lossy(&o.stderr).contains("policy maps"),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    // A hybrid evaluated with another setup than it was trained with (without its steering,
+    // or at another rating): refused, naming both setups.
+    for other in [&["--parts", "residual"][..], &["--rated-speed", "2.5"]] {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+            .args(["robustness", "--episodes", "1", "--run"])
+            .arg(out.join("seed_0"))
+            .args(other)
+            .output()
+            .unwrap();
+        assert!(!o.status.success(), "{other:?}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains("was trained with ResidualConfig {") && err.contains("rated_speed: Some(3.0)"),
+            "{err}"
+        );
+    }
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
         .args(["robustness", "--env", "walker2d", "--run"])
         .arg(out.join("seed_0"))

@@ -253,7 +253,8 @@ struct RobustnessArgs {
     /// Deterministic episodes per agent and condition.
     #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = positive_count)]
     episodes: usize,
-    /// The hybrid's setup the run was trained with (the robot's preset by default).
+    /// The hybrid's setup the run was trained with (the robot's preset by default; a run
+    /// whose `experiment.json` records another is refused, naming both).
     #[command(flatten)]
     hybrid: HybridArgs,
 }

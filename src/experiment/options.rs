@@ -61,6 +61,19 @@ pub enum ExperimentError {
         /// The run file found there.
         file: &'static str,
     },
+    /// A run evaluated with another hybrid setup than it was trained with (its
+    /// `experiment.json` records the setup).
+    #[error(
+        "{run}: its hybrid was trained with {trained}, not with the options given ({given}); pass the options it was trained with (e.g. --rated-speed, --steer-speed, --parts)"
+    )]
+    SetupMismatch {
+        /// The run directory.
+        run: PathBuf,
+        /// The setup it was trained with, as recorded.
+        trained: String,
+        /// The setup given.
+        given: String,
+    },
     /// A training stopped because the other agent's, running side by side, failed.
     #[error("stopped: the other agent's training failed")]
     Stopped,

@@ -7,6 +7,9 @@
 //! training (the Minitaur draws its base mass within ±20 % and its foot friction within
 //! 0.8–1.5 at every reset, so ±20 % mass is the edge of the training range and friction 0.5
 //! lies outside it). Pushes last 0.1 s from t = 3 s, to +y in even episodes and −y in odd.
+//!
+//! The hybrid is evaluated with the setup its run was trained with: options that differ from
+//! the one its `experiment.json` records (a rating, a steering span, the parts) are refused.
 
 use std::path::PathBuf;
 
@@ -18,6 +21,7 @@ use serde::Serialize;
 
 use super::evaluation::{Driver, EpisodePush, evaluate_pushed};
 use super::options::ExperimentError;
+use super::runner::check_trained_with;
 use super::summary::AgentStats;
 use crate::hybrid::{ActionMapping, HybridError, ResidualConfig};
 use crate::registry::controller_config;
@@ -128,6 +132,7 @@ pub fn run_robustness(opts: &RobustnessOptions) -> Result<Vec<RobustnessRow>, Ex
             env: opts.env.clone(),
         });
     }
+    check_trained_with(&opts.run, &opts.residual)?;
     let mut controller_cfg = controller_config(&opts.env)?;
     opts.residual.rate_controller(&mut controller_cfg)?;
     let load = |agent: &str| Policy::load(&opts.run.join(agent).join("checkpoint")).map_err(RlError::from);

@@ -13,7 +13,7 @@ use centaur_rl::{Algorithm, MetricsCsv, Policy, RlError, UpdateMetrics};
 use super::evaluation::{Driver, evaluate};
 use super::options::{Curve, ExperimentError, ExperimentOptions, ExperimentResult, Phase, io_err};
 use super::summary::{AgentStats, BudgetEval, ExperimentSummary};
-use crate::hybrid::{ActionMapping, HybridError};
+use crate::hybrid::{ActionMapping, HybridError, ResidualConfig};
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
 use crate::registry::{controller_config, make_residual_env, make_robot_env};
 use crate::residual::start_as_controller;
@@ -164,6 +164,46 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<(), ExperimentError> {
     let path = dir.join("experiment.json");
     let text = serde_json::to_string_pretty(&record).expect("the record serialises") + "\n";
     write_atomic(&path, &text).map_err(io_err(&path))
+}
+
+/// Checks that the run in `dir` trained its hybrid with `residual`: its `experiment.json`
+/// fingerprint holds the setup it was run with. A run evaluated with another setup (a
+/// different rating, steering span or parts) would be judged on a controller it never saw.
+pub(crate) fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<(), ExperimentError> {
+    let path = dir.join("experiment.json");
+    let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
+    let record: ExperimentRecord = serde_json::from_str(&text).map_err(|e| ExperimentError::Io {
+        path: path.clone(),
+        source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
+    })?;
+    let given = format!("{residual:?}");
+    if record.fingerprint.contains(&given) {
+        return Ok(());
+    }
+    Err(ExperimentError::SetupMismatch {
+        run: dir.to_path_buf(),
+        trained: residual_part(&record.fingerprint),
+        given,
+    })
+}
+
+/// The `ResidualConfig { … }` part of a fingerprint (the whole fingerprint if it has none).
+fn residual_part(fingerprint: &str) -> String {
+    let Some(start) = fingerprint.find("ResidualConfig {") else { return fingerprint.to_string() };
+    let mut depth = 0usize;
+    for (i, c) in fingerprint[start..].char_indices() {
+        match c {
+            '{' => depth += 1,
+            '}' => {
+                depth -= 1;
+                if depth == 0 {
+                    return fingerprint[start..=start + i].to_string();
+                }
+            }
+            _ => {}
+        }
+    }
+    fingerprint[start..].to_string()
 }
 
 /// The result of a run already finished in `opts.out` with the same options (its
@@ -376,4 +416,47 @@ fn write_outputs(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::registry::residual_config;
+
+    /// The hybrid's setup is checked against the one a run recorded: the same passes, a
+    /// different rating is refused naming both, a missing or corrupt record is an error.
+    #[test]
+    fn a_run_is_evaluated_only_with_the_setup_it_was_trained_with() {
+        let dir = std::env::temp_dir().join(format!("centaur-trained-with-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let trained = residual_config("minitaur").unwrap();
+        assert!(matches!(check_trained_with(&dir, &trained), Err(ExperimentError::Io { .. })));
+        let record = |residual: &ResidualConfig| ExperimentRecord {
+            env: "minitaur".into(),
+            algo: "ppo".into(),
+            steps: 10,
+            seed: 0,
+            fingerprint: format!("{:?}", ("minitaur", 10, residual, Some(5))),
+        };
+        let text = serde_json::to_string(&record(&trained)).unwrap();
+        std::fs::write(dir.join("experiment.json"), text).unwrap();
+        check_trained_with(&dir, &trained).unwrap();
+        let other = ResidualConfig { rated_speed: Some(2.5), ..trained.clone() };
+        let err = check_trained_with(&dir, &other).unwrap_err();
+        let ExperimentError::SetupMismatch { trained: ref t, ref given, .. } = err else { panic!("{err}") };
+        assert_eq!(*t, format!("{trained:?}"));
+        assert_eq!(*given, format!("{other:?}"));
+        std::fs::write(dir.join("experiment.json"), "{ not json").unwrap();
+        assert!(matches!(check_trained_with(&dir, &trained), Err(ExperimentError::Io { .. })));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn the_residual_part_of_a_fingerprint_is_cut_at_its_closing_brace() {
+        assert_eq!(
+            residual_part("(1, ResidualConfig { a: B { c: 1 }, d: 2 }, 3)"),
+            "ResidualConfig { a: B { c: 1 }, d: 2 }"
+        );
+        assert_eq!(residual_part("(no setup)"), "(no setup)");
+    }
 }
