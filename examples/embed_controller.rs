@@ -14,10 +14,11 @@
 //! plans arrive as late as they would on the robot. Allocations are counted on the loop's
 //! thread only.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use centaur::deploy::{HybridStack, Simulated};
+use centaur::experiment::check_trained_with;
 use centaur::registry::{controller_config, make_robot_env, residual_config};
 use centaur_mpc::MpcExecution;
 use centaur_rl::Policy;
@@ -50,6 +51,16 @@ fn main() {
         }
     };
     let has_policy = policy.is_some();
+    let residual = residual_config("minitaur").expect("the Minitaur has a hybrid preset");
+    // A checkpoint inside a run directory: its hybrid must have been trained with this setup.
+    if let Some(run) =
+        checkpoint.parent().and_then(Path::parent).filter(|r| r.join("experiment.json").is_file())
+        && has_policy
+        && let Err(e) = check_trained_with(run, &residual)
+    {
+        eprintln!("embed_controller: {e}");
+        std::process::exit(1);
+    }
 
     // The robot: a simulated Minitaur (the residual setup must be the one trained with).
     let mut env = make_robot_env("minitaur", Some((seconds / 0.01) as usize + 1)).expect("minitaur");
@@ -59,18 +70,14 @@ fn main() {
     if background {
         controller.mpc_execution = MpcExecution::Background;
     }
-    let mut stack = match HybridStack::new(
-        &Simulated { env: env.as_ref(), obs: &obs },
-        controller,
-        policy,
-        residual_config("minitaur").expect("the Minitaur has a hybrid preset"),
-    ) {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("embed_controller: {e}");
-            std::process::exit(1);
-        }
-    };
+    let mut stack =
+        match HybridStack::new(&Simulated { env: env.as_ref(), obs: &obs }, controller, policy, residual) {
+            Ok(s) => s,
+            Err(e) => {
+                eprintln!("embed_controller: {e}");
+                std::process::exit(1);
+            }
+        };
 
     // The fixed-rate loop.
     let period = Duration::from_secs_f64(env.dt());

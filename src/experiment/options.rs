@@ -64,7 +64,7 @@ pub enum ExperimentError {
     /// A run evaluated with another hybrid setup than it was trained with (its
     /// `experiment.json` records the setup).
     #[error(
-        "{run}: its hybrid was trained with {trained}, not with the options given ({given}); pass the options it was trained with (e.g. --rated-speed, --steer-speed, --parts)"
+        "{run}: its hybrid was trained with {trained}, not with the options given ({given}); pass the setup it was trained with (on the command line: --rated-speed, --steer-speed, --parts, …)"
     )]
     SetupMismatch {
         /// The run directory.

@@ -169,7 +169,8 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<(), ExperimentError> {
 /// Checks that the run in `dir` trained its hybrid with `residual`: its `experiment.json`
 /// fingerprint holds the setup it was run with. A run evaluated with another setup (a
 /// different rating, steering span or parts) would be judged on a controller it never saw.
-pub(crate) fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<(), ExperimentError> {
+/// `centaur robustness` and `examples/embed_controller` check with it.
+pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<(), ExperimentError> {
     let path = dir.join("experiment.json");
     let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
     let record: ExperimentRecord = serde_json::from_str(&text).map_err(|e| ExperimentError::Io {
