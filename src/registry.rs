@@ -93,6 +93,8 @@ fn ant_residual() -> ResidualConfig {
 /// rollout, seed 0: 99.8 % of the controller alone; 68 % at σ 0.3, 61 % at PPO's own 1.0).
 fn walker2d_residual() -> ResidualConfig {
     ResidualConfig {
+        // No steering on the walker: the steering σ is there because `Exploration` needs
+        // both parts, and has no effect.
         exploration: Some(Exploration { residual: 0.1, steering: 0.5 }),
         ..ResidualConfig::new(0.1, Command::forward(0.5, Gait::Walk))
     }
