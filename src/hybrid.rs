@@ -133,11 +133,13 @@ pub struct ResidualConfig {
     /// The command the controller follows (default: trot at 0.3 m/s); with steering, the
     /// command at zero steering output.
     pub command: Command,
-    /// The controller's rated speed (m/s) for the command's gait, replacing the preset's
-    /// (`None`, the default: the preset's; see [`ResidualConfig::rate_controller`]). The
-    /// controller clamps every steered command to the rating, so the steering cannot take
-    /// the gait faster than this; above the preset's rating the controller alone is not
-    /// measured to hold on every body, and the learner has to find where it does.
+    /// The controller's rated speed (m/s) for the command's gait, replacing the
+    /// controller's own (`None`, the default: the controller's own; see
+    /// [`ResidualConfig::rate_controller`]; the Minitaur hybrid preset sets 3.0 over the
+    /// trot's own 2.5). The controller clamps every steered command to the rating, so the
+    /// steering cannot take the gait faster than this; above the controller's own rating the
+    /// controller alone is not measured to hold on every body, and the learner has to find
+    /// where it does.
     pub rated_speed: Option<f64>,
 }
 

@@ -61,11 +61,12 @@ fn modular(config: ModularConfig, s: &EnvSettings) -> Result<Box<dyn RobotEnv>, 
 /// The Minitaur's hybrid: a quarter of the leg model's range around a 2 m/s trot whose
 /// speed the policy steers within ±1 m/s, so to 3 m/s; the trot is rated 3.0 m/s here
 /// (the controller's own rating is 2.5 m/s, where it clamped the steering: the hybrid
-/// plateaued at ≈ 22.5 from 1M samples; rated 3.0 it reached 25.3 at 1M and 26.4 at 2M
-/// over 3 seeds with no falls; the controller alone trots 3.0 m/s on 1 of 5 seeds, the
-/// residual holds it); a gentle start with σ 0.3 on the residual (≈ 0.075 action units
-/// per joint) and 0.5 on the steering. On seed 0 of the main example a ±0.5 m/s span
-/// reached 19.8 in 300k steps, ±1 m/s 21.8 (the steering's gradient is twice as large).
+/// plateaued at ≈ 22.4 from 500k samples; rated 3.0 its IQM over 5 seeds is 25.3 at 1M
+/// and over 3 seeds 26.4 at 2M, with no falls; the controller alone trots 3.0 m/s on 1 of
+/// 5 seeds, the residual holds it); a gentle start with σ 0.3 on the residual (≈ 0.075
+/// action units per joint) and 0.5 on the steering. On seed 0 of the main example, rated
+/// 2.5, a ±0.5 m/s span reached 19.8 in 300k steps, ±1 m/s 21.8 (the steering's gradient
+/// is twice as large).
 fn minitaur_residual() -> ResidualConfig {
     ResidualConfig {
         steering: Steering { speed: 1.0, yaw_rate: 0.0 },

@@ -409,7 +409,7 @@ fn steering_the_speed_up_makes_the_robot_run_faster() {
     let (fast, v_fast) = run(0.5);
     assert_eq!((v_slow, v_fast), (1.0, 2.5));
     // 4 s, most of it at the steered speed: ≈ 5 m apart.
-    assert!(fast > slow + 3.0, "steering +1 scored {fast:.2}, −1 {slow:.2}");
+    assert!(fast > slow + 3.0, "steering +0.5 scored {fast:.2}, −1 {slow:.2}");
 }
 
 /// The gentle start: an untrained hybrid's stochastic training episodes (PPO's

@@ -64,7 +64,7 @@ pub enum ExperimentError {
     /// A run evaluated with another hybrid setup than it was trained with (its
     /// `experiment.json` records the setup).
     #[error(
-        "{run}: its hybrid was trained with {trained}, not with the options given ({given}); pass the setup it was trained with (on the command line: --rated-speed, --steer-speed, --parts, …)"
+        "{run}: its hybrid was trained with {trained}, not with the options given ({given}); evaluate it with the setup it was trained with (`centaur robustness` takes --rated-speed, --steer-speed, --parts, …; a Minitaur run recorded without a rating was trained at the trot's own 2.5 m/s: --rated-speed 2.5)"
     )]
     SetupMismatch {
         /// The run directory.

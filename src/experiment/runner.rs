@@ -169,6 +169,9 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<(), ExperimentError> {
 /// Checks that the run in `dir` trained its hybrid with `residual`: its `experiment.json`
 /// fingerprint holds the setup it was run with. A run evaluated with another setup (a
 /// different rating, steering span or parts) would be judged on a controller it never saw.
+/// A rating equal to the controller's own for the gait is the same controller as none
+/// (`the_trots_own_rating_reproduces_the_old_preset_bit_for_bit`), and records written
+/// before `rated_speed` or `warmup_with_policy` existed lack those fields: both are matched.
 /// `centaur robustness` and `examples/embed_controller` check with it.
 pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<(), ExperimentError> {
     let path = dir.join("experiment.json");
@@ -177,15 +180,33 @@ pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<(), E
         path: path.clone(),
         source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
     })?;
-    let given = format!("{residual:?}");
-    if record.fingerprint.contains(&given) {
+    let own_rating = controller_config(&record.env)
+        .ok()
+        .and_then(|c| c.offer(residual.command.gait).ok().map(|o| o.max_speed));
+    if recorded_forms(residual, own_rating).iter().any(|form| record.fingerprint.contains(form.as_str())) {
         return Ok(());
     }
     Err(ExperimentError::SetupMismatch {
         run: dir.to_path_buf(),
         trained: residual_part(&record.fingerprint),
-        given,
+        given: format!("{residual:?}"),
     })
+}
+
+/// The texts a run's fingerprint may hold for `residual`: its own, and where its rating is
+/// none or the controller's own (`own_rating`), the unrated one as recorded today and by the
+/// versions before `rated_speed` and before `warmup_with_policy` (when off).
+fn recorded_forms(residual: &ResidualConfig, own_rating: Option<f64>) -> Vec<String> {
+    let mut forms = vec![format!("{residual:?}")];
+    if residual.rated_speed.is_none() || residual.rated_speed == own_rating {
+        let unrated = format!("{:?}", ResidualConfig { rated_speed: None, ..residual.clone() });
+        let before_rating = unrated.replace(", rated_speed: None", "");
+        if !residual.warmup_with_policy {
+            forms.push(before_rating.replace(", warmup_with_policy: false", ""));
+        }
+        forms.extend([unrated, before_rating]);
+    }
+    forms
 }
 
 /// The `ResidualConfig { … }` part of a fingerprint (the whole fingerprint if it has none).
@@ -447,6 +468,25 @@ mod tests {
         let ExperimentError::SetupMismatch { trained: ref t, ref given, .. } = err else { panic!("{err}") };
         assert_eq!(*t, format!("{trained:?}"));
         assert_eq!(*given, format!("{other:?}"));
+        // A record from before `rated_speed` and `warmup_with_policy` (a run trained at the
+        // trot's own 2.5 m/s rating): matched by `--rated-speed 2.5` or no rating, not by the
+        // preset's 3.0.
+        let legacy = format!("{:?}", ResidualConfig { rated_speed: None, ..trained.clone() })
+            .replace(", rated_speed: None", "")
+            .replace(", warmup_with_policy: false", "");
+        assert!(!legacy.contains("rated_speed") && !legacy.contains("warmup_with_policy"), "{legacy}");
+        let legacy_record =
+            ExperimentRecord { fingerprint: format!("(\"minitaur\", {legacy}, None)"), ..record(&trained) };
+        std::fs::write(dir.join("experiment.json"), serde_json::to_string(&legacy_record).unwrap()).unwrap();
+        check_trained_with(&dir, &other).unwrap();
+        check_trained_with(&dir, &ResidualConfig { rated_speed: None, ..trained.clone() }).unwrap();
+        assert!(matches!(check_trained_with(&dir, &trained), Err(ExperimentError::SetupMismatch { .. })));
+        let faster = ResidualConfig {
+            rated_speed: Some(2.5),
+            steering: crate::hybrid::Steering { speed: 0.5, yaw_rate: 0.0 },
+            ..trained.clone()
+        };
+        assert!(matches!(check_trained_with(&dir, &faster), Err(ExperimentError::SetupMismatch { .. })));
         std::fs::write(dir.join("experiment.json"), "{ not json").unwrap();
         assert!(matches!(check_trained_with(&dir, &trained), Err(ExperimentError::Io { .. })));
         std::fs::remove_dir_all(&dir).unwrap();
