@@ -78,7 +78,8 @@ pub enum HybridError {
 /// follows `base + span · clip(c, −1, 1)`; zero switches that part off. The controller
 /// still clamps the result to its rating for the gait and ramps towards it at its own
 /// acceleration limit, so a noisy steering output is smoothed, not followed step by step.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Steering {
     /// Forward-speed span (m/s): `v = v₀ + speed · c`.
     pub speed: f64,
@@ -100,7 +101,8 @@ impl Steering {
 /// of the Gaussian around the policy's (zero) mean, in the policy's [−1, 1] units. A
 /// residual's noise of σ · scale on every joint knocks the controller over long before its
 /// mean learns anything; a steering entry's noise is smoothed by the controller's ramp.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Exploration {
     /// σ of every joint-residual entry.
     pub residual: f64,
@@ -110,7 +112,11 @@ pub struct Exploration {
 
 /// The residual setup of a hybrid: how large the correction may be, how the policy may
 /// steer the command, what the policy sees, and what the controller is commanded.
-#[derive(Clone, Debug, PartialEq)]
+///
+/// Runs record it as data (`experiment.json`); a field missing from a record takes its
+/// default here, so a record written before a field existed reads as the setup it ran.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct ResidualConfig {
     /// Residual scale per action entry (one value: the same for every entry), in the
     /// environment's action units (default: 0.3).

@@ -2,7 +2,7 @@
 //! consistent with the checkpoint, bad config keys named; `centaur compare` over two seeds,
 //! and the same figures on one thread and on two.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use centaur::train::{Summary, TrainError, TrainOptions, resume, train};
 use centaur_rl::{AlgoKind, MetricsCsv, Policy};
@@ -426,15 +426,19 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     assert!(out.join("seed_1").join("summary.json").is_file());
 
     // The robustness study on seed 0's run: one episode per agent and condition.
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
-        .args(["robustness", "--episodes", "1", "--run"])
-        .arg(out.join("seed_0"))
-        .output()
-        .unwrap();
+    let seed_0 = out.join("seed_0");
+    let robustness = |run: &Path, extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+            .args(["robustness", "--episodes", "1", "--run"])
+            .arg(run)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let o = robustness(&seed_0, &[]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let rows: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("seed_0").join("robustness.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(seed_0.join("robustness.json")).unwrap()).unwrap();
     let labels: Vec<&str> = rows.as_array().unwrap().iter().map(|r| r["label"].as_str().unwrap()).collect();
     assert_eq!(labels.len(), 10);
     assert!(
@@ -448,12 +452,7 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     // A hybrid evaluated with another setup than it was trained with (without its steering,
     // or at another rating): refused, naming both setups.
     for other in [&["--parts", "residual"][..], &["--rated-speed", "2.5"]] {
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
-            .args(["robustness", "--episodes", "1", "--run"])
-            .arg(out.join("seed_0"))
-            .args(other)
-            .output()
-            .unwrap();
+        let o = robustness(&seed_0, other);
         assert!(!o.status.success(), "{other:?}");
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(
@@ -461,13 +460,21 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
             "{err}"
         );
     }
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
-        .args(["robustness", "--env", "walker2d", "--run"])
-        .arg(out.join("seed_0"))
-        .output()
-        .unwrap();
+    let o = robustness(&seed_0, &["--env", "walker2d"]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("walker2d"));
+    // A directory that holds no experiment (the comparison's own) is named as such.
+    let o = robustness(&out, &[]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("holds no experiment.json"));
+    // A hybrid checkpoint of other dimensions than its recorded setup (here pure RL's, put in
+    // its place) is refused with both shapes, not evaluated.
+    std::fs::copy(seed_0.join("pure_rl").join("checkpoint"), seed_0.join("hybrid").join("checkpoint"))
+        .unwrap();
+    let o = robustness(&seed_0, &[]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("the policy maps") && err.contains("this robot and residual setup need"), "{err}");
     std::fs::remove_dir_all(&out).unwrap();
 
     // A robot without a controller is refused with its name.

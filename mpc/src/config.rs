@@ -720,7 +720,8 @@ impl ControllerConfig {
 }
 
 /// What the robot should do.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Command {
     /// Forward velocity in the heading frame (m/s).
     pub forward_velocity: f64,

@@ -20,8 +20,9 @@ pub const MAX_LEGS: usize = 4;
 /// fraction of the cycle: each stance is then 0.3 of it, 0.2 on one foot at each end.
 pub const MAX_STAGGER: f64 = 0.2;
 
-/// A named gait.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+/// A named gait (recorded as its lower-case [`Gait::name`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Gait {
     /// All legs in stance.
     #[default]

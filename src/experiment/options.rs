@@ -74,6 +74,14 @@ pub enum ExperimentError {
         /// The setup given.
         given: String,
     },
+    /// A directory that holds no experiment (no `experiment.json`).
+    #[error(
+        "{dir} holds no experiment.json: give the directory of one run of `centaur compare` (e.g. runs/compare_…/seed_0) or of the main example (runs/residual_ppo_minitaur)"
+    )]
+    NotAnExperiment {
+        /// The directory.
+        dir: PathBuf,
+    },
     /// A training stopped because the other agent's, running side by side, failed.
     #[error("stopped: the other agent's training failed")]
     Stopped,

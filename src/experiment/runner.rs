@@ -144,6 +144,10 @@ struct ExperimentRecord {
     seed: u64,
     /// [`ExperimentOptions::fingerprint`].
     fingerprint: String,
+    /// The hybrid's setup, as data. Records written before it was stored lack it; their
+    /// fingerprint's text is matched instead ([`legacy`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    residual: Option<ResidualConfig>,
 }
 
 /// Creates the run directory, refusing one that already holds a run unless `overwrite`
@@ -160,22 +164,26 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<(), ExperimentError> {
         steps: opts.steps,
         seed: opts.seed,
         fingerprint: opts.fingerprint(),
+        residual: Some(opts.residual.clone()),
     };
     let path = dir.join("experiment.json");
     let text = serde_json::to_string_pretty(&record).expect("the record serialises") + "\n";
     write_atomic(&path, &text).map_err(io_err(&path))
 }
 
-/// Checks that the run in `dir` trained its hybrid with `residual`: its `experiment.json`
-/// fingerprint holds the setup it was run with. A run evaluated with another setup (a
-/// different rating, steering span or parts) would be judged on a controller it never saw.
-/// A rating equal to the controller's own for the gait is the same controller as none
-/// (`the_trots_own_rating_reproduces_the_old_preset_bit_for_bit`), and records written
-/// before `rated_speed` or `warmup_with_policy` existed lack those fields: both are matched.
+/// Checks that the run in `dir` trained its hybrid with `residual`, the setup its
+/// `experiment.json` records. A run evaluated with another setup (a different rating,
+/// steering span or parts) would be judged on a controller it never saw. A rating equal to
+/// the controller's own for the gait is the same controller as none
+/// (`the_trots_own_rating_reproduces_the_old_preset_bit_for_bit`), so the two match. Records
+/// from before the setup was stored as data are matched by their text.
 /// `centaur robustness` and `examples/embed_controller` check with it.
 pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<(), ExperimentError> {
     let path = dir.join("experiment.json");
-    let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
+    let text = std::fs::read_to_string(&path).map_err(|source| match source.kind() {
+        std::io::ErrorKind::NotFound => ExperimentError::NotAnExperiment { dir: dir.to_path_buf() },
+        _ => ExperimentError::Io { path: path.clone(), source },
+    })?;
     let record: ExperimentRecord = serde_json::from_str(&text).map_err(|e| ExperimentError::Io {
         path: path.clone(),
         source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
@@ -183,49 +191,143 @@ pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<(), E
     let own_rating = controller_config(&record.env)
         .ok()
         .and_then(|c| c.offer(residual.command.gait).ok().map(|o| o.max_speed));
-    if recorded_forms(residual, own_rating).iter().any(|form| record.fingerprint.contains(form.as_str())) {
+    // The rating as the controller sees it: its own rating is no rating.
+    let unrated_if_own = |r: &ResidualConfig| match r.rated_speed {
+        Some(v) if Some(v) == own_rating => ResidualConfig { rated_speed: None, ..r.clone() },
+        _ => r.clone(),
+    };
+    let (same, trained) = match &record.residual {
+        Some(trained) => (unrated_if_own(trained) == unrated_if_own(residual), format!("{trained:?}")),
+        None => (
+            legacy::matches(&record.fingerprint, &unrated_if_own(residual), own_rating),
+            legacy::residual_part(&record.fingerprint),
+        ),
+    };
+    if same {
         return Ok(());
     }
-    Err(ExperimentError::SetupMismatch {
-        run: dir.to_path_buf(),
-        trained: residual_part(&record.fingerprint),
-        given: format!("{residual:?}"),
-    })
+    Err(ExperimentError::SetupMismatch { run: dir.to_path_buf(), trained, given: format!("{residual:?}") })
 }
 
-/// The texts a run's fingerprint may hold for `residual`: its own, and where its rating is
-/// none or the controller's own (`own_rating`), the unrated one as recorded today and by the
-/// versions before `rated_speed` and before `warmup_with_policy` (when off).
-fn recorded_forms(residual: &ResidualConfig, own_rating: Option<f64>) -> Vec<String> {
-    let mut forms = vec![format!("{residual:?}")];
-    if residual.rated_speed.is_none() || residual.rated_speed == own_rating {
-        let unrated = format!("{:?}", ResidualConfig { rated_speed: None, ..residual.clone() });
-        let before_rating = unrated.replace(", rated_speed: None", "");
-        if !residual.warmup_with_policy {
-            forms.push(before_rating.replace(", warmup_with_policy: false", ""));
+/// Records written before `experiment.json` stored the hybrid's setup as data (up to
+/// 2026-11-27) hold it only as `ResidualConfig`'s `Debug` text inside the fingerprint, in
+/// one of three forms: with every field below; without `rated_speed` (written before it
+/// existed); without it and `warmup_with_policy`. The forms are written out here field by
+/// field, so that fields added to the setup later leave them as they were.
+mod legacy {
+    use std::fmt;
+
+    use centaur_mpc::Command;
+
+    use crate::hybrid::{Exploration, ResidualConfig, Steering};
+
+    /// Whether `fingerprint` holds `residual` (with no rating when it is the controller's
+    /// own, which is `own_rating`) in one of the old forms.
+    pub(super) fn matches(fingerprint: &str, residual: &ResidualConfig, own_rating: Option<f64>) -> bool {
+        let mut candidates = vec![residual.clone()];
+        if residual.rated_speed.is_none() && own_rating.is_some() {
+            // A run may also have recorded the controller's own rating explicitly.
+            candidates.push(ResidualConfig { rated_speed: own_rating, ..residual.clone() });
         }
-        forms.extend([unrated, before_rating]);
+        candidates.iter().any(|r| {
+            let unrated = r.rated_speed.is_none();
+            let forms = [
+                Some(Form { r, rating: true, warmup: true }),
+                unrated.then_some(Form { r, rating: false, warmup: true }),
+                (unrated && !r.warmup_with_policy).then_some(Form { r, rating: false, warmup: false }),
+            ];
+            forms.iter().flatten().any(|form| fingerprint.contains(&format!("{form:?}")))
+        })
     }
-    forms
-}
 
-/// The `ResidualConfig { … }` part of a fingerprint (the whole fingerprint if it has none).
-fn residual_part(fingerprint: &str) -> String {
-    let Some(start) = fingerprint.find("ResidualConfig {") else { return fingerprint.to_string() };
-    let mut depth = 0usize;
-    for (i, c) in fingerprint[start..].char_indices() {
-        match c {
-            '{' => depth += 1,
-            '}' => {
-                depth -= 1;
-                if depth == 0 {
-                    return fingerprint[start..=start + i].to_string();
-                }
+    /// One old form of `ResidualConfig`'s text.
+    struct Form<'a> {
+        r: &'a ResidualConfig,
+        rating: bool,
+        warmup: bool,
+    }
+
+    impl fmt::Debug for Form<'_> {
+        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            // Every field named: a field added to the setup must be decided on here (an old
+            // record can only have run with it at its default).
+            let ResidualConfig {
+                scale,
+                joint_residual,
+                steering,
+                exploration,
+                warmup_with_policy,
+                include_reference,
+                command,
+                rated_speed,
+            } = self.r;
+            let mut s = f.debug_struct("ResidualConfig");
+            s.field("scale", scale)
+                .field("joint_residual", joint_residual)
+                .field("steering", &SteeringForm(steering))
+                .field("exploration", &exploration.as_ref().map(ExplorationForm));
+            if self.warmup {
+                s.field("warmup_with_policy", warmup_with_policy);
             }
-            _ => {}
+            s.field("include_reference", include_reference).field("command", &CommandForm(command));
+            if self.rating {
+                s.field("rated_speed", rated_speed);
+            }
+            s.finish()
         }
     }
-    fingerprint[start..].to_string()
+
+    struct SteeringForm<'a>(&'a Steering);
+
+    impl fmt::Debug for SteeringForm<'_> {
+        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            let Steering { speed, yaw_rate } = self.0;
+            f.debug_struct("Steering").field("speed", speed).field("yaw_rate", yaw_rate).finish()
+        }
+    }
+
+    struct ExplorationForm<'a>(&'a Exploration);
+
+    impl fmt::Debug for ExplorationForm<'_> {
+        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            let Exploration { residual, steering } = self.0;
+            f.debug_struct("Exploration").field("residual", residual).field("steering", steering).finish()
+        }
+    }
+
+    struct CommandForm<'a>(&'a Command);
+
+    impl fmt::Debug for CommandForm<'_> {
+        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            let Command { forward_velocity, lateral_velocity, yaw_rate, body_height, gait } = self.0;
+            f.debug_struct("Command")
+                .field("forward_velocity", forward_velocity)
+                .field("lateral_velocity", lateral_velocity)
+                .field("yaw_rate", yaw_rate)
+                .field("body_height", body_height)
+                .field("gait", gait)
+                .finish()
+        }
+    }
+
+    /// The `ResidualConfig { … }` part of a fingerprint (the whole fingerprint if it has none).
+    pub(super) fn residual_part(fingerprint: &str) -> String {
+        let Some(start) = fingerprint.find("ResidualConfig {") else { return fingerprint.to_string() };
+        let mut depth = 0usize;
+        for (i, c) in fingerprint[start..].char_indices() {
+            match c {
+                '{' => depth += 1,
+                '}' => {
+                    depth -= 1;
+                    if depth == 0 {
+                        return fingerprint[start..=start + i].to_string();
+                    }
+                }
+                _ => {}
+            }
+        }
+        fingerprint[start..].to_string()
+    }
 }
 
 /// The result of a run already finished in `opts.out` with the same options (its
@@ -445,59 +547,122 @@ mod tests {
     use super::*;
     use crate::registry::residual_config;
 
-    /// The hybrid's setup is checked against the one a run recorded: the same passes, a
-    /// different rating is refused naming both, a missing or corrupt record is an error.
-    #[test]
-    fn a_run_is_evaluated_only_with_the_setup_it_was_trained_with() {
-        let dir = std::env::temp_dir().join(format!("centaur-trained-with-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let trained = residual_config("minitaur").unwrap();
-        assert!(matches!(check_trained_with(&dir, &trained), Err(ExperimentError::Io { .. })));
-        let record = |residual: &ResidualConfig| ExperimentRecord {
+    fn record(residual: Option<&ResidualConfig>, fingerprint: String) -> ExperimentRecord {
+        ExperimentRecord {
             env: "minitaur".into(),
             algo: "ppo".into(),
             steps: 10,
             seed: 0,
-            fingerprint: format!("{:?}", ("minitaur", 10, residual, Some(5))),
-        };
-        let text = serde_json::to_string(&record(&trained)).unwrap();
-        std::fs::write(dir.join("experiment.json"), text).unwrap();
+            fingerprint,
+            residual: residual.cloned(),
+        }
+    }
+
+    fn write_record(dir: &Path, record: &ExperimentRecord) {
+        std::fs::write(dir.join("experiment.json"), serde_json::to_string_pretty(record).unwrap()).unwrap();
+    }
+
+    fn temp_dir(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("centaur-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    /// The hybrid's setup is checked against the one a run recorded as data: the same passes
+    /// (also after a round trip through the file), another is refused naming both, the
+    /// controller's own rating is no rating, a field missing from the record takes its
+    /// default, and a missing or corrupt record is a typed error.
+    #[test]
+    fn a_run_is_evaluated_only_with_the_setup_it_was_trained_with() {
+        let dir = temp_dir("trained-with");
+        let trained = residual_config("minitaur").unwrap();
+        assert_eq!(trained.rated_speed, Some(3.0));
+        assert!(matches!(check_trained_with(&dir, &trained), Err(ExperimentError::NotAnExperiment { .. })));
+        write_record(&dir, &record(Some(&trained), "(not read)".into()));
         check_trained_with(&dir, &trained).unwrap();
         let other = ResidualConfig { rated_speed: Some(2.5), ..trained.clone() };
         let err = check_trained_with(&dir, &other).unwrap_err();
         let ExperimentError::SetupMismatch { trained: ref t, ref given, .. } = err else { panic!("{err}") };
         assert_eq!(*t, format!("{trained:?}"));
         assert_eq!(*given, format!("{other:?}"));
-        // A record from before `rated_speed` and `warmup_with_policy` (a run trained at the
-        // trot's own 2.5 m/s rating): matched by `--rated-speed 2.5` or no rating, not by the
-        // preset's 3.0.
-        let legacy = format!("{:?}", ResidualConfig { rated_speed: None, ..trained.clone() })
-            .replace(", rated_speed: None", "")
-            .replace(", warmup_with_policy: false", "");
-        assert!(!legacy.contains("rated_speed") && !legacy.contains("warmup_with_policy"), "{legacy}");
-        let legacy_record =
-            ExperimentRecord { fingerprint: format!("(\"minitaur\", {legacy}, None)"), ..record(&trained) };
-        std::fs::write(dir.join("experiment.json"), serde_json::to_string(&legacy_record).unwrap()).unwrap();
-        check_trained_with(&dir, &other).unwrap();
-        check_trained_with(&dir, &ResidualConfig { rated_speed: None, ..trained.clone() }).unwrap();
-        assert!(matches!(check_trained_with(&dir, &trained), Err(ExperimentError::SetupMismatch { .. })));
-        let faster = ResidualConfig {
-            rated_speed: Some(2.5),
+        let slower = ResidualConfig {
             steering: crate::hybrid::Steering { speed: 0.5, yaw_rate: 0.0 },
             ..trained.clone()
         };
-        assert!(matches!(check_trained_with(&dir, &faster), Err(ExperimentError::SetupMismatch { .. })));
+        assert!(matches!(check_trained_with(&dir, &slower), Err(ExperimentError::SetupMismatch { .. })));
+
+        // The trot's own rating (2.5 m/s) recorded explicitly is the unrated setup, both ways.
+        let unrated = ResidualConfig { rated_speed: None, ..trained.clone() };
+        write_record(&dir, &record(Some(&other), "(not read)".into()));
+        check_trained_with(&dir, &unrated).unwrap();
+        write_record(&dir, &record(Some(&unrated), "(not read)".into()));
+        check_trained_with(&dir, &other).unwrap();
+        assert!(matches!(check_trained_with(&dir, &trained), Err(ExperimentError::SetupMismatch { .. })));
+
+        // A record whose setup lacks a field (as one written before the field existed would)
+        // reads it at its default.
+        let mut value = serde_json::to_value(record(Some(&trained), "(not read)".into())).unwrap();
+        value["residual"].as_object_mut().unwrap().remove("warmup_with_policy");
+        std::fs::write(dir.join("experiment.json"), value.to_string()).unwrap();
+        check_trained_with(&dir, &trained).unwrap();
+        let warm = ResidualConfig { warmup_with_policy: true, ..trained.clone() };
+        assert!(matches!(check_trained_with(&dir, &warm), Err(ExperimentError::SetupMismatch { .. })));
+
         std::fs::write(dir.join("experiment.json"), "{ not json").unwrap();
         assert!(matches!(check_trained_with(&dir, &trained), Err(ExperimentError::Io { .. })));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
+    /// Records from before the setup was stored as data, in the exact text of two real runs:
+    /// the main example's of 2026-11-26 (before `warmup_with_policy` and `rated_speed`, trained
+    /// at the trot's own 2.5 m/s) and a `centaur compare` seed's of 2026-11-27 (rated 3.0).
+    #[test]
+    fn records_from_before_the_setup_was_data_are_matched_by_their_text() {
+        const OLDEST: &str = "ResidualConfig { scale: [0.25], joint_residual: true, steering: Steering { speed: 1.0, yaw_rate: 0.0 }, exploration: Some(Exploration { residual: 0.3, steering: 0.5 }), include_reference: true, command: Command { forward_velocity: 2.0, lateral_velocity: 0.0, yaw_rate: 0.0, body_height: None, gait: Trot } }";
+        const RATED: &str = "ResidualConfig { scale: [0.25], joint_residual: true, steering: Steering { speed: 1.0, yaw_rate: 0.0 }, exploration: Some(Exploration { residual: 0.3, steering: 0.5 }), warmup_with_policy: false, include_reference: true, command: Command { forward_velocity: 2.0, lateral_velocity: 0.0, yaw_rate: 0.0, body_height: None, gait: Trot }, rated_speed: Some(3.0) }";
+        let dir = temp_dir("legacy-record");
+        let preset = residual_config("minitaur").unwrap();
+        let at = |rated_speed| ResidualConfig { rated_speed, ..preset.clone() };
+        let legacy =
+            |residual: &str| record(None, format!("(\"minitaur\", Ppo(..), 4, 10, {residual}, None)"));
+
+        write_record(&dir, &legacy(OLDEST));
+        check_trained_with(&dir, &at(Some(2.5))).unwrap();
+        check_trained_with(&dir, &at(None)).unwrap();
+        let err = check_trained_with(&dir, &preset).unwrap_err();
+        let ExperimentError::SetupMismatch { trained, .. } = err else { panic!("{err}") };
+        assert_eq!(trained, OLDEST);
+        let warm = ResidualConfig { warmup_with_policy: true, ..at(None) };
+        assert!(matches!(check_trained_with(&dir, &warm), Err(ExperimentError::SetupMismatch { .. })));
+
+        write_record(&dir, &legacy(RATED));
+        check_trained_with(&dir, &preset).unwrap();
+        assert!(matches!(
+            check_trained_with(&dir, &at(Some(2.5))),
+            Err(ExperimentError::SetupMismatch { .. })
+        ));
+        let slower =
+            ResidualConfig { steering: crate::hybrid::Steering { speed: 0.5, yaw_rate: 0.0 }, ..preset };
+        assert!(matches!(check_trained_with(&dir, &slower), Err(ExperimentError::SetupMismatch { .. })));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A run writes its setup as data, and reads it back equal.
+    #[test]
+    fn the_record_holds_the_setup_as_data() {
+        let preset = residual_config("minitaur").unwrap();
+        let text = serde_json::to_string_pretty(&record(Some(&preset), String::new())).unwrap();
+        assert!(text.contains("\"rated_speed\": 3.0") && text.contains("\"gait\": \"trot\""), "{text}");
+        let back: ExperimentRecord = serde_json::from_str(&text).unwrap();
+        assert_eq!(back.residual, Some(preset));
+    }
+
     #[test]
     fn the_residual_part_of_a_fingerprint_is_cut_at_its_closing_brace() {
         assert_eq!(
-            residual_part("(1, ResidualConfig { a: B { c: 1 }, d: 2 }, 3)"),
+            legacy::residual_part("(1, ResidualConfig { a: B { c: 1 }, d: 2 }, 3)"),
             "ResidualConfig { a: B { c: 1 }, d: 2 }"
         );
-        assert_eq!(residual_part("(no setup)"), "(no setup)");
+        assert_eq!(legacy::residual_part("(no setup)"), "(no setup)");
     }
 }
