@@ -40,10 +40,12 @@ pub struct EnvSettings {
     /// Episode length (control steps).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_episode_steps: Option<usize>,
-    /// Physics steps per control step (the Minitaur's `action_repeat`).
+    /// Physics steps per control step (the Minitaur's `action_repeat`), 1 to
+    /// [`centaur_envs::MAX_FRAME_SKIP`].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub frame_skip: Option<usize>,
-    /// Joint positions of the last `k` control steps appended to the observation.
+    /// Joint positions of the last `k` control steps appended to the observation, `k` at
+    /// most [`centaur_envs::MAX_JOINT_HISTORY`].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub joint_history: Option<usize>,
     /// Remove the base orientation from the observation.
@@ -67,7 +69,7 @@ pub struct EnvSettings {
     /// Minitaur: randomise the robot at reset (`false`: the nominal robot).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub randomize: Option<bool>,
-    /// Minitaur: control latency (s).
+    /// Minitaur: control latency (s), 0 to [`centaur_envs::minitaur::MAX_LATENCY`].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub latency: Option<f64>,
     /// Minitaur: observation noise, σ as a fraction of each entry's bound.

@@ -5,6 +5,7 @@
 //! and modular robots in the style of Revolve2 ([`modular`]: core, bricks, active hinges;
 //! the gecko, ant and spider).
 
+mod checks;
 mod error;
 pub mod locomotion;
 pub mod minitaur;
@@ -13,6 +14,7 @@ pub mod mujoco;
 pub mod robot;
 pub mod sim;
 
+pub use checks::{MAX_FRAME_SKIP, MAX_JOINT_HISTORY};
 pub use error::RobotEnvError;
 pub use locomotion::{LocomotionConfig, LocomotionEnv, LocomotionRobot};
 pub use minitaur::{MinitaurConfig, MinitaurEnv};

@@ -39,6 +39,7 @@ use centaur_dynamics::{BaseKind, Data, Model, RobotState};
 use centaur_gym::{BoxSpace, Env, EnvError, Rng, Step, StepInfo};
 use centaur_gym::{check_action, check_observation};
 
+use crate::checks::{Fields, MAX_FRAME_SKIP};
 use crate::error::RobotEnvError;
 use crate::mujoco::MjRobot;
 use crate::robot::{FootContact, JointHistory, ObsOptions, Push, RobotEnv, Servo};
@@ -273,24 +274,22 @@ impl LocomotionConfig {
         }
     }
 
-    /// Checks the numbers.
+    /// Checks the numbers; an error names the field, its value and what it must be.
     pub fn validate(&self) -> Result<(), RobotEnvError> {
-        if self.frame_skip == 0 || self.max_episode_steps == 0 {
-            return Err(RobotEnvError::config(
-                "LocomotionConfig",
-                "frame_skip and max_episode_steps must be positive",
-            ));
-        }
-        if self.reset_noise_scale.is_nan()
-            || self.reset_noise_scale < 0.0
-            || !self.forward_reward_weight.is_finite()
-            || !self.ctrl_cost_weight.is_finite()
-        {
-            return Err(RobotEnvError::config(
-                "LocomotionConfig",
-                "weights must be finite and noise non-negative",
-            ));
-        }
+        let f = Fields("LocomotionConfig");
+        f.count("frame_skip", self.frame_skip, MAX_FRAME_SKIP)?;
+        f.count("max_episode_steps", self.max_episode_steps, usize::MAX)?;
+        f.non_negative("reset_noise_scale", self.reset_noise_scale)?;
+        f.finite("forward_reward_weight", self.forward_reward_weight)?;
+        f.finite("ctrl_cost_weight", self.ctrl_cost_weight)?;
+        f.finite("contact_cost_weight", self.contact_cost_weight)?;
+        f.finite("healthy_reward", self.healthy_reward)?;
+        f.cap("contact_cost_max", self.contact_cost_max)?;
+        f.range("healthy_z_range", self.healthy_z_range)?;
+        f.range("healthy_angle_range", self.healthy_angle_range)?;
+        f.range("healthy_state_range", self.healthy_state_range)?;
+        f.range("contact_force_range", self.contact_force_range)?;
+        f.obs(&self.obs)?;
         Ok(())
     }
 }

@@ -232,6 +232,67 @@ fn observation_options_add_joint_history_and_drop_orientation() {
     assert_eq!(walker.qpos()[3] as f32, wobs[1], "the torso angle (qpos[2]) is gone");
 }
 
+/// Every numeric setting out of range is refused before anything is built, with an error
+/// that names the field and its value (reliability probe: a NaN healthy reward, an inverted
+/// z range were accepted; a huge history or latency aborted on allocation; a huge frame
+/// skip hung).
+#[test]
+fn settings_out_of_range_are_refused_naming_the_field() {
+    use centaur_envs::{MAX_FRAME_SKIP, MAX_JOINT_HISTORY, ModularConfig};
+    let history = |k| ObsOptions { joint_history: k, ..ObsOptions::default() };
+    let walker = LocomotionConfig::walker2d;
+    let locomotion = [
+        ("healthy_reward = NaN", LocomotionConfig { healthy_reward: f64::NAN, ..walker() }),
+        ("contact_cost_weight = inf", LocomotionConfig { contact_cost_weight: f64::INFINITY, ..walker() }),
+        ("healthy_z_range = [1.0, 0.5]", LocomotionConfig { healthy_z_range: (1.0, 0.5), ..walker() }),
+        (
+            "healthy_angle_range = [NaN, 1.0]",
+            LocomotionConfig { healthy_angle_range: (f64::NAN, 1.0), ..walker() },
+        ),
+        ("frame_skip = 1001", LocomotionConfig { frame_skip: MAX_FRAME_SKIP + 1, ..walker() }),
+        ("frame_skip = 0", LocomotionConfig { frame_skip: 0, ..walker() }),
+        ("joint_history = 101", LocomotionConfig { obs: history(MAX_JOINT_HISTORY + 1), ..walker() }),
+        ("joint_history = 18446744073709551615", LocomotionConfig { obs: history(usize::MAX), ..walker() }),
+        ("reset_noise_scale = -1.0", LocomotionConfig { reset_noise_scale: -1.0, ..walker() }),
+    ];
+    for (says, config) in locomotion {
+        let err = LocomotionEnv::new(config).err().unwrap_or_else(|| panic!("{says}: accepted"));
+        assert!(err.to_string().contains(says), "{says}: {err}");
+    }
+    let minitaur = MinitaurConfig::default;
+    let minitaur_cases = [
+        ("latency = 1000000000.0", MinitaurConfig { latency: 1e9, ..minitaur() }),
+        ("latency = -0.01", MinitaurConfig { latency: -0.01, ..minitaur() }),
+        (
+            "observation_noise_std = inf",
+            MinitaurConfig { observation_noise_std: f64::INFINITY, ..minitaur() },
+        ),
+        ("action_repeat (frame_skip in [env]) = 0", MinitaurConfig { action_repeat: 0, ..minitaur() }),
+        ("shake_weight = NaN", MinitaurConfig { shake_weight: f64::NAN, ..minitaur() }),
+        ("joint_history = 1000", MinitaurConfig { obs: history(1000), ..minitaur() }),
+    ];
+    for (says, config) in minitaur_cases {
+        let err = MinitaurEnv::new(config).err().unwrap_or_else(|| panic!("{says}: accepted"));
+        assert!(err.to_string().contains(says), "{says}: {err}");
+    }
+    for (says, config) in [
+        ("frame_skip = 5000", ModularConfig { frame_skip: 5000, ..ModularConfig::gecko() }),
+        ("ctrl_cost_weight = NaN", ModularConfig { ctrl_cost_weight: f64::NAN, ..ModularConfig::gecko() }),
+        ("joint_history = 101", ModularConfig { obs: history(101), ..ModularConfig::gecko() }),
+    ] {
+        let err = centaur_envs::ModularEnv::new(config).err().unwrap_or_else(|| panic!("{says}: accepted"));
+        assert!(err.to_string().contains(says), "{says}: {err}");
+    }
+    // The bounds themselves are accepted.
+    LocomotionEnv::new(LocomotionConfig {
+        frame_skip: MAX_FRAME_SKIP,
+        obs: history(MAX_JOINT_HISTORY),
+        ..walker()
+    })
+    .unwrap();
+    MinitaurEnv::new(MinitaurConfig { latency: centaur_envs::minitaur::MAX_LATENCY, ..minitaur() }).unwrap();
+}
+
 /// Found from Python (`gymnasium.make("centaur/Minitaur-v0", distance_limit=-1.0)` was
 /// accepted and ended every episode at its first step): a distance limit must be positive.
 #[test]

@@ -70,7 +70,7 @@ def test_options_are_the_env_table():
     [
         ({"healthy_reward": 1.0}, "healthy_reward does not apply to the Minitaur"),
         ({"no_such_key": 1}, "no_such_key"),
-        ({"frame_skip": 0}, "must be positive"),
+        ({"frame_skip": 0}, "frame_skip.*expected 1 to 1000"),
         ({"distance_limit": -1.0}, "distance_limit"),
         ({"latency": float("nan")}, "latency is nan"),
         ({"healthy_z_range": [0.2, float("inf")]}, "healthy_z_range is inf"),

@@ -10,6 +10,7 @@ use super::model::{
     ENERGY_TERM_DT, KNEE_ANGLE, LEG_NAMES, MOTOR_DIRECTION, MOTOR_NAMES, TOE_LEFT, TOE_RIGHT, minitaur_model,
 };
 use super::motor::MotorModel;
+use crate::checks::{Fields, MAX_FRAME_SKIP};
 use crate::error::RobotEnvError;
 use crate::robot::{FootContact, JointHistory, ObsOptions, Push, RobotEnv};
 use crate::sim::{ColliderSpec, LoopClosure, Sim, SimConfig};
@@ -105,7 +106,7 @@ pub struct MinitaurConfig {
     pub overheat_protection: bool,
     /// Randomisation at reset (default: on, as v0).
     pub randomization: Option<MinitaurRandomization>,
-    /// Control latency: the observation is this old (s) (default: 0).
+    /// Control latency: the observation is this old (s) (default: 0; at most [`MAX_LATENCY`]).
     pub latency: f64,
     /// Observation noise: N(0, σ·bound) per entry (default: 0).
     pub observation_noise_std: f64,
@@ -155,26 +156,24 @@ impl MinitaurConfig {
 
     /// Checks the numbers.
     pub fn validate(&self) -> Result<(), RobotEnvError> {
+        let f = Fields("MinitaurConfig");
         let bad = |what: &str| Err(RobotEnvError::config("MinitaurConfig", what));
-        if self.action_repeat == 0 || self.max_episode_steps == 0 {
-            return bad("action_repeat and max_episode_steps must be positive");
-        }
-        let non_negative = |x: f64| x.is_finite() && x >= 0.0;
-        if !non_negative(self.latency)
-            || self.observation_noise_std.is_nan()
-            || self.observation_noise_std < 0.0
-        {
-            return bad("latency and observation_noise_std must be finite and non-negative");
-        }
-        for w in [self.distance_weight, self.energy_weight, self.drift_weight, self.shake_weight] {
-            if !w.is_finite() {
-                return bad("reward weights must be finite");
-            }
-        }
+        f.count("action_repeat (frame_skip in [env])", self.action_repeat, MAX_FRAME_SKIP)?;
+        f.count("max_episode_steps", self.max_episode_steps, usize::MAX)?;
+        f.at_most("latency", self.latency, MAX_LATENCY, "a latency of 0 to 1 s")?;
+        f.non_negative("observation_noise_std", self.observation_noise_std)?;
+        f.finite("distance_weight", self.distance_weight)?;
+        f.finite("energy_weight", self.energy_weight)?;
+        f.finite("drift_weight", self.drift_weight)?;
+        f.finite("shake_weight", self.shake_weight)?;
+        f.obs(&self.obs)?;
         // Infinite is allowed (no limit, the default); zero or less would end every episode
         // at its first step.
         if self.distance_limit.is_nan() || self.distance_limit <= 0.0 {
-            return bad("distance_limit must be positive (m; inf for no limit)");
+            return bad(&format!(
+                "distance_limit = {:?}: expected a positive distance (m; inf for no limit)",
+                self.distance_limit
+            ));
         }
         if self.action == MinitaurAction::Pwm && !matches!(self.motor_control, MotorControl::Accurate(_)) {
             return bad("PWM actions need the accurate motor model");
@@ -182,6 +181,10 @@ impl MinitaurConfig {
         Ok(())
     }
 }
+
+/// Longest control latency (s) a Minitaur env takes: its observations are kept one per
+/// physics step for as long.
+pub const MAX_LATENCY: f64 = 1.0;
 
 /// Leg-model action bounds are [−1, 1]; motor-angle actions are bounded by [0, π]... in the
 /// motor frame PyBullet leaves them unbounded; we use [−π, 2π] to keep the box finite.

@@ -42,7 +42,9 @@ mod legs;
 mod model;
 mod motor;
 
-pub use env::{MinitaurAction, MinitaurConfig, MinitaurEnv, MinitaurRandomization, MotorControl};
+pub use env::{
+    MAX_LATENCY, MinitaurAction, MinitaurConfig, MinitaurEnv, MinitaurRandomization, MotorControl,
+};
 pub use legs::{leg_model_to_motor_angles, motor_angles_to_leg_model};
 pub use model::{
     ENERGY_TERM_DT, LEG_NAMES, MINITAUR_URDF, MOTOR_DIRECTION, MOTOR_NAMES, apply_box_inertias,

@@ -7,6 +7,7 @@ use centaur_gym::{BoxSpace, Env, EnvError, Rng, Step, StepInfo};
 use centaur_gym::{check_action, check_observation};
 
 use super::body::{Body, ModuleSpecs};
+use crate::checks::{Fields, MAX_FRAME_SKIP};
 use crate::error::RobotEnvError;
 use crate::robot::{FootContact, JointHistory, ObsOptions, Push, RobotEnv};
 use crate::sim::{ColliderSpec, Sim, SimConfig};
@@ -125,19 +126,12 @@ impl ModularConfig {
 
     /// Checks the numbers.
     pub fn validate(&self) -> Result<(), RobotEnvError> {
-        if self.frame_skip == 0 || self.max_episode_steps == 0 {
-            return Err(RobotEnvError::config(
-                "ModularConfig",
-                "frame_skip and max_episode_steps must be positive",
-            ));
-        }
-        let noise_ok = self.reset_noise_scale >= 0.0 && self.reset_noise_scale.is_finite();
-        if !noise_ok || !self.ctrl_cost_weight.is_finite() {
-            return Err(RobotEnvError::config(
-                "ModularConfig",
-                "reset_noise_scale must be finite and non-negative, ctrl_cost_weight finite",
-            ));
-        }
+        let f = Fields("ModularConfig");
+        f.count("frame_skip", self.frame_skip, MAX_FRAME_SKIP)?;
+        f.count("max_episode_steps", self.max_episode_steps, usize::MAX)?;
+        f.non_negative("reset_noise_scale", self.reset_noise_scale)?;
+        f.finite("ctrl_cost_weight", self.ctrl_cost_weight)?;
+        f.obs(&self.obs)?;
         if self.obs.drop_base_orientation && !self.observation.has_orientation() {
             return Err(RobotEnvError::config(
                 "ModularConfig",
