@@ -383,6 +383,34 @@ pub fn run_sweep(
     Ok(summary)
 }
 
+/// The output directory of each of a study's grid files under `out`: `out` itself for one
+/// file, `out/<file stem>` for several (`centaur sweep --grid studies/d_*.toml`). Two files
+/// with the same stem are refused, as one would overwrite the other.
+pub fn study_dirs(grids: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, SweepError> {
+    if grids.len() == 1 {
+        return Ok(vec![out.to_path_buf()]);
+    }
+    let mut dirs: Vec<PathBuf> = Vec::with_capacity(grids.len());
+    for grid in grids {
+        let stem = grid.file_stem().ok_or_else(|| SweepError::Grid {
+            path: grid.clone(),
+            message: "a grid file needs a file name".into(),
+        })?;
+        let dir = out.join(stem);
+        if dirs.contains(&dir) {
+            return Err(SweepError::Grid {
+                path: grid.clone(),
+                message: format!(
+                    "another grid file given has the same name; both would write {}",
+                    dir.display()
+                ),
+            });
+        }
+        dirs.push(dir);
+    }
+    Ok(dirs)
+}
+
 /// A sweep's runs, `(point, seed)` in the order [`run_sweep`] takes them: the unit that a
 /// cluster scheduler hands to its machines ([`run_sweep_runs`]; the Python package's
 /// `centaur.ray.sweep` does this with Ray tasks).

@@ -833,4 +833,66 @@ fn every_study_grid_checks() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("4 points") && stdout.contains("env.observation = \"hinges\""), "{stdout}");
+    // Each study is one command: all its files in one `--grid` (as `studies/d_*.toml` expands).
+    for study in ["a_", "b_", "c_", "d_", "e_"] {
+        let of_study: Vec<_> =
+            files.iter().filter(|f| f.file_name().unwrap().to_string_lossy().starts_with(study)).collect();
+        assert!(!of_study.is_empty(), "{study}");
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+            .args(["sweep", "--check", "--grid"])
+            .args(&of_study)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        for f in &of_study {
+            assert!(stdout.contains(&f.display().to_string()), "{study}: {stdout}");
+        }
+    }
+}
+
+/// A study of several grid files runs with one command, each grid into `OUT/<file stem>`;
+/// every file is checked before the first runs, and two files of one name are refused.
+#[test]
+fn a_study_of_several_grids_runs_with_one_command() {
+    let out = out_dir("study");
+    let dir = out_dir("study-grids");
+    std::fs::create_dir_all(dir.join("other")).unwrap();
+    let grid = |lr: &str| {
+        format!(
+            "env = \"pendulum\"\nalgo = \"ppo\"\nsteps = 256\n\n[base]\nn_steps = 128\nbatch_size = 128\nn_epochs = 1\nactor_hidden = [8]\ncritic_hidden = [8]\nlearning_rate = {lr}\n"
+        )
+    };
+    let (one, two) = (dir.join("s_one.toml"), dir.join("s_two.toml"));
+    std::fs::write(&one, grid("3e-4")).unwrap();
+    std::fs::write(&two, grid("1e-3")).unwrap();
+    std::fs::write(dir.join("other").join("s_one.toml"), grid("1e-3")).unwrap();
+    std::fs::write(dir.join("s_bad.toml"), grid("-1.0")).unwrap();
+    let sweep = |grids: &[PathBuf]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+            .args(["sweep", "--seeds", "1", "--jobs", "1", "--out"])
+            .arg(&out)
+            .arg("--grid")
+            .args(grids)
+            .output()
+            .unwrap()
+    };
+    // A bad file or two of one name: refused before anything runs.
+    let o = sweep(&[one.clone(), dir.join("s_bad.toml")]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("s_bad.toml"));
+    let o = sweep(&[one.clone(), dir.join("other").join("s_one.toml")]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("same name"));
+    assert!(!out.exists(), "a refused study ran");
+    let o = sweep(&[one, two]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for stem in ["s_one", "s_two"] {
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join(stem).join("sweep.json")).unwrap())
+                .unwrap();
+        assert_eq!(json["points"].as_array().unwrap().len(), 1);
+    }
+    std::fs::remove_dir_all(&out).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -58,9 +58,11 @@ enum Command {
 /// Arguments of `centaur sweep`.
 #[derive(Args)]
 struct SweepArgs {
-    /// The grid file (see `centaur::sweep` or the README).
-    #[arg(long)]
-    grid: PathBuf,
+    /// The grid file (see `centaur::sweep` or the README); several (a study's files, e.g.
+    /// `--grid studies/d_*.toml`) run one after another, each into `OUT/<file stem>`, all
+    /// checked before the first runs.
+    #[arg(long, num_args = 1.., required = true)]
+    grid: Vec<PathBuf>,
     /// Seeds per point (0..seeds).
     #[arg(long, allow_negative_numbers = true, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=1000))]
     seeds: u64,
@@ -81,62 +83,76 @@ struct SweepArgs {
 
 /// `centaur sweep`.
 fn sweep(args: SweepArgs) -> ExitCode {
-    if args.check {
-        return match centaur::sweep::check_grid(&args.grid) {
-            Ok(g) => {
-                let judges: Vec<&String> = g.grid.judges.keys().collect();
-                println!(
-                    "{}: {} on {}, {} steps per run, {} points × {} seeds; judges: {}",
-                    args.grid.display(),
-                    g.grid.algo,
-                    g.grid.env,
-                    g.grid.steps,
-                    g.points.len(),
-                    args.seeds,
-                    if judges.is_empty() { "none".to_string() } else { format!("{judges:?}") }
-                );
-                for p in &g.points {
-                    let values: Vec<String> = p.values.iter().map(|(k, v)| format!("{k} = {v}")).collect();
-                    println!("{}: {}", p.name, values.join(", "));
-                }
-                ExitCode::SUCCESS
-            }
+    // Every grid is checked (and its output named) before anything runs.
+    let mut grids = Vec::with_capacity(args.grid.len());
+    for path in &args.grid {
+        match centaur::sweep::check_grid(path) {
+            Ok(g) => grids.push((path.clone(), g)),
             Err(e) => {
                 eprintln!("error: {e}");
-                ExitCode::FAILURE
+                return ExitCode::FAILURE;
             }
-        };
-    }
-    let opts = centaur::sweep::SweepOptions {
-        grid: args.grid,
-        seeds: args.seeds,
-        out: args.out.expect("clap requires --out without --check"),
-        jobs: args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())),
-        overwrite: args.overwrite,
-    };
-    let done = std::sync::atomic::AtomicUsize::new(0);
-    let report = |point: &str, seed: u64, s: &centaur::train::Summary| {
-        let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-        println!(
-            "[{k}] {point} seed {seed}: final return {:.2} ({} steps, {:.0} s)",
-            s.final_return_mean, s.steps, s.wall_seconds
-        );
-    };
-    match centaur::sweep::run_sweep(&opts, &report) {
-        Ok(summary) => {
-            if summary.kept_runs > 0 {
-                println!("kept {} runs finished before", summary.kept_runs);
-            }
-            println!();
-            print!("{}", centaur::sweep::markdown(&summary));
-            println!("\nwrote {}", opts.out.join("sweep.json").display());
-            ExitCode::SUCCESS
         }
+    }
+    if args.check {
+        for (path, g) in &grids {
+            let judges: Vec<&String> = g.grid.judges.keys().collect();
+            println!(
+                "{}: {} on {}, {} steps per run, {} points × {} seeds; judges: {}",
+                path.display(),
+                g.grid.algo,
+                g.grid.env,
+                g.grid.steps,
+                g.points.len(),
+                args.seeds,
+                if judges.is_empty() { "none".to_string() } else { format!("{judges:?}") }
+            );
+            for p in &g.points {
+                let values: Vec<String> = p.values.iter().map(|(k, v)| format!("{k} = {v}")).collect();
+                println!("{}: {}", p.name, values.join(", "));
+            }
+        }
+        return ExitCode::SUCCESS;
+    }
+    let out = args.out.expect("clap requires --out without --check");
+    let outs = match centaur::sweep::study_dirs(&args.grid, &out) {
+        Ok(outs) => outs,
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::FAILURE
+            return ExitCode::FAILURE;
+        }
+    };
+    let jobs = args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    for (grid, out) in args.grid.into_iter().zip(outs) {
+        let opts =
+            centaur::sweep::SweepOptions { grid, seeds: args.seeds, out, jobs, overwrite: args.overwrite };
+        if grids.len() > 1 {
+            println!("== {} → {}", opts.grid.display(), opts.out.display());
+        }
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let report = |point: &str, seed: u64, s: &centaur::train::Summary| {
+            let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            println!(
+                "[{k}] {point} seed {seed}: final return {:.2} ({} steps, {:.0} s)",
+                s.final_return_mean, s.steps, s.wall_seconds
+            );
+        };
+        match centaur::sweep::run_sweep(&opts, &report) {
+            Ok(summary) => {
+                if summary.kept_runs > 0 {
+                    println!("kept {} runs finished before", summary.kept_runs);
+                }
+                println!();
+                print!("{}", centaur::sweep::markdown(&summary));
+                println!("\nwrote {}\n", opts.out.join("sweep.json").display());
+            }
+            Err(e) => {
+                eprintln!("error: {}: {e}", opts.grid.display());
+                return ExitCode::FAILURE;
+            }
         }
     }
+    ExitCode::SUCCESS
 }
 
 /// Arguments of `centaur eval`.
