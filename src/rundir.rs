@@ -31,20 +31,53 @@ pub fn check_not_file(dir: &Path) -> std::io::Result<()> {
     Ok(())
 }
 
+/// The file in a run directory whose lock marks it as being written by a process.
+pub const LOCK_FILE: &str = ".centaur.lock";
+
+/// A run directory held by this process: an advisory lock on its [`LOCK_FILE`], released
+/// when dropped or when the process ends (a crash or `kill -9` included, so a killed run
+/// can be resumed at once). Two processes never write one run directory.
+#[derive(Debug)]
+pub struct DirLock {
+    _file: std::fs::File,
+}
+
+/// Locks the existing directory `dir` for this process ([`DirLock`]), or says that another
+/// holds it ([`Claim::Busy`]).
+pub fn lock_dir(dir: &Path) -> Result<DirLock, Claim> {
+    let path = dir.join(LOCK_FILE);
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&path)
+        .map_err(|e| Claim::Io(path.clone(), e))?;
+    match file.try_lock() {
+        Ok(()) => Ok(DirLock { _file: file }),
+        Err(std::fs::TryLockError::WouldBlock) => Err(Claim::Busy),
+        Err(std::fs::TryLockError::Error(e)) => Err(Claim::Io(path, e)),
+    }
+}
+
 /// Why a directory could not be claimed for a new run.
 #[derive(Debug)]
 pub enum Claim {
     /// It holds a run: the first of the run's files found there.
     Taken(&'static str),
+    /// Another process is writing a run there (it holds the [`LOCK_FILE`]).
+    Busy,
     /// The file system refused (or `dir` is a file).
     Io(PathBuf, std::io::Error),
 }
 
-/// Claims `dir` for a new run whose files and folders are `files`: creates it; if it holds
-/// any of them, refuses ([`Claim::Taken`]) unless `replace`, which removes those (and
-/// nothing else).
-pub fn claim(dir: &Path, files: &[&'static str], replace: bool) -> Result<(), Claim> {
+/// Claims `dir` for a new run whose files and folders are `files`: creates it and locks it
+/// for this process ([`lock_dir`]; refused with [`Claim::Busy`] while another holds it); if
+/// it holds any of the files, refuses ([`Claim::Taken`]) unless `replace`, which removes
+/// those (and nothing else). The run keeps the lock until it ends.
+pub fn claim(dir: &Path, files: &[&'static str], replace: bool) -> Result<DirLock, Claim> {
     check_not_file(dir).map_err(|e| Claim::Io(dir.to_path_buf(), e))?;
+    std::fs::create_dir_all(dir).map_err(|e| Claim::Io(dir.to_path_buf(), e))?;
+    let lock = lock_dir(dir)?;
     if let Some(&file) = files.iter().find(|f| dir.join(f).exists()) {
         if !replace {
             return Err(Claim::Taken(file));
@@ -59,7 +92,7 @@ pub fn claim(dir: &Path, files: &[&'static str], replace: bool) -> Result<(), Cl
             }
         }
     }
-    std::fs::create_dir_all(dir).map_err(|e| Claim::Io(dir.to_path_buf(), e))
+    Ok(lock)
 }
 
 #[cfg(test)]
@@ -75,10 +108,17 @@ mod tests {
         std::fs::create_dir_all(dir.join("agent")).unwrap();
         std::fs::write(dir.join("notes.txt"), "mine").unwrap();
         assert!(matches!(claim(&dir, &files, false), Err(Claim::Taken("run.json"))));
+        // While one claim holds the directory, no other (even replacing) gets it.
+        let held = lock_dir(&dir).unwrap();
+        assert!(matches!(claim(&dir, &files, true), Err(Claim::Busy)));
+        assert!(matches!(lock_dir(&dir), Err(Claim::Busy)));
+        assert!(dir.join("run.json").exists(), "a refused claim removed a file");
+        drop(held);
         claim(&dir, &files, true).unwrap();
         assert!(!dir.join("run.json").exists() && !dir.join("agent").exists());
         assert_eq!(std::fs::read_to_string(dir.join("notes.txt")).unwrap(), "mine");
         let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        let left: Vec<_> = left.iter().filter(|f| *f != LOCK_FILE).collect();
         assert_eq!(left.len(), 1, "temporary files left: {left:?}");
         assert!(matches!(claim(&dir.join("notes.txt"), &files, true), Err(Claim::Io(..))));
         std::fs::remove_dir_all(&dir).unwrap();

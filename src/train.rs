@@ -46,7 +46,7 @@ use serde::{Deserialize, Serialize};
 use crate::plot::{Panel, PlotError, PlotLabels, Series, plot_curves, plot_panels};
 use crate::registry::{EnvSource, RegistryError};
 use crate::residual::start_as_controller;
-use crate::rundir::{Claim, claim, write_atomic};
+use crate::rundir::{Claim, DirLock, claim, lock_dir, write_atomic};
 use crate::settings::{EnvSettings, split_run_toml};
 
 /// The default checkpoint period of `centaur train`, in environment steps.
@@ -187,6 +187,14 @@ pub enum TrainError {
         /// The run file found there.
         file: &'static str,
     },
+    /// Another process is writing a run in the directory.
+    #[error(
+        "another process is writing a run in {dir} (it holds {dir}/.centaur.lock); wait for it to end or choose another --out"
+    )]
+    Busy {
+        /// The directory.
+        dir: PathBuf,
+    },
     /// The directory to resume holds no run, or one that does not fit together.
     #[error("cannot resume {dir}: {reason}")]
     Resume {
@@ -282,11 +290,16 @@ pub fn read_config_file(path: &Path) -> Result<String, TrainError> {
 
 /// Makes `dir` ready for a new run: creates it, refuses one that already holds a run unless
 /// `overwrite` (then removes the run's files, nothing else).
-fn prepare_new_run_dir(dir: &Path, overwrite: bool) -> Result<(), TrainError> {
-    claim(dir, &RUN_FILES, overwrite).map_err(|c| match c {
+fn prepare_new_run_dir(dir: &Path, overwrite: bool) -> Result<DirLock, TrainError> {
+    claim(dir, &RUN_FILES, overwrite).map_err(|c| claim_err(dir, c))
+}
+
+fn claim_err(dir: &Path, c: Claim) -> TrainError {
+    match c {
         Claim::Taken(file) => TrainError::RunExists { dir: dir.to_path_buf(), file },
+        Claim::Busy => TrainError::Busy { dir: dir.to_path_buf() },
         Claim::Io(path, source) => TrainError::Io { path, source },
-    })
+    }
 }
 
 /// Checks the numeric options (no silent `0 → 1`).
@@ -348,7 +361,7 @@ pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> R
     let seed = opts.seed.unwrap_or(config.seed());
     // The learner is built (its settings checked) before anything is written.
     let algo = new_learner(config, seed, opts.steps, &source, opts.n_envs)?;
-    prepare_new_run_dir(&opts.out, opts.overwrite)?;
+    let _held = prepare_new_run_dir(&opts.out, opts.overwrite)?;
     let record = RunRecord {
         env: opts.env.clone(),
         algo: opts.algo.name().to_string(),
@@ -396,6 +409,7 @@ pub fn resume(
         });
     }
     let record = read_run_record(dir)?;
+    let _held = lock_dir(dir).map_err(|c| claim_err(dir, c))?;
     let summary_path = dir.join("summary.json");
     if let Ok(text) = std::fs::read_to_string(&summary_path) {
         return serde_json::from_str(&text).map_err(|e| fail(format!("{}: {e}", summary_path.display())));

@@ -112,24 +112,29 @@ fn train_writes_every_artefact() {
     std::fs::remove_dir_all(&out).unwrap();
 }
 
-#[test]
-fn unknown_config_keys_and_bad_values_are_named() {
-    let config = out_dir("bad.toml");
-    std::fs::write(&config, "learning_rate = 1e-3\nlearnin_starts = 5\n").unwrap();
-    let opts = TrainOptions {
+/// A one-thread, one-env Pendulum run of `steps` with `config`, seed 0, no checkpoints.
+fn pendulum_run(algo: AlgoKind, steps: u64, out: PathBuf, config: &Path) -> TrainOptions {
+    TrainOptions {
         env: "pendulum".into(),
-        algo: AlgoKind::Sac,
-        steps: 10,
+        algo,
+        steps,
         seed: Some(0),
-        out: out_dir("bad"),
-        config: Some(config.clone()),
+        out,
+        config: Some(config.to_path_buf()),
         threads: 1,
         n_envs: 1,
         eval_episodes: 10,
         checkpoint_every: 0,
         eval_every: 0,
         overwrite: false,
-    };
+    }
+}
+
+#[test]
+fn unknown_config_keys_and_bad_values_are_named() {
+    let config = out_dir("bad.toml");
+    std::fs::write(&config, "learning_rate = 1e-3\nlearnin_starts = 5\n").unwrap();
+    let opts = pendulum_run(AlgoKind::Sac, 10, out_dir("bad"), &config);
     match train(&opts, &mut |_| {}) {
         Err(TrainError::Config { message, .. }) => assert!(message.contains("learnin_starts"), "{message}"),
         other => panic!("expected a config error, got {other:?}"),
@@ -684,6 +689,44 @@ fn the_env_table_of_a_run_file_configures_the_environment() {
         assert!(e.to_string().contains(says), "{env} {text}: {e}");
         assert!(!out.exists());
     }
+}
+
+/// Two processes never write one run directory: while another holds it (its lock), a new
+/// run, a replacement and a resume there are refused, naming it; the lock goes with the
+/// process that held it (the SIGKILL test resumes at once after a kill).
+#[test]
+fn a_run_directory_held_by_another_process_is_refused() {
+    use centaur::rundir::lock_dir;
+    let out = out_dir("held");
+    let config = out_dir("held.toml");
+    std::fs::write(&config, "n_steps = 128\nbatch_size = 64\nactor_hidden = [8]\ncritic_hidden = [8]\n")
+        .unwrap();
+    std::fs::create_dir_all(&out).unwrap();
+    let opts = pendulum_run(AlgoKind::Ppo, 256, out.clone(), &config);
+    let held = lock_dir(&out).unwrap();
+    for o in [opts.clone(), TrainOptions { overwrite: true, ..opts.clone() }] {
+        let e = train(&o, &mut |_| {}).unwrap_err();
+        assert!(matches!(e, TrainError::Busy { .. }), "{e}");
+        assert!(e.to_string().contains("another process is writing"), "{e}");
+    }
+    drop(held);
+    train(&opts, &mut |_| {}).unwrap();
+    // Another process (the CLI) is refused while this one holds the finished run.
+    let held = lock_dir(&out).unwrap();
+    for args in [
+        &["train", "--resume"][..],
+        &["train", "--env", "pendulum", "--algo", "ppo", "--steps", "256", "--overwrite", "--out"],
+    ] {
+        let o =
+            std::process::Command::new(env!("CARGO_BIN_EXE_centaur")).args(args).arg(&out).output().unwrap();
+        assert!(!o.status.success(), "{args:?}");
+        assert!(String::from_utf8_lossy(&o.stderr).contains("another process is writing"), "{args:?}");
+    }
+    assert!(out.join("summary.json").is_file(), "a refused run touched the held one");
+    drop(held);
+    assert!(resume(&out, 1, &mut |_| {}).is_ok());
+    std::fs::remove_dir_all(&out).unwrap();
+    std::fs::remove_file(&config).unwrap();
 }
 
 /// `centaur sweep`: a 2 × 1 grid × 2 seeds on two jobs; one run directory per point and

@@ -74,6 +74,14 @@ pub enum ExperimentError {
         /// The setup given.
         given: String,
     },
+    /// Another process is writing an experiment in the directory.
+    #[error(
+        "another process is writing an experiment in {dir} (it holds {dir}/.centaur.lock); wait for it to end or choose another --out"
+    )]
+    Busy {
+        /// The directory.
+        dir: PathBuf,
+    },
     /// A directory that holds no experiment (no `experiment.json`).
     #[error(
         "{dir} holds no experiment.json: give the directory of one run of `centaur compare` (e.g. runs/compare_…/seed_0) or of the main example (runs/residual_ppo_minitaur)"

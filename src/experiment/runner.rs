@@ -17,7 +17,7 @@ use crate::hybrid::{ActionMapping, HybridError, ResidualConfig};
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
 use crate::registry::{controller_config, make_residual_env, make_robot_env};
 use crate::residual::start_as_controller;
-use crate::rundir::{Claim, claim, write_atomic};
+use crate::rundir::{Claim, DirLock, claim, write_atomic};
 
 fn vec_env_of(
     make: &mut dyn FnMut() -> Result<Box<dyn Env>, ExperimentError>,
@@ -152,10 +152,11 @@ struct ExperimentRecord {
 
 /// Creates the run directory, refusing one that already holds a run unless `overwrite`
 /// (which removes the run's files and folders, nothing else), and writes `experiment.json`.
-fn prepare_run_dir(opts: &ExperimentOptions) -> Result<(), ExperimentError> {
+fn prepare_run_dir(opts: &ExperimentOptions) -> Result<DirLock, ExperimentError> {
     let dir = &opts.out;
-    claim(dir, &EXPERIMENT_FILES, opts.overwrite).map_err(|c| match c {
+    let lock = claim(dir, &EXPERIMENT_FILES, opts.overwrite).map_err(|c| match c {
         Claim::Taken(file) => ExperimentError::RunExists { dir: dir.clone(), file },
+        Claim::Busy => ExperimentError::Busy { dir: dir.clone() },
         Claim::Io(path, source) => ExperimentError::Io { path, source },
     })?;
     let record = ExperimentRecord {
@@ -168,7 +169,8 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<(), ExperimentError> {
     };
     let path = dir.join("experiment.json");
     let text = serde_json::to_string_pretty(&record).expect("the record serialises") + "\n";
-    write_atomic(&path, &text).map_err(io_err(&path))
+    write_atomic(&path, &text).map_err(io_err(&path))?;
+    Ok(lock)
 }
 
 /// Checks that the run in `dir` trained its hybrid with `residual`, the setup its
@@ -358,7 +360,7 @@ pub fn run_experiment(
     make_residual_env(&opts.env, opts.residual.clone())?;
     // And a learner configuration out of range (reliability probe: no empty run directory).
     opts.algo.validate()?;
-    prepare_run_dir(opts)?;
+    let _held = prepare_run_dir(opts)?;
     // Pure RL on the robot environment, the hybrid on the residual environment.
     // Set when one training fails, to stop the other one running side by side.
     let stop = AtomicBool::new(false);
