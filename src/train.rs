@@ -328,6 +328,21 @@ fn validate(opts: &TrainOptions) -> Result<(), TrainError> {
     Ok(())
 }
 
+/// Refuses a checkpoint period shorter than one episode of every env: each segment starts
+/// fresh episodes, so such a period would cut every episode short and train on another
+/// task than the one asked for, silently.
+fn check_checkpoint_period(opts: &TrainOptions, episode: usize) -> Result<(), TrainError> {
+    let per_env = opts.checkpoint_every / opts.n_envs as u64;
+    if opts.checkpoint_every > 0 && per_env < episode as u64 {
+        return Err(TrainError::BadOption {
+            option: "checkpoint-every",
+            value: format!("{} ({} per env; an episode is {episode} steps)", opts.checkpoint_every, per_env),
+            reason: "must give every env at least one whole episode per segment (each checkpoint starts fresh episodes); 0: only at the end",
+        });
+    }
+    Ok(())
+}
+
 /// The learner a run starts with: `config` with `seed`, its learning-rate schedule over the
 /// whole budget (so that training in segments anneals as one call would), and for a hybrid
 /// env the controller's start (zero mean output, the preset's exploration).
@@ -358,6 +373,7 @@ pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> R
         _ => (AlgoConfig::default_for(opts.algo), EnvSettings::default()),
     };
     let source = EnvSource::read(&opts.env)?.with_settings(settings)?;
+    check_checkpoint_period(opts, source.make()?.max_episode_steps())?;
     let seed = opts.seed.unwrap_or(config.seed());
     // The learner is built (its settings checked) before anything is written.
     let algo = new_learner(config, seed, opts.steps, &source, opts.n_envs)?;

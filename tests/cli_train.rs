@@ -164,6 +164,15 @@ fn unknown_config_keys_and_bad_values_are_named() {
         let e = train(&bad, &mut |_| {}).unwrap_err();
         assert!(e.to_string().contains("--eval-every") && e.to_string().contains("multiple"), "{e}");
     }
+    // Each checkpoint starts fresh episodes: a period shorter than one episode per env
+    // (the Pendulum's 200 steps, here on 2 envs) would cut every episode (reliability probe).
+    let bad = TrainOptions { checkpoint_every: 300, n_envs: 2, config: None, ..opts.clone() };
+    let e = train(&bad, &mut |_| {}).unwrap_err();
+    assert!(
+        e.to_string().starts_with("--checkpoint-every 300 (150 per env; an episode is 200 steps)"),
+        "{e}"
+    );
+    assert!(!bad.out.exists());
     if std::path::Path::new("/dev/zero").exists() {
         let endless = TrainOptions { config: Some("/dev/zero".into()), ..opts };
         match train(&endless, &mut |_| {}) {
