@@ -354,9 +354,63 @@ fn an_off_policy_run_resumes_from_a_mid_run_copy() {
         assert_eq!(log(dir), log(&whole), "{}", dir.display());
         assert_eq!(summary_bits(dir), summary_bits(&whole), "{}", dir.display());
     }
+    // SAC's metric panels: its Q estimate, Q loss and temperature, none of PPO's.
+    let svg = std::fs::read_to_string(whole.join("metrics.svg")).unwrap();
+    for metric in ["mean q", "q loss", "alpha", "policy loss", "reward mean"] {
+        assert!(svg.contains(metric), "metrics.svg lacks {metric}");
+    }
+    assert!(!svg.contains("clip fraction") && !svg.contains("approx kl"), "SAC has no PPO metrics");
     for d in [&whole, &copy, &early] {
         std::fs::remove_dir_all(d).unwrap();
     }
+}
+
+/// `episodes.csv` holds every finished training episode with its reward terms: on the
+/// Minitaur each episode's return is its weighted terms' sum (weights of the run's `[env]`).
+#[test]
+fn the_episode_log_holds_each_episodes_reward_terms() {
+    let config = small_ppo_config(
+        "terms.toml",
+        "\n[env]\nmax_episode_steps = 40\ndistance_weight = 2.0\nenergy_weight = 0.01\ndrift_weight = 0.5\nshake_weight = 0.25\n",
+    );
+    let out = out_dir("terms");
+    let opts =
+        TrainOptions { env: "minitaur".into(), ..pendulum_run(AlgoKind::Ppo, 512, out.clone(), &config) };
+    train(&opts, &mut |_| {}).unwrap();
+    let text = std::fs::read_to_string(out.join("episodes.csv")).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("step,env,return,length,terminated,forward,energy,drift,shake"));
+    let rows: Vec<Vec<f64>> = lines.map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
+    assert!(rows.len() >= 512 / 40, "{} episodes", rows.len());
+    for r in &rows {
+        let weighted = 2.0 * r[5] - 0.01 * r[6] + 0.5 * r[7] + 0.25 * r[8];
+        assert!((r[2] - weighted).abs() <= 1e-9 * (1.0 + r[2].abs()), "{r:?}: terms sum to {weighted}");
+        assert!(r[3] >= 1.0 && r[3] <= 40.0 && r[6] >= 0.0 && r[7] <= 0.0 && r[8] <= 0.0, "{r:?}");
+    }
+    std::fs::remove_dir_all(&out).unwrap();
+    std::fs::remove_file(&config).unwrap();
+}
+
+/// `--seed` given on the command line overrides the config file's `seed` (without it the
+/// file's stands: `a_killed_run_resumes_to_the_uninterrupted_result`).
+#[test]
+fn an_explicit_seed_overrides_the_config_files() {
+    let config = small_ppo_config("seeded.toml", "seed = 11\n");
+    let out = out_dir("seeded");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["train", "--env", "pendulum", "--algo", "ppo", "--steps", "512", "--seed", "5", "--config"])
+        .arg(&config)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(summary_bits(&out).0, 5);
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
+    assert_eq!(run["seed"].as_u64(), Some(5));
+    std::fs::remove_dir_all(&out).unwrap();
+    std::fs::remove_file(&config).unwrap();
 }
 
 /// `centaur compare --env minitaur --algo ppo ARGS --config CONFIG --out OUT`.
