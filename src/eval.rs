@@ -17,7 +17,7 @@ use crate::experiment::{AgentStats, ExperimentError, evaluate_policy};
 use crate::registry::{EnvSource, RegistryError};
 use crate::rundir::write_atomic;
 use crate::settings::{EnvSettings, split_run_toml};
-use crate::train::{TrainError, read_config_file};
+use crate::train::{TrainError, config_difference, read_config_file};
 
 /// What to evaluate.
 #[derive(Clone, Debug, PartialEq)]
@@ -36,6 +36,9 @@ pub struct EvalOptions {
     pub record: Option<PathBuf>,
     /// Where `eval.json` goes (default: beside the checkpoint).
     pub out: Option<PathBuf>,
+    /// Evaluate even if the checkpoint's environment, as it records it, is no longer the
+    /// one its name and settings build today (a preset or default changed since training).
+    pub allow_env_change: bool,
 }
 
 /// The `eval.json` record.
@@ -97,9 +100,9 @@ pub fn run_eval(opts: &EvalOptions) -> Result<EvalReport, EvalError> {
         if opts.checkpoint.is_dir() { opts.checkpoint.join("checkpoint") } else { opts.checkpoint.clone() };
     let checkpoint = Checkpoint::read(&file).map_err(RlError::from)?;
     let trained_env: Option<String> = checkpoint.get_meta("env").ok();
-    let env = match (&opts.env, trained_env) {
+    let env = match (&opts.env, &trained_env) {
         (Some(e), _) => e.clone(),
-        (None, Some(e)) => e,
+        (None, Some(e)) => e.clone(),
         (None, None) => {
             return Err(EvalError::Refused(format!(
                 "{} does not name its environment; give --env",
@@ -116,6 +119,24 @@ pub fn run_eval(opts: &EvalOptions) -> Result<EvalReport, EvalError> {
         None => trained.clone(),
     };
     let body: Option<String> = checkpoint.get_meta("body").ok();
+    // The environment trained on, rebuilt today, must be the one the checkpoint records
+    // (whatever the evaluation changes on top of it with --config).
+    if let Ok(recorded) = checkpoint.get_meta::<String>("env_config")
+        && Some(&env) == trained_env.as_ref()
+        && !opts.allow_env_change
+    {
+        let today =
+            EnvSource::with_body(&env, body.clone()).with_settings(trained.clone())?.make()?.config_text();
+        if let Some(today) = today
+            && today != recorded
+        {
+            return Err(EvalError::Refused(format!(
+                "{}: `{env}` is no longer the environment this policy was trained on (a preset or default changed since): {}; evaluate anyway with --allow-env-change",
+                file.display(),
+                config_difference(&recorded, &today)
+            )));
+        }
+    }
     let source = EnvSource::with_body(&env, body).with_settings(settings)?;
     let policy = Policy::from_checkpoint(&checkpoint).map_err(RlError::from)?;
     let stats = if env == "pendulum" || env.starts_with("modular:") {

@@ -194,6 +194,11 @@ impl Env for ResidualEnv {
         self.env.max_episode_steps()
     }
 
+    fn config_text(&self) -> Option<String> {
+        let robot = self.env.config_text()?;
+        Some(format!("{robot}, {:?}, {:?}", self.config, self.controller.config()))
+    }
+
     fn dt(&self) -> f64 {
         self.env.dt()
     }

@@ -534,6 +534,7 @@ fn execute(
                 seed: 1_000_000 + task.1,
                 record: None,
                 out: Some(out),
+                allow_env_change: false,
             };
             run_eval(&eval).map_err(|e| SweepError::Judge {
                 point: task.0.clone(),

@@ -133,6 +133,27 @@ pub struct RunRecord {
     pub env_settings: EnvSettings,
     /// The version of Centaur that started the run.
     pub centaur_version: String,
+    /// The environment's whole configuration as built, presets resolved
+    /// ([`centaur_gym::Env::config_text`]): a resume or an evaluation checks that today's
+    /// environment is the same. Absent in runs recorded before it was kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub env_config: Option<String>,
+}
+
+/// Where two configuration texts first differ, with some context of each: what an error
+/// about a changed environment shows.
+pub fn config_difference(recorded: &str, today: &str) -> String {
+    let at = recorded.chars().zip(today.chars()).take_while(|(a, b)| a == b).count();
+    let around = |s: &str| {
+        let from = at.saturating_sub(40);
+        let text: String = s.chars().skip(from).take(100).collect();
+        format!(
+            "{}{text}{}",
+            if from > 0 { "…" } else { "" },
+            if s.chars().count() > from + 100 { "…" } else { "" }
+        )
+    };
+    format!("recorded `{}`, today `{}`", around(recorded), around(today))
 }
 
 /// The `summary.json` record.
@@ -373,7 +394,10 @@ pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> R
         _ => (AlgoConfig::default_for(opts.algo), EnvSettings::default()),
     };
     let source = EnvSource::read(&opts.env)?.with_settings(settings)?;
-    check_checkpoint_period(opts, source.make()?.max_episode_steps())?;
+    let built = source.make()?;
+    check_checkpoint_period(opts, built.max_episode_steps())?;
+    let env_config = built.config_text();
+    drop(built);
     let seed = opts.seed.unwrap_or(config.seed());
     // The learner is built (its settings checked) before anything is written.
     let algo = new_learner(config, seed, opts.steps, &source, opts.n_envs)?;
@@ -392,6 +416,7 @@ pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> R
         body: source.body().map(str::to_string),
         env_settings: source.settings().clone(),
         centaur_version: env!("CARGO_PKG_VERSION").to_string(),
+        env_config,
     };
     let run_json = opts.out.join("run.json");
     write_atomic(&run_json, &(serde_json::to_string_pretty(&record).expect("the record serialises") + "\n"))
@@ -434,6 +459,14 @@ pub fn resume(
         .ok_or_else(|| fail(format!("unknown algorithm `{}`", record.algo)))?;
     let source =
         EnvSource::with_body(&record.env, record.body.clone()).with_settings(record.env_settings.clone())?;
+    if let (Some(recorded), Some(today)) = (&record.env_config, source.make()?.config_text())
+        && *recorded != today
+    {
+        return Err(fail(format!(
+            "the environment is not the one the run started with (a preset or default changed since): {}",
+            config_difference(recorded, &today)
+        )));
+    }
     let ckpt_path = dir.join("checkpoint");
     let csv_path = dir.join("metrics.csv");
     if !ckpt_path.exists() {
@@ -677,6 +710,9 @@ fn write_checkpoint(
     }
     if !record.env_settings.is_empty() {
         checkpoint.set_meta("env_settings", &record.env_settings);
+    }
+    if let Some(config) = &record.env_config {
+        checkpoint.set_meta("env_config", config);
     }
     checkpoint.set_meta("run_metrics_rows", logs.rows.len());
     checkpoint.set_meta("run_episode_rows", logs.episodes.rows);

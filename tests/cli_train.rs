@@ -391,6 +391,53 @@ fn the_episode_log_holds_each_episodes_reward_terms() {
     std::fs::remove_file(&config).unwrap();
 }
 
+/// A run records its environment's whole configuration (presets resolved) in `run.json`
+/// and the checkpoint; if its name and settings build another environment later (a preset
+/// or default changed), a resume is refused and an evaluation too unless asked
+/// (`--allow-env-change`), each naming where the two differ.
+#[test]
+fn a_changed_environment_is_not_taken_for_the_one_trained_on() {
+    let config = small_ppo_config("changed.toml", "\n[env]\nmax_episode_steps = 50\n");
+    let out = out_dir("changed");
+    let opts =
+        TrainOptions { checkpoint_every: 256, ..pendulum_run(AlgoKind::Ppo, 512, out.clone(), &config) };
+    train(&opts, &mut |_| {}).unwrap();
+    let record = centaur::train::read_run_record(&out).unwrap();
+    let built = record.env_config.clone().unwrap();
+    assert_eq!(built, "Pendulum { g: 10.0, max_episode_steps: 50 }");
+    let ckpt_path = out.join("checkpoint");
+    let mut ckpt = centaur_rl::Checkpoint::read(&ckpt_path).unwrap();
+    assert_eq!(ckpt.get_meta::<String>("env_config").unwrap(), built);
+    let eval = |allow_env_change| {
+        centaur::eval::run_eval(&centaur::eval::EvalOptions {
+            checkpoint: out.clone(),
+            config: None,
+            env: None,
+            episodes: 1,
+            seed: 0,
+            record: None,
+            out: Some(out.join("eval.json")),
+            allow_env_change,
+        })
+    };
+    eval(false).unwrap();
+    // As if the preset had been g = 9.81 when it trained.
+    let then = "Pendulum { g: 9.81, max_episode_steps: 50 }";
+    ckpt.set_meta("env_config", then);
+    ckpt.write(&ckpt_path).unwrap();
+    let e = eval(false).unwrap_err().to_string();
+    assert!(e.contains("no longer the environment") && e.contains("g: 9.81") && e.contains("g: 10.0"), "{e}");
+    eval(true).unwrap();
+    let run_json = out.join("run.json");
+    let text = std::fs::read_to_string(&run_json).unwrap();
+    std::fs::write(&run_json, text.replace(&built, then)).unwrap();
+    std::fs::remove_file(out.join("summary.json")).unwrap();
+    let e = resume(&out, 1, &mut |_| {}).unwrap_err().to_string();
+    assert!(e.contains("not the one the run started with") && e.contains("g: 9.81"), "{e}");
+    std::fs::remove_dir_all(&out).unwrap();
+    std::fs::remove_file(&config).unwrap();
+}
+
 /// `--seed` given on the command line overrides the config file's `seed` (without it the
 /// file's stands: `a_killed_run_resumes_to_the_uninterrupted_result`).
 #[test]
@@ -715,6 +762,7 @@ fn the_env_table_of_a_run_file_configures_the_environment() {
             seed: 7,
             record,
             out: None,
+            allow_env_change: false,
         })
     };
     let mcap = out.join("eval.mcap");

@@ -150,6 +150,12 @@ pub trait Env: Send {
     fn reward_term_names(&self) -> &'static [&'static str] {
         &[]
     }
+    /// Everything the environment was built with, as text (its configuration's `Debug`,
+    /// defaults and presets resolved), for a run to record: the same text means the same
+    /// environment. `None` (the default): the environment does not say.
+    fn config_text(&self) -> Option<String> {
+        None
+    }
     /// Starts an episode; writes the first observation into `obs`.
     fn reset(&mut self, seed: Option<u64>, obs: &mut [f32]) -> Result<(), EnvError>;
     /// Advances one control period with `action`; writes the next observation into `obs`.

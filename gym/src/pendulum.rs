@@ -124,6 +124,10 @@ impl Env for Pendulum {
         &["angle", "velocity", "torque"]
     }
 
+    fn config_text(&self) -> Option<String> {
+        Some(format!("Pendulum {{ g: {:?}, max_episode_steps: {} }}", self.g, self.max_episode_steps))
+    }
+
     fn reset(&mut self, seed: Option<u64>, obs: &mut [f32]) -> Result<(), EnvError> {
         check_observation(&self.obs_space, obs)?;
         if let Some(s) = seed {

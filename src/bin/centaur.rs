@@ -179,6 +179,10 @@ struct EvalArgs {
     /// Where to write eval.json [default: beside the checkpoint].
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Evaluate even if the environment the checkpoint records is no longer what its name
+    /// and settings build (a preset or default changed since training).
+    #[arg(long)]
+    allow_env_change: bool,
 }
 
 /// `centaur eval`.
@@ -191,6 +195,7 @@ fn eval(args: EvalArgs) -> ExitCode {
         seed: args.seed,
         record: args.record,
         out: args.out,
+        allow_env_change: args.allow_env_change,
     };
     match centaur::eval::run_eval(&opts) {
         Ok(report) => {

@@ -512,6 +512,10 @@ impl Env for MinitaurEnv {
         self.config.max_episode_steps
     }
 
+    fn config_text(&self) -> Option<String> {
+        Some(format!("{:?}", self.config))
+    }
+
     fn dt(&self) -> f64 {
         self.config.sim.dt * self.config.action_repeat as f64
     }

@@ -340,6 +340,10 @@ impl Env for ModularEnv {
         self.config.max_episode_steps
     }
 
+    fn config_text(&self) -> Option<String> {
+        Some(format!("{:?}", self.config))
+    }
+
     fn dt(&self) -> f64 {
         self.config.sim.dt * self.config.frame_skip as f64
     }
