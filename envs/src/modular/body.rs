@@ -85,9 +85,16 @@ impl Face {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct ModuleId(pub usize);
 
+/// Most modules a body may have, the core included: the report's robots have 10–20; a
+/// body of thousands simulates at a few steps per second (reliability probe: 1,833).
+pub const MAX_MODULES: usize = 256;
+
 /// Why a body could not be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ModularError {
+    /// One module more than [`MAX_MODULES`].
+    #[error("a body has at most {MAX_MODULES} modules, the core included")]
+    TooManyModules,
     /// The parent is not a module of this body.
     #[error("module {0} does not exist in this body")]
     NoSuchModule(usize),
@@ -462,6 +469,9 @@ impl Body {
         }
         if node.children[face.index()].is_some() {
             return Err(ModularError::FaceTaken { path: self.path_of(parent), face: face.name() });
+        }
+        if self.nodes.len() >= MAX_MODULES {
+            return Err(ModularError::TooManyModules);
         }
         let id = ModuleId(self.nodes.len());
         self.nodes.push(Node { kind, rotation, parent: Some((parent, face)), children: [None; 5] });

@@ -57,5 +57,5 @@ mod body;
 mod env;
 mod json;
 
-pub use body::{Body, Face, ModularError, ModuleId, ModuleKind, ModuleSpecs};
+pub use body::{Body, Face, MAX_MODULES, ModularError, ModuleId, ModuleKind, ModuleSpecs};
 pub use env::{ModularConfig, ModularEnv, ModularObservation, ModularReward, servo_torque};
