@@ -157,10 +157,27 @@ pub fn run_eval(opts: &EvalOptions) -> Result<EvalReport, EvalError> {
         seed: opts.seed,
         stats,
     };
-    let out = opts.out.clone().unwrap_or_else(|| file.parent().unwrap_or(Path::new(".")).join("eval.json"));
+    let out =
+        opts.out.clone().unwrap_or_else(|| file.parent().unwrap_or(Path::new(".")).join(default_name(opts)));
     let json = serde_json::to_string_pretty(&report).expect("the report serialises") + "\n";
     write_atomic(&out, &json).map_err(|source| TrainError::Io { path: out.clone(), source })?;
     Ok(report)
+}
+
+/// `eval.json` for the checkpoint as trained; with `--config FILE` or `--env NAME`,
+/// `eval_FILE.json` / `eval_NAME.json` (both: `eval_NAME_FILE.json`), so that judging one
+/// policy in several configurations keeps every judgement.
+fn default_name(opts: &EvalOptions) -> String {
+    let mut name = String::from("eval");
+    if let Some(env) = &opts.env {
+        name.push('_');
+        name.push_str(&env.replace(['/', ':', '\\'], "_"));
+    }
+    if let Some(stem) = opts.config.as_deref().and_then(Path::file_stem) {
+        name.push('_');
+        name.push_str(&stem.to_string_lossy());
+    }
+    name + ".json"
 }
 
 /// Return statistics on an environment without a robot (the Pendulum, a body file's robot).

@@ -781,9 +781,13 @@ fn the_env_table_of_a_run_file_configures_the_environment() {
         "{extra} vs {}",
         as_trained.stats.length_mean
     );
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("eval.json")).unwrap()).unwrap();
-    assert_eq!(json["settings"]["healthy_reward"].as_f64(), Some(1.0));
+    // Each judgement keeps its own file: `eval_<config stem>.json` beside `eval.json`.
+    let json = |f: &str| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(out.join(f)).unwrap()).unwrap()
+    };
+    let stem = judge.file_stem().unwrap().to_string_lossy().into_owned();
+    assert_eq!(json(&format!("eval_{stem}.json"))["settings"]["healthy_reward"].as_f64(), Some(1.0));
+    assert_eq!(json("eval.json")["settings"]["healthy_reward"].as_f64(), Some(0.0), "as trained");
     assert!(eval(None, Some("ant"), None).unwrap_err().to_string().contains("policy maps"));
     std::fs::remove_file(&judge).unwrap();
     std::fs::remove_dir_all(&out).unwrap();

@@ -47,7 +47,7 @@ enum Command {
     Robustness(RobustnessArgs),
     /// Evaluate a trained policy deterministically on its environment or another
     /// configuration of it (`--config` with an [env] table); prints the table and writes
-    /// eval.json beside the checkpoint.
+    /// eval.json (eval_FILE.json with --config FILE) beside the checkpoint.
     Eval(EvalArgs),
     /// Train a grid (or list) of run settings × seeds in parallel, resumably; writes one run
     /// directory per point and seed, sweep.json (IQM with 95 % CIs per point) and
@@ -176,7 +176,8 @@ struct EvalArgs {
     /// Record the first episode as an MCAP file for Foxglove (robot environments).
     #[arg(long)]
     record: Option<PathBuf>,
-    /// Where to write eval.json [default: beside the checkpoint].
+    /// Where to write the report [default: beside the checkpoint, eval.json; with --config
+    /// FILE or --env NAME, eval_NAME_FILE.json, so that no judgement replaces another].
     #[arg(long)]
     out: Option<PathBuf>,
     /// Evaluate even if the environment the checkpoint records is no longer what its name
