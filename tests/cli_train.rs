@@ -438,20 +438,51 @@ fn a_changed_environment_is_not_taken_for_the_one_trained_on() {
     std::fs::remove_file(&config).unwrap();
 }
 
+/// `centaur ARGS --config CONFIG --out OUT`.
+fn centaur_with(args: &[&str], config: &Path, out: &Path) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(args)
+        .arg("--config")
+        .arg(config)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
+/// `centaur train ARGS --config CONFIG --out OUT`, which must succeed.
+fn cli_train(args: &[&str], config: &Path, out: &Path) {
+    let o = centaur_with(&[&["train"], args].concat(), config, out);
+    assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// `centaur train --env minitaur-residual` starts the hybrid as the controller: before any
+/// update, the checkpoint's deterministic policy outputs zero (no residual, no steering)
+/// whatever it observes.
+#[test]
+fn a_hybrid_trained_from_the_command_line_starts_as_the_controller() {
+    let config = small_ppo_config("hybrid-start.toml", "\n[env]\nmax_episode_steps = 5\n");
+    let out = out_dir("hybrid-start");
+    cli_train(&["--env", "minitaur-residual", "--algo", "ppo", "--steps", "0"], &config, &out);
+    let mut policy = Policy::load(&out.join("checkpoint")).unwrap();
+    let mut rng = centaur_gym::Rng::seed_from_u64(3);
+    let mut action = vec![1.0f32; policy.act_dim()];
+    for _ in 0..5 {
+        let obs: Vec<f32> = (0..policy.obs_dim()).map(|_| rng.normal() as f32).collect();
+        policy.act(&obs, &mut action);
+        assert!(action.iter().all(|&a| a == 0.0), "{action:?}");
+    }
+    std::fs::remove_dir_all(&out).unwrap();
+    std::fs::remove_file(&config).unwrap();
+}
+
 /// `--seed` given on the command line overrides the config file's `seed` (without it the
 /// file's stands: `a_killed_run_resumes_to_the_uninterrupted_result`).
 #[test]
 fn an_explicit_seed_overrides_the_config_files() {
     let config = small_ppo_config("seeded.toml", "seed = 11\n");
     let out = out_dir("seeded");
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
-        .args(["train", "--env", "pendulum", "--algo", "ppo", "--steps", "512", "--seed", "5", "--config"])
-        .arg(&config)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    cli_train(&["--env", "pendulum", "--algo", "ppo", "--steps", "512", "--seed", "5"], &config, &out);
     assert_eq!(summary_bits(&out).0, 5);
     let run: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
@@ -466,15 +497,7 @@ fn compare_minitaur_ppo(
     config: &std::path::Path,
     out: &std::path::Path,
 ) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
-        .args(["compare", "--env", "minitaur", "--algo", "ppo"])
-        .args(args)
-        .arg("--config")
-        .arg(config)
-        .arg("--out")
-        .arg(out)
-        .output()
-        .unwrap()
+    centaur_with(&[&["compare", "--env", "minitaur", "--algo", "ppo"], args].concat(), config, out)
 }
 
 #[test]

@@ -486,3 +486,12 @@ fn observation_sets_of_the_ablation() {
     c.obs.drop_base_orientation = true;
     assert!(ModularEnv::new(c).is_err());
 }
+
+/// Study B's control rate: `frame_skip = 50` of the 5 ms physics step is 4 control steps per
+/// second, recorded in the configuration a run keeps.
+#[test]
+fn fifty_physics_steps_per_action_is_a_4_hz_control_rate() {
+    let (env, _) = env(ModularConfig { frame_skip: 50, ..ModularConfig::gecko() });
+    assert!((env.dt() - 0.25).abs() < 1e-12, "{}", env.dt());
+    assert_eq!(env.config_text().map(|t| t.contains("frame_skip: 50")), Some(true));
+}
