@@ -29,7 +29,7 @@
 //! The Pendulum takes `max_episode_steps` only. Checkpoints and run records keep the
 //! settings (an empty table is the preset).
 
-use centaur_envs::{LocomotionConfig, MinitaurConfig, ModularConfig, ModularObservation};
+use centaur_envs::{LocomotionConfig, MinitaurConfig, ModularConfig, ModularObservation, PushSchedule};
 use centaur_gym::pendulum::Pendulum;
 use serde::{Deserialize, Serialize};
 
@@ -103,6 +103,11 @@ pub struct EnvSettings {
     /// (the observation ablation; [`ModularObservation`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub observation: Option<ModularObservation>,
+    /// Every robot: periodic pushes on the base during each episode,
+    /// `pushes = { force = 20.0, every = 2.0, duration = 0.1 }` (N, s, s;
+    /// [`centaur_envs::PushSchedule`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pushes: Option<PushSchedule>,
 }
 
 /// A key of `[env]` that the environment does not have.
@@ -117,7 +122,8 @@ pub struct NotApplicable {
     pub keys: Vec<&'static str>,
 }
 
-const COMMON: [&str; 4] = ["max_episode_steps", "frame_skip", "joint_history", "drop_base_orientation"];
+const COMMON: [&str; 5] =
+    ["max_episode_steps", "frame_skip", "joint_history", "drop_base_orientation", "pushes"];
 const MINITAUR: [&str; 8] = [
     "distance_weight",
     "energy_weight",
@@ -171,6 +177,7 @@ impl EnvSettings {
             ("healthy_angle_range", s.healthy_angle_range.is_some()),
             ("reset_noise_scale", s.reset_noise_scale.is_some()),
             ("observation", s.observation.is_some()),
+            ("pushes", s.pushes.is_some()),
         ];
         flags.into_iter().filter(|(_, given)| *given).map(|(k, _)| k).collect()
     }
@@ -211,6 +218,7 @@ impl EnvSettings {
         set(&mut c.distance_limit, s.distance_limit);
         set(&mut c.latency, s.latency);
         set(&mut c.observation_noise_std, s.observation_noise_std);
+        set(&mut c.pushes, s.pushes.map(Some));
         match s.randomize {
             Some(false) => c.randomization = None,
             Some(true) if c.randomization.is_none() => c.randomization = Some(Default::default()),
@@ -235,6 +243,7 @@ impl EnvSettings {
         set(&mut c.healthy_z_range, s.healthy_z_range.map(|[a, b]| (a, b)));
         set(&mut c.healthy_angle_range, s.healthy_angle_range.map(|[a, b]| (a, b)));
         set(&mut c.reset_noise_scale, s.reset_noise_scale);
+        set(&mut c.pushes, s.pushes.map(Some));
         Ok(c)
     }
 
@@ -249,6 +258,7 @@ impl EnvSettings {
         set(&mut c.ctrl_cost_weight, s.ctrl_cost_weight);
         set(&mut c.reset_noise_scale, s.reset_noise_scale);
         set(&mut c.observation, s.observation);
+        set(&mut c.pushes, s.pushes.map(Some));
         Ok(c)
     }
 }
@@ -313,5 +323,16 @@ mod tests {
         // The settings travel through JSON (run records, checkpoints) unchanged.
         let json = serde_json::to_string(&s).unwrap();
         assert_eq!(serde_json::from_str::<EnvSettings>(&json).unwrap(), s);
+        // Pushes: one key for every robot (not the Pendulum), its fields named.
+        let (s, _) =
+            split_run_toml("[env]\npushes = { force = 20.0, every = 2.0, duration = 0.1 }\n").unwrap();
+        let pushes = Some(PushSchedule { force: 20.0, every: 2.0, duration: 0.1 });
+        assert_eq!(s.minitaur(MinitaurConfig::default()).unwrap().pushes, pushes);
+        assert_eq!(s.locomotion(LocomotionConfig::walker2d()).unwrap().pushes, pushes);
+        assert_eq!(s.modular(ModularConfig::gecko()).unwrap().pushes, pushes);
+        assert_eq!(s.pendulum(Pendulum::new()).unwrap_err().key, "pushes");
+        assert_eq!(serde_json::from_str::<EnvSettings>(&serde_json::to_string(&s).unwrap()).unwrap(), s);
+        let e = split_run_toml("[env]\npushes = { force = 20.0, every = 2.0, length = 0.1 }\n").unwrap_err();
+        assert!(e.contains("length"), "{e}");
     }
 }

@@ -22,5 +22,5 @@ pub use modular::{
     Body, Face, ModularConfig, ModularEnv, ModularError, ModularObservation, ModularReward, ModuleId,
     ModuleKind, ModuleSpecs,
 };
-pub use robot::{FootContact, ObsOptions, RobotEnv, Servo};
+pub use robot::{FootContact, ObsOptions, PushSchedule, RobotEnv, Servo};
 pub use sim::{ColliderSpec, LoopClosure, Sim, SimConfig, SimError};

@@ -42,7 +42,7 @@ use centaur_gym::{check_action, check_observation};
 use crate::checks::{Fields, MAX_FRAME_SKIP};
 use crate::error::RobotEnvError;
 use crate::mujoco::MjRobot;
-use crate::robot::{FootContact, JointHistory, ObsOptions, Push, RobotEnv, Servo};
+use crate::robot::{FootContact, JointHistory, ObsOptions, Push, PushSchedule, RobotEnv, Servo};
 use crate::sim::{Sim, SimConfig};
 
 /// Which robot.
@@ -152,6 +152,8 @@ pub struct LocomotionConfig {
     pub sim: SimConfig,
     /// Observation options (default: none).
     pub obs: ObsOptions,
+    /// Periodic pushes on the base during every episode (default: none).
+    pub pushes: Option<PushSchedule>,
 }
 
 impl LocomotionConfig {
@@ -179,6 +181,7 @@ impl LocomotionConfig {
             max_episode_steps: 1000,
             sim: SimConfig { dt, ground_contact_frequency: 60.0, ..SimConfig::default() },
             obs: ObsOptions::default(),
+            pushes: None,
         }
     }
 
@@ -290,6 +293,9 @@ impl LocomotionConfig {
         f.range("healthy_state_range", self.healthy_state_range)?;
         f.range("contact_force_range", self.contact_force_range)?;
         f.obs(&self.obs)?;
+        if let Some(p) = &self.pushes {
+            p.validate("LocomotionConfig")?;
+        }
         Ok(())
     }
 }
@@ -343,6 +349,8 @@ impl LocomotionEnv {
         let actuated = robot.actuators.iter().map(|(iv, _)| model.joint_of_dof(*iv)).collect::<Vec<usize>>();
         let act_space = BoxSpace::new(robot.ctrl_low.clone(), robot.ctrl_high.clone());
         let feet_names: Vec<String> = config.robot.feet().iter().map(|s| s.to_string()).collect();
+        // Planar robots (no free base) cannot move sideways: pushed along ±x.
+        let planar = !robot.model.has_floating_base();
         let mut env = LocomotionEnv {
             obs_space: BoxSpace::unbounded(obs_dim),
             act_space,
@@ -364,7 +372,7 @@ impl LocomotionEnv {
             base_obs: vec![0.0; base_dim],
             steps: 0,
             needs_reset: true,
-            push: Push::default(),
+            push: Push::new(config.pushes, planar),
             episode_time: 0.0,
             rng: Rng::seed_from_u64(0),
             config,
@@ -613,7 +621,7 @@ impl Env for LocomotionEnv {
         self.steps = 0;
         self.episode_time = 0.0;
         let base = self.base_joint();
-        self.push.clear(&mut self.sim, base);
+        self.push.clear(&mut self.sim, base, &mut self.rng);
         let first_joint = if self.robot.model.has_floating_base() { 7 } else { 3 };
         let nj = self.history.len() / self.config.obs.joint_history.max(1);
         for (h, &x) in self.joint_scratch.iter_mut().zip(&self.qpos[first_joint..first_joint + nj]) {

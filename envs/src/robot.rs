@@ -82,29 +82,103 @@ pub struct ObsOptions {
     pub drop_base_orientation: bool,
 }
 
-/// A force on the robot's base for a while ([`RobotEnv::push`]), shared by the envs.
-#[derive(Clone, Copy, Debug, Default)]
+/// Pushes on the robot's base during every episode, as a setting of the environment (the
+/// `[env]` keys `push_force`, `push_every`, `push_duration`): every `every` seconds of an
+/// episode a horizontal force of `force` newtons in a random direction (along ±x on the
+/// planar robots, which cannot move sideways) acts on the base for `duration` seconds.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PushSchedule {
+    /// Force (N).
+    pub force: f64,
+    /// Period (s): the first push comes at this time into the episode.
+    pub every: f64,
+    /// Duration of each push (s), at most `every`.
+    pub duration: f64,
+}
+
+impl PushSchedule {
+    /// Checks the numbers (for the config named `config`).
+    pub(crate) fn validate(&self, config: &'static str) -> Result<(), crate::RobotEnvError> {
+        let f = crate::checks::Fields(config);
+        f.non_negative("push_force", self.force)?;
+        f.at_most("push_every", self.every, f64::MAX, "a period > 0 (s)")?;
+        f.at_most("push_duration", self.duration, self.every, "a duration > 0 and at most push_every (s)")?;
+        if self.every == 0.0 || self.duration == 0.0 {
+            return Err(crate::RobotEnvError::config(
+                config,
+                "push_every and push_duration must be positive (s)",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A force on the robot's base for a while ([`RobotEnv::push`]), and the periodic pushes of
+/// a [`PushSchedule`], shared by the envs.
+#[derive(Clone, Debug)]
 pub(crate) struct Push {
     /// The force (N, world frame) and the episode time at which it stops.
     active: Option<(Vector3<f64>, f64)>,
+    /// Periodic pushes, whether the robot is planar (pushed along ±x), and the time of the
+    /// next one.
+    schedule: Option<(PushSchedule, bool)>,
+    next: f64,
+    /// Directions of the periodic pushes (seeded at each reset from the env's generator,
+    /// which is drawn from only when there is a schedule).
+    rng: centaur_gym::Rng,
+}
+
+impl Default for Push {
+    fn default() -> Self {
+        Push::new(None, false)
+    }
 }
 
 impl Push {
+    /// No push yet; `schedule`: periodic pushes (along ±x if `planar`).
+    pub(crate) fn new(schedule: Option<PushSchedule>, planar: bool) -> Self {
+        Push {
+            active: None,
+            schedule: schedule.map(|s| (s, planar)),
+            next: 0.0,
+            rng: centaur_gym::Rng::seed_from_u64(0),
+        }
+    }
+
     /// Pushes with `force` from `now` for `duration` seconds.
     pub(crate) fn start(&mut self, force: Vector3<f64>, now: f64, duration: f64) {
         self.active = Some((force, now + duration));
     }
 
-    /// Cancels the push and removes its force from `sim` (at reset).
-    pub(crate) fn clear(&mut self, sim: &mut Sim, joint: usize) {
+    /// Cancels the push and removes its force from `sim` (at reset); with a schedule, the
+    /// first periodic push is due `every` seconds in, its directions drawn from a generator
+    /// seeded from `env_rng`.
+    pub(crate) fn clear(&mut self, sim: &mut Sim, joint: usize, env_rng: &mut centaur_gym::Rng) {
         self.active = None;
         sim.set_external_force(joint, Vector3::zeros());
+        if let Some((s, _)) = self.schedule {
+            self.next = s.every;
+            self.rng = centaur_gym::Rng::seed_from_u64(env_rng.next_u64());
+        }
     }
 
     /// Before the physics step that starts at episode time `now`: applies the force to the
     /// body moved by `joint`, or removes it once the push is over. Without a push it leaves
     /// `sim` alone.
     pub(crate) fn apply(&mut self, sim: &mut Sim, joint: usize, now: f64) {
+        if let Some((s, planar)) = self.schedule
+            && now >= self.next
+        {
+            self.next += s.every;
+            let force = if planar {
+                Vector3::new(if self.rng.uniform() < 0.5 { -s.force } else { s.force }, 0.0, 0.0)
+            } else {
+                let a = self.rng.range(0.0, std::f64::consts::TAU);
+                Vector3::new(s.force * a.cos(), s.force * a.sin(), 0.0)
+            };
+            self.start(force, now, s.duration);
+        }
         if let Some((force, until)) = self.active {
             let on = now < until;
             sim.set_external_force(joint, if on { force } else { Vector3::zeros() });

@@ -293,6 +293,47 @@ fn settings_out_of_range_are_refused_naming_the_field() {
     MinitaurEnv::new(MinitaurConfig { latency: centaur_envs::minitaur::MAX_LATENCY, ..minitaur() }).unwrap();
 }
 
+/// Periodic pushes as a setting of the env (`PushSchedule`): the same seed gives the same
+/// pushed episode, the pushes move the robot (sideways on the Ant, along x on the planar
+/// Walker2d), and out-of-range schedules are refused by field.
+#[test]
+fn scheduled_pushes_move_the_robot_reproducibly() {
+    use centaur_envs::PushSchedule;
+    let pushes = PushSchedule { force: 100.0, every: 0.05, duration: 0.025 };
+    let run = |config: LocomotionConfig, seed: u64| -> Vec<f64> {
+        let mut env = LocomotionEnv::new(config).unwrap();
+        let mut obs = vec![0.0f32; env.observation_space().dim()];
+        env.reset(Some(seed), &mut obs).unwrap();
+        let zero = vec![0.0f32; env.action_space().dim()];
+        for _ in 0..20 {
+            if env.step(&zero, &mut obs).unwrap().done() {
+                break;
+            }
+        }
+        env.qpos()[..3].to_vec()
+    };
+    for (robot, axis) in [(LocomotionConfig::ant(), 1), (LocomotionConfig::walker2d(), 0)] {
+        let pushed = LocomotionConfig { pushes: Some(pushes), ..robot.clone() };
+        let (a, b, still) = (run(pushed.clone(), 3), run(pushed.clone(), 3), run(robot.clone(), 3));
+        assert_eq!(a, b, "{:?}: the same seed, the same pushes", robot.robot);
+        assert_ne!(a, run(pushed, 4), "{:?}: another seed, other pushes", robot.robot);
+        assert!(
+            (a[axis] - still[axis]).abs() > 0.02,
+            "{:?}: pushed {a:?}, not pushed {still:?}",
+            robot.robot
+        );
+    }
+    for (says, bad) in [
+        ("push_duration = 0.5", PushSchedule { duration: 0.5, ..pushes }),
+        ("push_force = NaN", PushSchedule { force: f64::NAN, ..pushes }),
+        ("push_every = -1.0", PushSchedule { every: -1.0, ..pushes }),
+    ] {
+        let config = MinitaurConfig { pushes: Some(bad), ..MinitaurConfig::default() };
+        let err = MinitaurEnv::new(config).err().unwrap_or_else(|| panic!("{says}: accepted"));
+        assert!(err.to_string().contains(says), "{says}: {err}");
+    }
+}
+
 /// Found from Python (`gymnasium.make("centaur/Minitaur-v0", distance_limit=-1.0)` was
 /// accepted and ended every episode at its first step): a distance limit must be positive.
 #[test]

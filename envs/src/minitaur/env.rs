@@ -12,7 +12,7 @@ use super::model::{
 use super::motor::MotorModel;
 use crate::checks::{Fields, MAX_FRAME_SKIP};
 use crate::error::RobotEnvError;
-use crate::robot::{FootContact, JointHistory, ObsOptions, Push, RobotEnv};
+use crate::robot::{FootContact, JointHistory, ObsOptions, Push, PushSchedule, RobotEnv};
 use crate::sim::{ColliderSpec, LoopClosure, Sim, SimConfig};
 
 /// Observation bounds: angle, velocity (V / Kt), observed torque, quaternion.
@@ -114,6 +114,8 @@ pub struct MinitaurConfig {
     pub capsule_feet: bool,
     /// Observation options (default: none).
     pub obs: ObsOptions,
+    /// Periodic pushes on the base during every episode (default: none).
+    pub pushes: Option<PushSchedule>,
 }
 
 impl Default for MinitaurConfig {
@@ -135,6 +137,7 @@ impl Default for MinitaurConfig {
             observation_noise_std: 0.0,
             capsule_feet: true,
             obs: ObsOptions::default(),
+            pushes: None,
         }
     }
 }
@@ -167,6 +170,9 @@ impl MinitaurConfig {
         f.finite("drift_weight", self.drift_weight)?;
         f.finite("shake_weight", self.shake_weight)?;
         f.obs(&self.obs)?;
+        if let Some(p) = &self.pushes {
+            p.validate("MinitaurConfig")?;
+        }
         // Infinite is allowed (no limit, the default); zero or less would end every episode
         // at its first step.
         if self.distance_limit.is_nan() || self.distance_limit <= 0.0 {
@@ -264,6 +270,7 @@ impl MinitaurEnv {
             MotorControl::Pd { .. } => MotorModel::default(),
         };
         let delay_steps = (config.latency / config.sim.dt).round() as usize;
+        let pushes = config.pushes;
         let foot_frames = LEG_NAMES.iter().map(|l| format!("lower_leg_{l}R_link")).collect();
         let mut env = MinitaurEnv {
             act_space: action_space(config.action),
@@ -291,7 +298,7 @@ impl MinitaurEnv {
             steps: 0,
             needs_reset: true,
             base_obs: [0.0; 28],
-            push: Push::default(),
+            push: Push::new(pushes, false),
             episode_time: 0.0,
         };
         env.index_feet();
@@ -556,7 +563,7 @@ impl Env for MinitaurEnv {
         self.motor_enabled = [true; 8];
         self.overheat_counter = [0; 8];
         self.observed_torque = [0.0; 8];
-        self.push.clear(&mut self.sim, 1);
+        self.push.clear(&mut self.sim, 1, &mut self.rng);
         // PyBullet settles the robot for 100 physics steps with every motor at π/2.
         if self.config.action != MinitaurAction::Pwm {
             let settle = [std::f64::consts::FRAC_PI_2; 8];

@@ -9,7 +9,7 @@ use centaur_gym::{check_action, check_observation};
 use super::body::{Body, ModuleSpecs};
 use crate::checks::{Fields, MAX_FRAME_SKIP};
 use crate::error::RobotEnvError;
-use crate::robot::{FootContact, JointHistory, ObsOptions, Push, RobotEnv};
+use crate::robot::{FootContact, JointHistory, ObsOptions, Push, PushSchedule, RobotEnv};
 use crate::sim::{ColliderSpec, Sim, SimConfig};
 
 /// What the reward measures.
@@ -80,6 +80,8 @@ pub struct ModularConfig {
     pub observation: ModularObservation,
     /// Observation options.
     pub obs: ObsOptions,
+    /// Periodic pushes on the base during every episode (default: none).
+    pub pushes: Option<PushSchedule>,
 }
 
 impl ModularConfig {
@@ -96,6 +98,7 @@ impl ModularConfig {
             sim: SimConfig { dt: 0.005, ..SimConfig::default() },
             observation: ModularObservation::Full,
             obs: ObsOptions::default(),
+            pushes: None,
         }
     }
 
@@ -132,6 +135,9 @@ impl ModularConfig {
         f.non_negative("reset_noise_scale", self.reset_noise_scale)?;
         f.finite("ctrl_cost_weight", self.ctrl_cost_weight)?;
         f.obs(&self.obs)?;
+        if let Some(p) = &self.pushes {
+            p.validate("ModularConfig")?;
+        }
         if self.obs.drop_base_orientation && !self.observation.has_orientation() {
             return Err(RobotEnvError::config(
                 "ModularConfig",
@@ -212,7 +218,7 @@ impl ModularEnv {
             start: Vector3::zeros(),
             steps: 0,
             needs_reset: true,
-            push: Push::default(),
+            push: Push::new(config.pushes, false),
             episode_time: 0.0,
             rng: Rng::seed_from_u64(0),
             sim,
@@ -378,7 +384,7 @@ impl Env for ModularEnv {
         self.history.fill(&self.joint_scratch);
         self.steps = 0;
         self.episode_time = 0.0;
-        self.push.clear(&mut self.sim, 1);
+        self.push.clear(&mut self.sim, 1, &mut self.rng);
         self.write_obs(obs);
         self.needs_reset = false;
         Ok(())
