@@ -13,7 +13,8 @@ use crate::experiment::{
 };
 use crate::hybrid::{Exploration, ResidualConfig, Steering};
 use crate::registry::residual_config;
-use crate::train::parse_algo_config;
+use crate::settings::EnvSettings;
+use crate::train::{parse_run_config, read_config_file};
 
 /// The progress-bar style of the examples and the command line.
 pub fn progress_style() -> indicatif::ProgressStyle {
@@ -194,7 +195,7 @@ pub struct ExampleArgs {
     #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = positive_count)]
     pub eval_episodes: usize,
     /// TOML file of hyperparameters for both agents [default: the tuned set for the robot and
-    /// algorithm, see `tuned_config`]
+    /// algorithm, see `tuned_config`], with the robot's settings in an [env] table
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Do not write the MCAP recordings
@@ -252,13 +253,12 @@ impl ExampleArgs {
     /// The experiment these arguments describe, with `defaults` filling in what they leave
     /// out. Fails (with a message) only when the `--config` file cannot be read.
     pub fn options(&self, defaults: &ExampleDefaults<'_>) -> Result<ExperimentOptions, String> {
-        let algo = match &self.config {
+        let (algo, env_settings) = match &self.config {
             Some(path) => {
-                let text = std::fs::read_to_string(path)
-                    .map_err(|e| format!("cannot read --config {}: {e}", path.display()))?;
-                parse_algo_config(defaults.algo, &text, path).map_err(|e| e.to_string())?
+                let text = read_config_file(path).map_err(|e| e.to_string())?;
+                parse_run_config(defaults.algo, &text, path).map_err(|e| e.to_string())?
             }
-            None => tuned_config(defaults.env, defaults.algo),
+            None => (tuned_config(defaults.env, defaults.algo), EnvSettings::default()),
         };
         let residual = self.hybrid.apply(residual_config(defaults.env).map_err(|e| e.to_string())?);
         let n_envs = self.envs.unwrap_or(defaults.envs).max(1);
@@ -276,6 +276,7 @@ impl ExampleArgs {
             record: !self.no_record,
             eval_every: None,
             overwrite: self.overwrite,
+            env_settings,
         })
     }
 }

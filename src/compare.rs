@@ -24,6 +24,7 @@ use crate::experiment::{
 };
 use crate::hybrid::ResidualConfig;
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
+use crate::settings::EnvSettings;
 use crate::stats::{Interval, iqm_with_ci};
 
 /// What to compare.
@@ -59,6 +60,9 @@ pub struct CompareOptions {
     pub resume: bool,
     /// Replace a comparison already in `out` (its files only) instead of refusing.
     pub overwrite: bool,
+    /// `[env]` settings over the robot's preset for both agents and the controller (empty:
+    /// the preset).
+    pub env_settings: EnvSettings,
 }
 
 /// Across-seed statistics of one agent.
@@ -308,6 +312,7 @@ pub fn run_compare(
             eval_every: opts.eval_every,
             // A seed's partial run (killed before its summary) is replaced on resume.
             overwrite: opts.resume || opts.overwrite,
+            env_settings: opts.env_settings.clone(),
         };
         match opts.resume.then(|| finished_experiment(&exp)).flatten() {
             Some(r) => {

@@ -491,6 +491,44 @@ fn an_explicit_seed_overrides_the_config_files() {
     std::fs::remove_file(&config).unwrap();
 }
 
+/// `centaur compare` takes a run file's `[env]` table too: both agents train on it and all
+/// three are evaluated on it (here 30-step episodes); the record keeps it, and the studies on
+/// the preset env (`centaur robustness`) refuse such a run.
+#[test]
+fn compare_takes_the_env_table_of_its_run_file() {
+    let out = out_dir("compare-env");
+    let config = out_dir("compare-env.toml");
+    std::fs::write(&config, "n_steps = 64\nbatch_size = 64\nn_epochs = 1\n[env]\nmax_episode_steps = 30\n")
+        .unwrap();
+    let o = compare_minitaur_ppo(&["--seeds", "1", "--steps", "64", "--eval-episodes", "1"], &config, &out);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let seed_0 = out.join("seed_0");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(seed_0.join("summary.json")).unwrap()).unwrap();
+    for agent in ["hybrid", "pure_rl", "controller"] {
+        let length = summary[agent]["length_mean"].as_f64().unwrap();
+        assert!(length <= 30.0, "{agent}: {length}-step episodes");
+    }
+    let record = std::fs::read_to_string(seed_0.join("experiment.json")).unwrap();
+    assert!(record.contains("\"max_episode_steps\": 30"), "{record}");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["robustness", "--episodes", "1", "--run"])
+        .arg(&seed_0)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("[env] settings"));
+    // A key the robot does not have: refused before anything is written.
+    std::fs::write(&config, "n_steps = 64\n[env]\nhealthy_reward = 1.0\n").unwrap();
+    std::fs::remove_dir_all(&out).unwrap();
+    let o = compare_minitaur_ppo(&["--seeds", "1", "--steps", "64"], &config, &out);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("healthy_reward does not apply"));
+    assert!(!out.join("seed_0").exists());
+    let _ = std::fs::remove_dir_all(&out);
+    std::fs::remove_file(&config).unwrap();
+}
+
 /// `centaur compare --env minitaur --algo ppo ARGS --config CONFIG --out OUT`.
 fn compare_minitaur_ppo(
     args: &[&str],

@@ -178,6 +178,7 @@ fn bad_residuals_and_configs_are_refused() {
         eval_every: None,
         resume: false,
         overwrite: false,
+        env_settings: Default::default(),
     };
     let err = centaur::compare::run_compare(&opts, &mut |_, _, _| {}).unwrap_err();
     assert!(err.to_string().contains("gamma"), "{err}");

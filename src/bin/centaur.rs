@@ -11,7 +11,7 @@ use centaur::control::{ControlOptions, Push, check_out_dir, parse_gait, run_cont
 use centaur::experiment::{Condition, RobustnessOptions, robustness_table, run_robustness};
 use centaur::experiment::{Phase, tuned_config};
 use centaur::registry::residual_config;
-use centaur::train::{TrainOptions, parse_algo_config, read_run_record, resume, train};
+use centaur::train::{TrainOptions, parse_run_config, read_config_file, read_run_record, resume, train};
 use centaur_mpc::{Gait, MpcSolver};
 use centaur_rl::AlgoKind;
 use clap::{Args, Parser, Subcommand};
@@ -411,7 +411,8 @@ struct CompareArgs {
     #[arg(long)]
     out: PathBuf,
     /// TOML file with hyperparameters for both agents (default: the examples' settings for
-    /// this robot and algorithm, else the algorithm's defaults).
+    /// this robot and algorithm, else the algorithm's defaults) and, in an [env] table, the
+    /// robot's settings over its preset for all three agents (as `centaur train` takes).
     #[arg(long)]
     config: Option<PathBuf>,
     /// Parallel environments per agent (default: 4 for PPO and A2C, 1 otherwise).
@@ -445,21 +446,17 @@ struct CompareArgs {
 
 /// `centaur compare`: pure RL against the hybrid over several seeds.
 fn compare(args: CompareArgs) -> ExitCode {
-    let algo = match &args.config {
-        Some(path) => match std::fs::read_to_string(path) {
-            Ok(text) => match parse_algo_config(args.algo, &text, path) {
-                Ok(c) => c,
+    let (algo, env_settings) = match &args.config {
+        Some(path) => {
+            match read_config_file(path).and_then(|text| parse_run_config(args.algo, &text, path)) {
+                Ok(parsed) => parsed,
                 Err(e) => {
                     eprintln!("error: {e}");
                     return ExitCode::FAILURE;
                 }
-            },
-            Err(e) => {
-                eprintln!("error: {}: {e}", path.display());
-                return ExitCode::FAILURE;
             }
-        },
-        None => tuned_config(&args.env, args.algo),
+        }
+        None => (tuned_config(&args.env, args.algo), Default::default()),
     };
     let residual = match residual_config(&args.env) {
         Ok(r) => args.hybrid.apply(r),
@@ -483,6 +480,7 @@ fn compare(args: CompareArgs) -> ExitCode {
         eval_every: (args.eval_every > 0).then_some(args.eval_every),
         resume: args.resume,
         overwrite: args.overwrite,
+        env_settings,
     };
     let seeds = opts.seeds.max(1);
     let bar = ProgressBar::new(seeds * 2 * opts.steps);

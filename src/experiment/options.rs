@@ -10,6 +10,7 @@ use crate::hybrid::{HybridError, ResidualConfig};
 use crate::plot::PlotError;
 use crate::recording::RecordError;
 use crate::registry::RegistryError;
+use crate::settings::EnvSettings;
 
 /// Why an experiment failed.
 #[derive(Debug, thiserror::Error)]
@@ -130,6 +131,9 @@ pub struct ExperimentOptions {
     pub eval_every: Option<u64>,
     /// Replace a run already in `out` (its files only) instead of refusing.
     pub overwrite: bool,
+    /// `[env]` settings over the robot's preset, for both agents and the controller alone
+    /// (empty: the preset).
+    pub env_settings: EnvSettings,
 }
 
 impl ExperimentOptions {
@@ -137,7 +141,7 @@ impl ExperimentOptions {
     /// as Rust's `Debug` writes it (floats in their shortest round-trip form): a finished run
     /// whose `experiment.json` holds the same text can be kept instead of run again.
     pub fn fingerprint(&self) -> String {
-        format!(
+        let base = format!(
             "{:?}",
             (
                 &self.env,
@@ -149,7 +153,9 @@ impl ExperimentOptions {
                 &self.residual,
                 self.eval_every
             )
-        )
+        );
+        // Runs on the preset keep the fingerprint they had before settings existed.
+        if self.env_settings.is_empty() { base } else { format!("{base} with {:?}", self.env_settings) }
     }
 }
 

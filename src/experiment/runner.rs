@@ -15,9 +15,10 @@ use super::options::{Curve, ExperimentError, ExperimentOptions, ExperimentResult
 use super::summary::{AgentStats, BudgetEval, ExperimentSummary};
 use crate::hybrid::{ActionMapping, HybridError, ResidualConfig};
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
-use crate::registry::{controller_config, make_residual_env, make_robot_env};
+use crate::registry::{controller_config, make_residual_env_with, make_robot_env_with};
 use crate::residual::start_as_controller;
 use crate::rundir::{Claim, DirLock, claim, write_atomic};
+use crate::settings::EnvSettings;
 
 fn vec_env_of(
     make: &mut dyn FnMut() -> Result<Box<dyn Env>, ExperimentError>,
@@ -93,10 +94,13 @@ fn train_one(
         let wall_seconds = t0.elapsed().as_secs_f64() - eval_time;
         let mut driver = match phase {
             Phase::TrainHybrid => Driver::Hybrid {
-                env: Box::new(make_residual_env(&opts.env, opts.residual.clone())?),
+                env: Box::new(make_residual_env_with(&opts.env, opts.residual.clone(), &opts.env_settings)?),
                 policy: algo.policy(),
             },
-            _ => Driver::Pure { env: make_robot_env(&opts.env, None)?, policy: algo.policy() },
+            _ => Driver::Pure {
+                env: make_robot_env_with(&opts.env, &opts.env_settings)?,
+                policy: algo.policy(),
+            },
         };
         let stats = evaluate(&mut driver, opts.eval_episodes, 1_000_000 + opts.seed, None)?;
         evals.push(BudgetEval {
@@ -148,6 +152,9 @@ struct ExperimentRecord {
     /// fingerprint's text is matched instead ([`legacy`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     residual: Option<ResidualConfig>,
+    /// The `[env]` settings of both agents (absent: the preset).
+    #[serde(default, skip_serializing_if = "EnvSettings::is_empty")]
+    env_settings: EnvSettings,
 }
 
 /// Creates the run directory, refusing one that already holds a run unless `overwrite`
@@ -166,6 +173,7 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<DirLock, ExperimentError>
         seed: opts.seed,
         fingerprint: opts.fingerprint(),
         residual: Some(opts.residual.clone()),
+        env_settings: opts.env_settings.clone(),
     };
     let path = dir.join("experiment.json");
     let text = serde_json::to_string_pretty(&record).expect("the record serialises") + "\n";
@@ -190,6 +198,14 @@ pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<(), E
         path: path.clone(),
         source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
     })?;
+    // The studies that check with this run the robot's preset environment.
+    if !record.env_settings.is_empty() {
+        return Err(ExperimentError::SetupMismatch {
+            run: dir.to_path_buf(),
+            trained: format!("[env] settings {:?}", record.env_settings),
+            given: "the robot's preset environment".into(),
+        });
+    }
     let own_rating = controller_config(&record.env)
         .ok()
         .and_then(|c| c.offer(residual.command.gait).ok().map(|o| o.max_speed));
@@ -357,7 +373,7 @@ pub fn run_experiment(
     // The hybrid needs a controller: refuse a robot without one before training anything.
     controller_config(&opts.env)?;
     // And a residual setup that does not fit the robot, before anything is written.
-    make_residual_env(&opts.env, opts.residual.clone())?;
+    make_residual_env_with(&opts.env, opts.residual.clone(), &opts.env_settings)?;
     // And a learner configuration out of range (reliability probe: no empty run directory).
     opts.algo.validate()?;
     let _held = prepare_run_dir(opts)?;
@@ -372,7 +388,7 @@ pub fn run_experiment(
     };
     let train_pure = |progress: &mut dyn FnMut(Phase, &UpdateMetrics)| {
         let mut env = vec_env_of(
-            &mut || Ok(make_robot_env(&opts.env, None)? as Box<dyn Env>),
+            &mut || Ok(make_robot_env_with(&opts.env, &opts.env_settings)? as Box<dyn Env>),
             opts.n_envs,
             opts.threads,
         )?;
@@ -380,7 +396,10 @@ pub fn run_experiment(
     };
     let train_hybrid = |progress: &mut dyn FnMut(Phase, &UpdateMetrics)| {
         let mut env = vec_env_of(
-            &mut || Ok(Box::new(make_residual_env(&opts.env, opts.residual.clone())?) as Box<dyn Env>),
+            &mut || {
+                Ok(Box::new(make_residual_env_with(&opts.env, opts.residual.clone(), &opts.env_settings)?)
+                    as Box<dyn Env>)
+            },
             opts.n_envs,
             opts.threads,
         )?;
@@ -449,18 +468,18 @@ pub fn run_experiment(
     };
     let pure = || -> Result<Driver, ExperimentError> {
         Ok(Driver::Pure {
-            env: make_robot_env(&opts.env, None)?,
+            env: make_robot_env_with(&opts.env, &opts.env_settings)?,
             policy: Policy::load(&pure_ckpt).map_err(RlError::from)?,
         })
     };
     let hybrid = || -> Result<Driver, ExperimentError> {
         Ok(Driver::Hybrid {
-            env: Box::new(make_residual_env(&opts.env, opts.residual.clone())?),
+            env: Box::new(make_residual_env_with(&opts.env, opts.residual.clone(), &opts.env_settings)?),
             policy: Policy::load(&hybrid_ckpt).map_err(RlError::from)?,
         })
     };
     let controller = || -> Result<Driver, ExperimentError> {
-        let env = make_robot_env(&opts.env, None)?;
+        let env = make_robot_env_with(&opts.env, &opts.env_settings)?;
         // The controller the hybrid runs (its rating included), commanded as at zero steering.
         let mut config = controller_config(&opts.env)?;
         opts.residual.rate_controller(&mut config)?;
@@ -557,6 +576,7 @@ mod tests {
             seed: 0,
             fingerprint,
             residual: residual.cloned(),
+            env_settings: EnvSettings::default(),
         }
     }
 
