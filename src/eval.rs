@@ -170,6 +170,13 @@ pub fn run_eval(opts: &EvalOptions) -> Result<EvalReport, EvalError> {
 fn default_name(opts: &EvalOptions) -> String {
     let mut name = String::from("eval");
     if let Some(env) = &opts.env {
+        // `modular:dir/body.json` → `modular_body`.
+        let env = match env.strip_prefix("modular:") {
+            Some(file) => {
+                format!("modular_{}", Path::new(file).file_stem().unwrap_or_default().to_string_lossy())
+            }
+            None => env.clone(),
+        };
         name.push('_');
         name.push_str(&env.replace(['/', ':', '\\'], "_"));
     }

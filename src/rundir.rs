@@ -43,7 +43,8 @@ pub struct DirLock {
 }
 
 /// Locks the existing directory `dir` for this process ([`DirLock`]), or says that another
-/// holds it ([`Claim::Busy`]).
+/// holds it ([`Claim::Busy`]). On a file system without file locks (some network or FUSE
+/// mounts) the run goes on unlocked, as it did before locks existed, rather than not at all.
 pub fn lock_dir(dir: &Path) -> Result<DirLock, Claim> {
     let path = dir.join(LOCK_FILE);
     let file = std::fs::OpenOptions::new()
@@ -53,9 +54,8 @@ pub fn lock_dir(dir: &Path) -> Result<DirLock, Claim> {
         .open(&path)
         .map_err(|e| Claim::Io(path.clone(), e))?;
     match file.try_lock() {
-        Ok(()) => Ok(DirLock { _file: file }),
         Err(std::fs::TryLockError::WouldBlock) => Err(Claim::Busy),
-        Err(std::fs::TryLockError::Error(e)) => Err(Claim::Io(path, e)),
+        Ok(()) | Err(std::fs::TryLockError::Error(_)) => Ok(DirLock { _file: file }),
     }
 }
 

@@ -385,21 +385,41 @@ pub fn run_sweep(
 
 /// The output directory of each of a study's grid files under `out`: `out` itself for one
 /// file, `out/<file stem>` for several (`centaur sweep --grid studies/d_*.toml`). Two files
-/// with the same stem are refused, as one would overwrite the other.
-pub fn study_dirs(grids: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, SweepError> {
-    if grids.len() == 1 {
+/// with the same stem are refused, as one would overwrite the other, and so is a directory
+/// holding a sweep of another grid (unless `overwrite`): all before the first grid runs.
+pub fn study_dirs(
+    grids: &[(PathBuf, CheckedGrid)],
+    out: &Path,
+    overwrite: bool,
+) -> Result<Vec<PathBuf>, SweepError> {
+    let dirs = study_dir_names(grids.iter().map(|(p, _)| p.as_path()), grids.len(), out)?;
+    for ((_, grid), dir) in grids.iter().zip(&dirs) {
+        let recorded = std::fs::read_to_string(dir.join("sweep.toml"));
+        if !overwrite && recorded.is_ok_and(|text| text != grid.text) {
+            return Err(SweepError::OtherGrid { dir: dir.clone() });
+        }
+    }
+    Ok(dirs)
+}
+
+fn study_dir_names<'a>(
+    grids: impl Iterator<Item = &'a Path>,
+    n: usize,
+    out: &Path,
+) -> Result<Vec<PathBuf>, SweepError> {
+    if n == 1 {
         return Ok(vec![out.to_path_buf()]);
     }
-    let mut dirs: Vec<PathBuf> = Vec::with_capacity(grids.len());
+    let mut dirs: Vec<PathBuf> = Vec::with_capacity(n);
     for grid in grids {
         let stem = grid.file_stem().ok_or_else(|| SweepError::Grid {
-            path: grid.clone(),
+            path: grid.to_path_buf(),
             message: "a grid file needs a file name".into(),
         })?;
         let dir = out.join(stem);
         if dirs.contains(&dir) {
             return Err(SweepError::Grid {
-                path: grid.clone(),
+                path: grid.to_path_buf(),
                 message: format!(
                     "another grid file given has the same name; both would write {}",
                     dir.display()

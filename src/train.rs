@@ -349,12 +349,26 @@ fn validate(opts: &TrainOptions) -> Result<(), TrainError> {
     Ok(())
 }
 
-/// Refuses a checkpoint period shorter than one episode of every env: each segment starts
-/// fresh episodes, so such a period would cut every episode short and train on another
-/// task than the one asked for, silently.
-fn check_checkpoint_period(opts: &TrainOptions, episode: usize) -> Result<(), TrainError> {
-    let per_env = opts.checkpoint_every / opts.n_envs as u64;
-    if opts.checkpoint_every > 0 && per_env < episode as u64 {
+/// Refuses a checkpoint period shorter than one episode of every env when the run has more
+/// than one segment: each segment starts fresh episodes, so such a period would cut every
+/// episode short and train on another task than the one asked for, silently. An on-policy
+/// learner's segment ends at a whole rollout (`n_steps` per env), which counts.
+fn check_checkpoint_period(
+    opts: &TrainOptions,
+    config: &AlgoConfig,
+    episode: usize,
+) -> Result<(), TrainError> {
+    if opts.checkpoint_every == 0 || opts.checkpoint_every >= opts.steps {
+        return Ok(());
+    }
+    let n_envs = opts.n_envs as u64;
+    let rollout = match config {
+        AlgoConfig::Ppo(c) => c.n_steps as u64,
+        AlgoConfig::A2c(c) => c.n_steps as u64,
+        _ => 1,
+    };
+    let per_env = opts.checkpoint_every.div_ceil(n_envs * rollout) * rollout;
+    if per_env < episode as u64 {
         return Err(TrainError::BadOption {
             option: "checkpoint-every",
             value: format!("{} ({} per env; an episode is {episode} steps)", opts.checkpoint_every, per_env),
@@ -395,7 +409,7 @@ pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> R
     };
     let source = EnvSource::read(&opts.env)?.with_settings(settings)?;
     let built = source.make()?;
-    check_checkpoint_period(opts, built.max_episode_steps())?;
+    check_checkpoint_period(opts, &config, built.max_episode_steps())?;
     let env_config = built.config_text();
     drop(built);
     let seed = opts.seed.unwrap_or(config.seed());
@@ -450,11 +464,12 @@ pub fn resume(
         });
     }
     let record = read_run_record(dir)?;
-    let _held = lock_dir(dir).map_err(|c| claim_err(dir, c))?;
     let summary_path = dir.join("summary.json");
     if let Ok(text) = std::fs::read_to_string(&summary_path) {
+        // Finished: nothing is written (also on a read-only copy).
         return serde_json::from_str(&text).map_err(|e| fail(format!("{}: {e}", summary_path.display())));
     }
+    let _held = lock_dir(dir).map_err(|c| claim_err(dir, c))?;
     let kind = AlgoKind::from_name(&record.algo)
         .ok_or_else(|| fail(format!("unknown algorithm `{}`", record.algo)))?;
     let source =

@@ -166,13 +166,17 @@ fn unknown_config_keys_and_bad_values_are_named() {
     }
     // Each checkpoint starts fresh episodes: a period shorter than one episode per env
     // (the Pendulum's 200 steps, here on 2 envs) would cut every episode (reliability probe).
-    let bad = TrainOptions { checkpoint_every: 300, n_envs: 2, config: None, ..opts.clone() };
+    let bad = TrainOptions { checkpoint_every: 300, steps: 1000, n_envs: 2, config: None, ..opts.clone() };
     let e = train(&bad, &mut |_| {}).unwrap_err();
     assert!(
         e.to_string().starts_with("--checkpoint-every 300 (150 per env; an episode is 200 steps)"),
         "{e}"
     );
     assert!(!bad.out.exists());
+    // One segment (the period at or past the budget) cuts nothing: accepted.
+    let single = TrainOptions { checkpoint_every: 300, steps: 200, n_envs: 2, config: None, ..opts.clone() };
+    assert!(!matches!(train(&single, &mut |_| {}), Err(TrainError::BadOption { .. })));
+    std::fs::remove_dir_all(&single.out).unwrap();
     if std::path::Path::new("/dev/zero").exists() {
         let endless = TrainOptions { config: Some("/dev/zero".into()), ..opts };
         match train(&endless, &mut |_| {}) {
@@ -517,7 +521,7 @@ fn compare_takes_the_env_table_of_its_run_file() {
         .output()
         .unwrap();
     assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("[env] settings"));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("trained with [env] settings (max_episode_steps)"));
     // A key the robot does not have: refused before anything is written.
     std::fs::write(&config, "n_steps = 64\n[env]\nhealthy_reward = 1.0\n").unwrap();
     std::fs::remove_dir_all(&out).unwrap();
@@ -887,20 +891,28 @@ fn a_run_directory_held_by_another_process_is_refused() {
     }
     drop(held);
     train(&opts, &mut |_| {}).unwrap();
-    // Another process (the CLI) is refused while this one holds the finished run.
+    // Another process (the CLI) is refused while this one holds the run: replacing it, or
+    // resuming it once unfinished (a finished run's resume only reads its summary).
     let held = lock_dir(&out).unwrap();
+    let cli = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_centaur")).args(args).arg(&out).output().unwrap()
+    };
+    assert!(cli(&["train", "--resume"]).status.success(), "a finished run reads back while held");
+    let summary = std::fs::read(out.join("summary.json")).unwrap();
+    std::fs::remove_file(out.join("summary.json")).unwrap();
     for args in [
         &["train", "--resume"][..],
         &["train", "--env", "pendulum", "--algo", "ppo", "--steps", "256", "--overwrite", "--out"],
     ] {
-        let o =
-            std::process::Command::new(env!("CARGO_BIN_EXE_centaur")).args(args).arg(&out).output().unwrap();
+        let o = cli(args);
         assert!(!o.status.success(), "{args:?}");
         assert!(String::from_utf8_lossy(&o.stderr).contains("another process is writing"), "{args:?}");
     }
-    assert!(out.join("summary.json").is_file(), "a refused run touched the held one");
+    assert!(out.join("run.json").is_file(), "a refused run touched the held one");
     drop(held);
-    assert!(resume(&out, 1, &mut |_| {}).is_ok());
+    let resumed = resume(&out, 1, &mut |_| {}).unwrap();
+    let finished: Summary = serde_json::from_slice(&summary).unwrap();
+    assert_eq!(resumed.final_return_mean.to_bits(), finished.final_return_mean.to_bits());
     std::fs::remove_dir_all(&out).unwrap();
     std::fs::remove_file(&config).unwrap();
 }
@@ -1104,7 +1116,7 @@ fn a_study_of_several_grids_runs_with_one_command() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("same name"));
     assert!(!out.exists(), "a refused study ran");
-    let o = sweep(&[one, two]);
+    let o = sweep(&[one.clone(), two.clone()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     for stem in ["s_one", "s_two"] {
         let json: serde_json::Value =
@@ -1112,6 +1124,13 @@ fn a_study_of_several_grids_runs_with_one_command() {
                 .unwrap();
         assert_eq!(json["points"].as_array().unwrap().len(), 1);
     }
+    // The second file changed since: its directory holds another grid's sweep, refused
+    // before the first grid is looked at again.
+    std::fs::write(&two, grid("2e-3")).unwrap();
+    let o = sweep(&[one, two]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("s_two holds a sweep of another grid"));
+    assert!(!String::from_utf8_lossy(&o.stdout).contains("=="), "a grid ran");
     std::fs::remove_dir_all(&out).unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -38,6 +38,17 @@ impl Fields {
         if v.is_finite() && (0.0..=max).contains(&v) { Ok(()) } else { Err(self.err(field, v, expected)) }
     }
 
+    /// A finite number in `(0, max]`.
+    pub(crate) fn positive(
+        &self,
+        field: &str,
+        v: f64,
+        max: f64,
+        expected: &str,
+    ) -> Result<(), RobotEnvError> {
+        if v.is_finite() && v > 0.0 && v <= max { Ok(()) } else { Err(self.err(field, v, expected)) }
+    }
+
     /// A count in `[1, max]`.
     pub(crate) fn count(&self, field: &str, n: usize, max: usize) -> Result<(), RobotEnvError> {
         if (1..=max).contains(&n) { Ok(()) } else { Err(self.err(field, n, &format!("1 to {max}"))) }

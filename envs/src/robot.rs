@@ -83,7 +83,7 @@ pub struct ObsOptions {
 }
 
 /// Pushes on the robot's base during every episode, as a setting of the environment (the
-/// `[env]` keys `push_force`, `push_every`, `push_duration`): every `every` seconds of an
+/// `[env]` key `pushes = { force, every, duration }`): every `every` seconds of an
 /// episode a horizontal force of `force` newtons in a random direction (along ±x on the
 /// planar robots, which cannot move sideways) acts on the base for `duration` seconds.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -101,16 +101,14 @@ impl PushSchedule {
     /// Checks the numbers (for the config named `config`).
     pub(crate) fn validate(&self, config: &'static str) -> Result<(), crate::RobotEnvError> {
         let f = crate::checks::Fields(config);
-        f.non_negative("push_force", self.force)?;
-        f.at_most("push_every", self.every, f64::MAX, "a period > 0 (s)")?;
-        f.at_most("push_duration", self.duration, self.every, "a duration > 0 and at most push_every (s)")?;
-        if self.every == 0.0 || self.duration == 0.0 {
-            return Err(crate::RobotEnvError::config(
-                config,
-                "push_every and push_duration must be positive (s)",
-            ));
-        }
-        Ok(())
+        f.non_negative("pushes.force", self.force)?;
+        f.positive("pushes.every", self.every, f64::MAX, "a period > 0 (s)")?;
+        f.positive(
+            "pushes.duration",
+            self.duration,
+            self.every,
+            "a duration > 0 and at most pushes.every (s)",
+        )
     }
 }
 

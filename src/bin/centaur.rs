@@ -115,7 +115,7 @@ fn sweep(args: SweepArgs) -> ExitCode {
         return ExitCode::SUCCESS;
     }
     let out = args.out.expect("clap requires --out without --check");
-    let outs = match centaur::sweep::study_dirs(&args.grid, &out) {
+    let outs = match centaur::sweep::study_dirs(&grids, &out, args.overwrite) {
         Ok(outs) => outs,
         Err(e) => {
             eprintln!("error: {e}");

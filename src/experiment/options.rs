@@ -83,6 +83,16 @@ pub enum ExperimentError {
         /// The directory.
         dir: PathBuf,
     },
+    /// A run trained with `[env]` settings, given to a study that runs the preset env.
+    #[error(
+        "{run}: its agents were trained with [env] settings ({keys}); this runs the robot's preset environment, on which they were not trained"
+    )]
+    EnvSettingsNotCovered {
+        /// The run directory.
+        run: PathBuf,
+        /// The `[env]` keys it was trained with.
+        keys: String,
+    },
     /// A directory that holds no experiment (no `experiment.json`).
     #[error(
         "{dir} holds no experiment.json: give the directory of one run of `centaur compare` (e.g. runs/compare_…/seed_0) or of the main example (runs/residual_ppo_minitaur)"

@@ -200,10 +200,9 @@ pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<(), E
     })?;
     // The studies that check with this run the robot's preset environment.
     if !record.env_settings.is_empty() {
-        return Err(ExperimentError::SetupMismatch {
+        return Err(ExperimentError::EnvSettingsNotCovered {
             run: dir.to_path_buf(),
-            trained: format!("[env] settings {:?}", record.env_settings),
-            given: "the robot's preset environment".into(),
+            keys: record.env_settings.given().join(", "),
         });
     }
     let own_rating = controller_config(&record.env)
