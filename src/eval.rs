@@ -127,13 +127,10 @@ pub fn run_eval(opts: &EvalOptions) -> Result<EvalReport, EvalError> {
     {
         let today =
             EnvSource::with_body(&env, body.clone()).with_settings(trained.clone())?.make()?.config_text();
-        if let Some(today) = today
-            && today != recorded
-        {
+        if let Some(difference) = today.and_then(|today| config_difference(&recorded, &today)) {
             return Err(EvalError::Refused(format!(
-                "{}: `{env}` is no longer the environment this policy was trained on (a preset or default changed since): {}; evaluate anyway with --allow-env-change",
-                file.display(),
-                config_difference(&recorded, &today)
+                "{}: `{env}` is no longer the environment this policy was trained on (a preset or default changed since): {difference}; evaluate anyway with --allow-env-change",
+                file.display()
             )));
         }
     }

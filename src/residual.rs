@@ -194,9 +194,12 @@ impl Env for ResidualEnv {
         self.env.max_episode_steps()
     }
 
+    /// The robot's configuration and the residual setup (the controller's preset is not
+    /// part of it: runs of `centaur compare` check the setup they were trained with,
+    /// [`crate::experiment::check_trained_with`]).
     fn config_text(&self) -> Option<String> {
-        let robot = self.env.config_text()?;
-        Some(format!("{robot}, {:?}, {:?}", self.config, self.controller.config()))
+        let robot: serde_json::Value = serde_json::from_str(&self.env.config_text()?).ok()?;
+        Some(serde_json::json!({ "robot": robot, "residual": self.config }).to_string())
     }
 
     fn dt(&self) -> f64 {

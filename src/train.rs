@@ -140,20 +140,31 @@ pub struct RunRecord {
     pub env_config: Option<String>,
 }
 
-/// Where two configuration texts first differ, with some context of each: what an error
-/// about a changed environment shows.
-pub fn config_difference(recorded: &str, today: &str) -> String {
-    let at = recorded.chars().zip(today.chars()).take_while(|(a, b)| a == b).count();
-    let around = |s: &str| {
-        let from = at.saturating_sub(40);
-        let text: String = s.chars().skip(from).take(100).collect();
-        format!(
-            "{}{text}{}",
-            if from > 0 { "…" } else { "" },
-            if s.chars().count() > from + 100 { "…" } else { "" }
-        )
-    };
-    format!("recorded `{}`, today `{}`", around(recorded), around(today))
+/// Where the environment a run recorded (`recorded`, [`centaur_gym::Env::config_text`])
+/// differs from the one built today, or `None` when it does not: the first value of the
+/// record that today's lacks or holds otherwise, by its path. Fields only today's has (added
+/// since) are no difference; a record that is not JSON (written before 2026-11-27) is not
+/// compared.
+pub fn config_difference(recorded: &str, today: &str) -> Option<String> {
+    fn first(path: &str, r: &serde_json::Value, t: Option<&serde_json::Value>) -> Option<String> {
+        match (r, t) {
+            (serde_json::Value::Object(r), Some(serde_json::Value::Object(t))) => {
+                r.iter().find_map(|(k, v)| {
+                    let sub = if path.is_empty() { k.clone() } else { format!("{path}.{k}") };
+                    first(&sub, v, t.get(k))
+                })
+            }
+            (serde_json::Value::Array(r), Some(serde_json::Value::Array(t))) if r.len() == t.len() => {
+                r.iter().zip(t).enumerate().find_map(|(i, (r, t))| first(&format!("{path}[{i}]"), r, Some(t)))
+            }
+            (r, Some(t)) if r == t => None,
+            (r, Some(t)) => Some(format!("{path}: recorded {r}, today {t}")),
+            (r, None) => Some(format!("{path}: recorded {r}, today absent")),
+        }
+    }
+    let recorded: serde_json::Value = serde_json::from_str(recorded).ok()?;
+    let today: serde_json::Value = serde_json::from_str(today).ok()?;
+    first("", &recorded, Some(&today))
 }
 
 /// The `summary.json` record.
@@ -475,11 +486,10 @@ pub fn resume(
     let source =
         EnvSource::with_body(&record.env, record.body.clone()).with_settings(record.env_settings.clone())?;
     if let (Some(recorded), Some(today)) = (&record.env_config, source.make()?.config_text())
-        && *recorded != today
+        && let Some(difference) = config_difference(recorded, &today)
     {
         return Err(fail(format!(
-            "the environment is not the one the run started with (a preset or default changed since): {}",
-            config_difference(recorded, &today)
+            "the environment is not the one the run started with (a preset or default changed since): {difference}"
         )));
     }
     let ckpt_path = dir.join("checkpoint");

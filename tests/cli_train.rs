@@ -408,7 +408,7 @@ fn a_changed_environment_is_not_taken_for_the_one_trained_on() {
     train(&opts, &mut |_| {}).unwrap();
     let record = centaur::train::read_run_record(&out).unwrap();
     let built = record.env_config.clone().unwrap();
-    assert_eq!(built, "Pendulum { g: 10.0, max_episode_steps: 50 }");
+    assert_eq!(built, r#"{"g": 10.0, "max_episode_steps": 50}"#);
     let ckpt_path = out.join("checkpoint");
     let mut ckpt = centaur_rl::Checkpoint::read(&ckpt_path).unwrap();
     assert_eq!(ckpt.get_meta::<String>("env_config").unwrap(), built);
@@ -425,19 +425,32 @@ fn a_changed_environment_is_not_taken_for_the_one_trained_on() {
         })
     };
     eval(false).unwrap();
-    // As if the preset had been g = 9.81 when it trained.
-    let then = "Pendulum { g: 9.81, max_episode_steps: 50 }";
-    ckpt.set_meta("env_config", then);
-    ckpt.write(&ckpt_path).unwrap();
-    let e = eval(false).unwrap_err().to_string();
-    assert!(e.contains("no longer the environment") && e.contains("g: 9.81") && e.contains("g: 10.0"), "{e}");
-    eval(true).unwrap();
+    let mut recorded_as = |config: &str| {
+        ckpt.set_meta("env_config", config);
+        ckpt.write(&ckpt_path).unwrap();
+    };
+    // A record from before a field existed (here as if `max_episode_steps` were new): the
+    // same environment.
+    recorded_as(r#"{"g": 10.0}"#);
+    eval(false).unwrap();
+    // As if the preset had been g = 9.81 when it trained, or had a field it no longer has.
+    for (then, says) in [
+        (r#"{"g": 9.81, "max_episode_steps": 50}"#, "g: recorded 9.81, today 10.0"),
+        (r#"{"g": 10.0, "max_episode_steps": 50, "damping": 0.1}"#, "damping: recorded 0.1, today absent"),
+    ] {
+        recorded_as(then);
+        let e = eval(false).unwrap_err().to_string();
+        assert!(e.contains("no longer the environment") && e.contains(says), "{e}");
+        eval(true).unwrap();
+    }
     let run_json = out.join("run.json");
-    let text = std::fs::read_to_string(&run_json).unwrap();
-    std::fs::write(&run_json, text.replace(&built, then)).unwrap();
+    let mut run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&run_json).unwrap()).unwrap();
+    run["env_config"] = r#"{"g": 9.81, "max_episode_steps": 50}"#.into();
+    std::fs::write(&run_json, run.to_string()).unwrap();
     std::fs::remove_file(out.join("summary.json")).unwrap();
     let e = resume(&out, 1, &mut |_| {}).unwrap_err().to_string();
-    assert!(e.contains("not the one the run started with") && e.contains("g: 9.81"), "{e}");
+    assert!(e.contains("not the one the run started with") && e.contains("g: recorded 9.81"), "{e}");
     std::fs::remove_dir_all(&out).unwrap();
     std::fs::remove_file(&config).unwrap();
 }

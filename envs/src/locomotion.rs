@@ -46,7 +46,7 @@ use crate::robot::{FootContact, JointHistory, ObsOptions, Push, PushSchedule, Ro
 use crate::sim::{Sim, SimConfig};
 
 /// Which robot.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum LocomotionRobot {
     /// Gymnasium Ant-v5.
     Ant,
@@ -115,7 +115,7 @@ impl LocomotionRobot {
 }
 
 /// Configuration of a [`LocomotionEnv`]; the presets hold Gymnasium v5's defaults.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct LocomotionConfig {
     /// The robot.
     pub robot: LocomotionRobot,
@@ -585,7 +585,7 @@ impl Env for LocomotionEnv {
     }
 
     fn config_text(&self) -> Option<String> {
-        Some(format!("{:?}", self.config))
+        serde_json::to_string(&self.config).ok()
     }
 
     fn dt(&self) -> f64 {

@@ -73,7 +73,7 @@ pub trait RobotEnv: Env {
 }
 
 /// Observation options shared by every environment (one seed paper ablates them).
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct ObsOptions {
     /// Append the joint positions of the last `k` control steps (oldest first), after the
     /// environment's own observation (default: 0).

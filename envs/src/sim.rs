@@ -29,7 +29,7 @@ use rapier3d::prelude::{
 };
 
 /// Physics settings of a [`Sim`].
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct SimConfig {
     /// Physics time step (s) (default: 0.002).
     pub dt: f64,

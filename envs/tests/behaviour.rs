@@ -406,3 +406,24 @@ fn the_servo_adds_its_pd_torque_at_every_physics_step() {
     let mut minitaur = MinitaurEnv::new(MinitaurConfig::default()).unwrap();
     assert!(!minitaur.set_servo(None));
 }
+
+/// Every robot env records its whole configuration as a JSON object (what runs keep to
+/// recognise a changed environment later), presets resolved: the Minitaur's randomisation
+/// and its infinite distance limit (JSON null), a Gymnasium robot's name, a modular body.
+#[test]
+fn every_robot_env_records_its_configuration_as_json() {
+    let mut envs = all_envs();
+    envs.push(Box::new(centaur_envs::ModularEnv::new(centaur_envs::ModularConfig::gecko()).unwrap()));
+    for env in &envs {
+        let text = env.config_text().unwrap_or_else(|| panic!("{}: no configuration", env.name()));
+        let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert!(json.is_object() && json["max_episode_steps"].is_u64(), "{}: {text}", env.name());
+    }
+    let minitaur: serde_json::Value = serde_json::from_str(&envs[0].config_text().unwrap()).unwrap();
+    assert!(minitaur["randomization"].is_object() && minitaur["distance_limit"].is_null(), "{minitaur}");
+    let ant: serde_json::Value = serde_json::from_str(&envs[1].config_text().unwrap()).unwrap();
+    assert_eq!(ant["robot"], "Ant");
+    let gecko: serde_json::Value =
+        serde_json::from_str(&envs.last().unwrap().config_text().unwrap()).unwrap();
+    assert!(gecko["body"]["nodes"].as_array().is_some_and(|n| n.len() > 1), "{gecko}");
+}

@@ -150,9 +150,11 @@ pub trait Env: Send {
     fn reward_term_names(&self) -> &'static [&'static str] {
         &[]
     }
-    /// Everything the environment was built with, as text (its configuration's `Debug`,
-    /// defaults and presets resolved), for a run to record: the same text means the same
-    /// environment. `None` (the default): the environment does not say.
+    /// Everything the environment was built with, as a JSON object (its configuration,
+    /// defaults and presets resolved), for a run to record and compare later: a value that
+    /// differs means another environment; a field missing from an older record (added to
+    /// the configuration since) is not a difference. `None` (the default): the environment
+    /// does not say.
     fn config_text(&self) -> Option<String> {
         None
     }

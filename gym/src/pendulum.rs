@@ -125,7 +125,7 @@ impl Env for Pendulum {
     }
 
     fn config_text(&self) -> Option<String> {
-        Some(format!("Pendulum {{ g: {:?}, max_episode_steps: {} }}", self.g, self.max_episode_steps))
+        Some(format!("{{\"g\": {:?}, \"max_episode_steps\": {}}}", self.g, self.max_episode_steps))
     }
 
     fn reset(&mut self, seed: Option<u64>, obs: &mut [f32]) -> Result<(), EnvError> {

@@ -20,7 +20,7 @@ const OBS_BOUNDS: [f32; 4] = [std::f32::consts::PI, 16.0 / 0.0954, 5.7, 1.0];
 const OBSERVATION_EPS: f32 = 0.01;
 
 /// How motor commands become torques.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub enum MotorControl {
     /// PyBullet's DC motor model (the v0 default).
     Accurate(MotorModel),
@@ -36,7 +36,7 @@ pub enum MotorControl {
 }
 
 /// What an action means.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum MinitaurAction {
     /// The leg model (v0 default), see [`leg_model_to_motor_angles`].
     LegModel,
@@ -49,7 +49,7 @@ pub enum MinitaurAction {
 
 /// Physical randomisation at every reset (v0's `MinitaurEnvRandomizer`, plus motor strength
 /// from Tan et al. 2018). Each range is `(low, high)` of a uniform draw.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct MinitaurRandomization {
     /// Relative base mass error (default: (−0.2, 0.2)).
     pub base_mass_error: (f64, f64),
@@ -79,7 +79,7 @@ impl Default for MinitaurRandomization {
 }
 
 /// Configuration of [`MinitaurEnv`]; `Default` is `MinitaurBulletEnv-v0`.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct MinitaurConfig {
     /// Weight of the forward distance per step (default: 1.0).
     pub distance_weight: f64,
@@ -520,7 +520,7 @@ impl Env for MinitaurEnv {
     }
 
     fn config_text(&self) -> Option<String> {
-        Some(format!("{:?}", self.config))
+        serde_json::to_string(&self.config).ok()
     }
 
     fn dt(&self) -> f64 {

@@ -1,7 +1,7 @@
 //! PyBullet's DC motor model (`motor.py`).
 
 /// PyBullet's DC motor model (`motor.py`), per motor, in the motor frame.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct MotorModel {
     /// Position gain on PWM (1/rad) (default: 1.0).
     pub kp: f64,

@@ -5,7 +5,7 @@ use centaur_dynamics::nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, Un
 use centaur_dynamics::{BaseKind, Model};
 
 /// The kinds of module.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum ModuleKind {
     /// The central box; every body has exactly one, as its root.
     Core,
@@ -35,7 +35,7 @@ impl ModuleKind {
 }
 
 /// Where a child is attached to its parent.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum Face {
     /// Along the parent's +x.
     Front,
@@ -82,7 +82,7 @@ impl Face {
 }
 
 /// A module of a [`Body`] (an index into it).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
 pub struct ModuleId(pub usize);
 
 /// Most modules a body may have, the core included: the report's robots have 10–20; a
@@ -147,7 +147,7 @@ pub enum ModularError {
 }
 
 /// Geometry, masses and servo properties of the modules (defaults: Revolve2's V1 modules).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ModuleSpecs {
     /// Core box side lengths (m).
     pub core_size: [f64; 3],
@@ -296,7 +296,7 @@ impl ModuleSpecs {
     }
 }
 
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub(super) struct Node {
     pub(super) kind: ModuleKind,
     pub(super) rotation: f64,
@@ -305,7 +305,7 @@ pub(super) struct Node {
 }
 
 /// A modular robot's body: a tree of modules rooted at the core (see the module docs).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Body {
     specs: ModuleSpecs,
     pub(super) nodes: Vec<Node>,

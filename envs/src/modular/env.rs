@@ -13,7 +13,7 @@ use crate::robot::{FootContact, JointHistory, ObsOptions, Push, PushSchedule, Ro
 use crate::sim::{ColliderSpec, Sim, SimConfig};
 
 /// What the reward measures.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 pub enum ModularReward {
     /// The change of the core's horizontal distance from its start: the return of an
     /// episode is Revolve2's `xy_displacement` fitness (default).
@@ -58,7 +58,7 @@ impl ModularObservation {
 }
 
 /// Configuration of a [`ModularEnv`].
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ModularConfig {
     /// The robot's body.
     pub body: Body,
@@ -347,7 +347,7 @@ impl Env for ModularEnv {
     }
 
     fn config_text(&self) -> Option<String> {
-        Some(format!("{:?}", self.config))
+        serde_json::to_string(&self.config).ok()
     }
 
     fn dt(&self) -> f64 {
