@@ -201,6 +201,8 @@ pub(crate) struct LossSums {
     policy_loss: f64,
     entropy: f64,
     mean_q: f64,
+    /// Mean V(s) over the batches (the logged `value_mean`).
+    mean_v: f64,
 }
 
 /// A SAC (v1) learner; see the module documentation.
@@ -495,6 +497,7 @@ impl OffPolicyLearner for SacV1 {
             let d = v[j] - w.target[j];
             v_loss += 0.5 * (d * d) as f64 / b as f64;
             w.d_q[j] = d / b as f32;
+            sums.mean_v += v[j] as f64 / b as f64;
         }
         self.v.backward(&mut w.v_buf, &w.batch.obs, &w.d_q, b, None);
         self.opt_v.step(&mut self.v.params, &self.v.grads, lr_q);
@@ -548,6 +551,7 @@ impl OffPolicyLearner for SacV1 {
             m.entropy = sums.entropy / k;
             m.mean_q = sums.mean_q / k;
             m.value_loss = sums.value_loss / k;
+            m.value_mean = sums.mean_v / k;
         }
     }
 }

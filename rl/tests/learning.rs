@@ -67,6 +67,14 @@ fn sac_v1_reaches_minus_300_in_20k_steps() {
     let cfg =
         SacV1Config { actor_hidden: vec![64, 64], critic_hidden: vec![64, 64], ..SacV1Config::default() };
     let mut algo = SacV1::for_env(cfg, &env).unwrap();
+    // Its V network's mean estimate is logged as `value_mean` once updates run.
+    let mut values = Vec::new();
+    algo.learn(&mut env, 2_000, &mut |m| {
+        values.push(m.value_mean);
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    assert!(values.last().is_some_and(|v| v.is_finite()), "{values:?}");
     assert!(train_and_evaluate(&mut algo, &mut env, 20_000) >= -300.0);
 }
 

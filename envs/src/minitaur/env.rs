@@ -163,7 +163,7 @@ impl MinitaurConfig {
         let bad = |what: &str| Err(RobotEnvError::config("MinitaurConfig", what));
         f.count("action_repeat (frame_skip in [env])", self.action_repeat, MAX_FRAME_SKIP)?;
         f.count("max_episode_steps", self.max_episode_steps, usize::MAX)?;
-        f.at_most("latency", self.latency, MAX_LATENCY, "a latency of 0 to 1 s")?;
+        f.at_most("latency", self.latency, MAX_LATENCY, &format!("a latency of 0 to {MAX_LATENCY} s"))?;
         f.non_negative("observation_noise_std", self.observation_noise_std)?;
         f.finite("distance_weight", self.distance_weight)?;
         f.finite("energy_weight", self.energy_weight)?;
