@@ -455,6 +455,27 @@ fn a_changed_environment_is_not_taken_for_the_one_trained_on() {
     std::fs::remove_file(&config).unwrap();
 }
 
+/// Reliability probe, data loss: `summary.json` is written before the plots, so a run whose
+/// plotting fails (here a directory stands where `learning_curve.svg` goes) still keeps its
+/// summary, and the error is reported, not swallowed.
+#[test]
+fn the_summary_is_kept_when_plotting_fails() {
+    let config = small_ppo_config("plot-fails.toml", "");
+    let out = out_dir("plot-fails");
+    train(&pendulum_run(AlgoKind::Ppo, 512, out.clone(), &config), &mut |_| {}).unwrap();
+    let finished: Summary =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    std::fs::remove_file(out.join("summary.json")).unwrap();
+    std::fs::remove_file(out.join("learning_curve.svg")).unwrap();
+    std::fs::create_dir(out.join("learning_curve.svg")).unwrap();
+    assert!(resume(&out, 1, &mut |_| {}).is_err(), "a failed plot passed unreported");
+    let kept: Summary =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(kept.final_return_mean.to_bits(), finished.final_return_mean.to_bits());
+    std::fs::remove_dir_all(&out).unwrap();
+    std::fs::remove_file(&config).unwrap();
+}
+
 /// `centaur ARGS --config CONFIG --out OUT`.
 fn centaur_with(args: &[&str], config: &Path, out: &Path) -> std::process::Output {
     std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
