@@ -7,7 +7,7 @@ use crate::error::RobotEnvError;
 /// 4 Hz control rate of the modular robots is 50; more is no control at all.
 pub const MAX_FRAME_SKIP: usize = 1000;
 
-/// Most past control steps an observation may append ([`crate::ObsOptions::joint_history`]).
+/// Most past control steps an observation may append (`ObsOptions::joint_history`).
 pub const MAX_JOINT_HISTORY: usize = 100;
 
 /// The checks of one configuration type (its name goes into every error).
@@ -63,12 +63,12 @@ impl Fields {
         }
     }
 
-    /// The shared observation options.
-    pub(crate) fn obs(&self, obs: &crate::ObsOptions) -> Result<(), RobotEnvError> {
-        if obs.joint_history <= MAX_JOINT_HISTORY {
+    /// The shared observation options' history length (`obs.joint_history`).
+    pub(crate) fn joint_history(&self, k: usize) -> Result<(), RobotEnvError> {
+        if k <= MAX_JOINT_HISTORY {
             Ok(())
         } else {
-            Err(self.err("joint_history", obs.joint_history, &format!("0 to {MAX_JOINT_HISTORY}")))
+            Err(self.err("joint_history", k, &format!("0 to {MAX_JOINT_HISTORY}")))
         }
     }
 }

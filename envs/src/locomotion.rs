@@ -292,7 +292,7 @@ impl LocomotionConfig {
         f.range("healthy_angle_range", self.healthy_angle_range)?;
         f.range("healthy_state_range", self.healthy_state_range)?;
         f.range("contact_force_range", self.contact_force_range)?;
-        f.obs(&self.obs)?;
+        f.joint_history(self.obs.joint_history)?;
         if let Some(p) = &self.pushes {
             p.validate("LocomotionConfig")?;
         }

@@ -169,7 +169,7 @@ impl MinitaurConfig {
         f.finite("energy_weight", self.energy_weight)?;
         f.finite("drift_weight", self.drift_weight)?;
         f.finite("shake_weight", self.shake_weight)?;
-        f.obs(&self.obs)?;
+        f.joint_history(self.obs.joint_history)?;
         if let Some(p) = &self.pushes {
             p.validate("MinitaurConfig")?;
         }

@@ -134,7 +134,7 @@ impl ModularConfig {
         f.count("max_episode_steps", self.max_episode_steps, usize::MAX)?;
         f.non_negative("reset_noise_scale", self.reset_noise_scale)?;
         f.finite("ctrl_cost_weight", self.ctrl_cost_weight)?;
-        f.obs(&self.obs)?;
+        f.joint_history(self.obs.joint_history)?;
         if let Some(p) = &self.pushes {
             p.validate("ModularConfig")?;
         }
