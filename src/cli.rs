@@ -207,9 +207,16 @@ pub struct ExampleArgs {
 }
 
 /// `base` if it holds no run, else the first of `base-2`, `base-3`, … that holds none: an
-/// example run again never replaces the previous run.
+/// example run again never replaces the previous run. A directory another process is
+/// writing (its [`crate::rundir::LOCK_FILE`] held) counts as holding a run, so an example
+/// started while another is still setting up its directory moves on too (two started at the
+/// same instant may still pick one directory; the second is then refused as busy, and
+/// nothing is overwritten).
 pub fn free_run_dir(base: &Path) -> PathBuf {
-    let holds_run = |d: &Path| EXPERIMENT_FILES.iter().any(|f| d.join(f).exists());
+    let holds_run = |d: &Path| {
+        EXPERIMENT_FILES.iter().any(|f| d.join(f).exists())
+            || (d.is_dir() && matches!(crate::rundir::lock_dir(d), Err(crate::rundir::Claim::Busy)))
+    };
     if !holds_run(base) {
         return base.to_path_buf();
     }
@@ -322,4 +329,26 @@ pub fn run_example(name: &str, opts: &ExperimentOptions) -> std::process::ExitCo
         opts.out.display()
     );
     std::process::ExitCode::SUCCESS
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_example_moves_past_a_directory_with_a_run_or_held_by_another_process() {
+        let root = std::env::temp_dir().join(format!("centaur-free-dir-{}", std::process::id()));
+        let base = root.join("example");
+        assert_eq!(free_run_dir(&base), base, "a directory that does not exist is free");
+        std::fs::create_dir_all(&base).unwrap();
+        assert_eq!(free_run_dir(&base), base, "an empty directory is free");
+        let held = crate::rundir::lock_dir(&base).unwrap();
+        let second = root.join("example-2");
+        assert_eq!(free_run_dir(&base), second, "a directory being written is not free");
+        drop(held);
+        assert_eq!(free_run_dir(&base), base, "released, it is free again");
+        std::fs::write(base.join(EXPERIMENT_FILES[0]), "{}").unwrap();
+        assert_eq!(free_run_dir(&base), second, "a directory holding a run is not free");
+        std::fs::remove_dir_all(&root).unwrap();
+    }
 }

@@ -221,7 +221,8 @@ pub enum TrainError {
     },
     /// Another process is writing a run in the directory.
     #[error(
-        "another process is writing a run in {dir} (it holds {dir}/.centaur.lock); wait for it to end or choose another --out"
+        "another process is writing a run in {dir} (it holds {dir}/{lock}); wait for it to end or choose another --out",
+        lock = crate::rundir::LOCK_FILE
     )]
     Busy {
         /// The directory.

@@ -89,6 +89,7 @@ fn train_writes_every_artefact() {
     // The mean state value and the mean per-step reward (the Pendulum's is in [−16.3, 0]).
     for m in MetricsCsv::read(&out.join("metrics.csv")).unwrap() {
         assert!(m.value_mean.is_finite() && (-16.3..=0.0).contains(&m.reward_mean), "{m:?}");
+        assert!(m.critic_learning_rate == m.learning_rate && m.learning_rate > 0.0, "{m:?}");
     }
     let policy = Policy::load(&out.join("checkpoint")).unwrap();
     assert_eq!((policy.obs_dim(), policy.act_dim()), (3, 1));

@@ -548,6 +548,7 @@ impl Algorithm for A2c {
                 m.wall_time = self.wall_time;
                 m.steps_per_second = (self.steps_done - window_start) as f64 / window_time.max(1e-9);
                 m.learning_rate = lr;
+                m.critic_learning_rate = lr_critic;
                 m.reward_mean = self.work.collector.take_reward_mean();
                 episodes.drain_into(&mut m);
                 window_start = self.steps_done;

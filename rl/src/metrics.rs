@@ -44,7 +44,7 @@ pub struct UpdateMetrics {
     pub mean_q: f64,
     /// Entropy temperature α (SAC).
     pub alpha: f64,
-    /// Learning rate in use.
+    /// Learning rate in use (the actor's, where actor and critic have their own).
     pub learning_rate: f64,
     /// Mean state value `V(s)` the critic predicts over the rollout (on-policy; in the
     /// learner's reward units, scaled when rewards are normalised).
@@ -54,6 +54,9 @@ pub struct UpdateMetrics {
     pub reward_mean: f64,
     /// The KL penalty's coefficient `β` during the update (PPO with `kl_penalty`).
     pub kl_coef: f64,
+    /// The critic's learning rate in use (equal to `learning_rate` unless the learner's
+    /// `critic_learning_rate` is set).
+    pub critic_learning_rate: f64,
 }
 
 impl UpdateMetrics {
@@ -76,12 +79,13 @@ impl UpdateMetrics {
             value_mean: f64::NAN,
             reward_mean: f64::NAN,
             kl_coef: f64::NAN,
+            critic_learning_rate: f64::NAN,
             ..Default::default()
         }
     }
 
     /// CSV column names.
-    pub const COLUMNS: [&'static str; 21] = [
+    pub const COLUMNS: [&'static str; 22] = [
         "update",
         "env_steps",
         "wall_time",
@@ -103,14 +107,19 @@ impl UpdateMetrics {
         "value_mean",
         "reward_mean",
         "kl_coef",
+        "critic_learning_rate",
     ];
 
     /// The number of columns of files written before `value_mean`, `reward_mean` and
     /// `kl_coef` were logged (2026-11-25 and earlier).
     pub const COLUMNS_V1: usize = 18;
 
+    /// The number of columns of files written before `critic_learning_rate` was logged
+    /// (2026-11-27 and earlier).
+    pub const COLUMNS_V2: usize = 21;
+
     /// The values in [`UpdateMetrics::COLUMNS`] order.
-    pub fn values(&self) -> [f64; 21] {
+    pub fn values(&self) -> [f64; 22] {
         [
             self.update as f64,
             self.env_steps as f64,
@@ -133,6 +142,7 @@ impl UpdateMetrics {
             self.value_mean,
             self.reward_mean,
             self.kl_coef,
+            self.critic_learning_rate,
         ]
     }
 
@@ -154,9 +164,9 @@ impl UpdateMetrics {
     pub fn parse_csv_row(line: &str) -> Option<UpdateMetrics> {
         let mut cells: Vec<&str> = line.split(',').collect();
         // Files written before `value_mean`, `reward_mean` and `kl_coef` existed have 18
-        // columns; the missing ones read as NaN.
-        if cells.len() == Self::COLUMNS_V1 {
-            cells.extend(["", "", ""]);
+        // columns, those before `critic_learning_rate` 21; the missing ones read as NaN.
+        if cells.len() == Self::COLUMNS_V1 || cells.len() == Self::COLUMNS_V2 {
+            cells.resize(Self::COLUMNS.len(), "");
         }
         if cells.len() != Self::COLUMNS.len() {
             return None;
@@ -169,7 +179,7 @@ impl UpdateMetrics {
                 _ => c.parse().ok(),
             }
         };
-        let mut v = [0.0; 21];
+        let mut v = [0.0; 22];
         for (i, c) in cells.iter().enumerate() {
             if !matches!(i, 0 | 1 | 4) {
                 v[i] = float(c)?;
@@ -197,6 +207,7 @@ impl UpdateMetrics {
             value_mean: v[18],
             reward_mean: v[19],
             kl_coef: v[20],
+            critic_learning_rate: v[21],
         })
     }
 
@@ -280,9 +291,11 @@ impl MetricsCsv {
         let text = std::fs::read_to_string(path)?;
         let mut lines = text.lines();
         let header = UpdateMetrics::csv_header();
-        // The current header, or the 18 columns of files written before the last three existed.
-        let older = UpdateMetrics::COLUMNS[..UpdateMetrics::COLUMNS_V1].join(",");
-        if !lines.next().is_some_and(|h| h == header || h == older) {
+        // The current header, or the 18 or 21 columns of files written before the later
+        // columns existed (a run resumed since has rows of both widths).
+        let older = |n: usize| UpdateMetrics::COLUMNS[..n].join(",");
+        let (v1, v2) = (older(UpdateMetrics::COLUMNS_V1), older(UpdateMetrics::COLUMNS_V2));
+        if !lines.next().is_some_and(|h| h == header || h == v1 || h == v2) {
             return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, "not a metrics.csv header"));
         }
         lines
@@ -345,9 +358,14 @@ mod tests {
         assert_eq!(back.values().map(f64::to_bits), odd.values().map(f64::to_bits));
         assert!(UpdateMetrics::parse_csv_row("3,600").is_none());
         // A row of the 18-column format reads with the three later columns NaN.
-        let old_row = row.rsplitn(4, ',').nth(3).unwrap();
+        let old_row = row.rsplitn(5, ',').nth(4).unwrap();
         let back = UpdateMetrics::parse_csv_row(old_row).unwrap();
         assert!(back.value_mean.is_nan() && back.reward_mean.is_nan() && back.kl_coef.is_nan());
+        assert_eq!(back.episode_return_mean, -150.0);
+        // And one of the 21-column format with the critic's learning rate NaN.
+        let v2_row = row.rsplitn(2, ',').nth(1).unwrap();
+        let back = UpdateMetrics::parse_csv_row(v2_row).unwrap();
+        assert!(back.critic_learning_rate.is_nan());
         assert_eq!(back.episode_return_mean, -150.0);
         assert!(UpdateMetrics::parse_csv_row(&row.replace("-150", "x")).is_none());
         w.drain_into(&mut m);

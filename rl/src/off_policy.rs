@@ -42,6 +42,8 @@ pub(crate) struct LoopSettings {
     pub log_interval: u64,
     /// Reported in the metrics.
     pub learning_rate: f64,
+    /// The critic's, reported in the metrics.
+    pub critic_learning_rate: f64,
 }
 
 /// Step buffers, replay buffer and counters of an off-policy learner.
@@ -246,6 +248,7 @@ pub(crate) fn learn<L: OffPolicyLearner>(
             m.wall_time = c.wall_time;
             m.steps_per_second = (steps - steps_at_t0) as f64 / dt.max(1e-9);
             m.learning_rate = s.learning_rate;
+            m.critic_learning_rate = s.critic_learning_rate;
             learner.report(&sums, &mut m);
             m.reward_mean = reward_sum / reward_steps.max(1) as f64;
             (reward_sum, reward_steps) = (0.0, 0);
@@ -272,6 +275,7 @@ macro_rules! loop_settings {
             gradient_steps: c.gradient_steps,
             log_interval: c.log_interval,
             learning_rate: c.learning_rate,
+            critic_learning_rate: c.critic_learning_rate.unwrap_or(c.learning_rate),
         }
     }};
 }

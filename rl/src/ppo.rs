@@ -897,6 +897,7 @@ impl Algorithm for Ppo {
             m.wall_time = self.wall_time;
             m.steps_per_second = (self.steps_done - steps_before) as f64 / dt.max(1e-9);
             m.learning_rate = lr;
+            m.critic_learning_rate = lr_critic;
             episodes.drain_into(&mut m);
             if callback(&m).is_break() {
                 break;

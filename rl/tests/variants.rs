@@ -49,12 +49,19 @@ fn ppo_critic_learning_rate_moves_only_the_critic() {
     let run = |c: PpoConfig| {
         let mut env = pendulums(2);
         let mut p = Ppo::for_env(c, &env).unwrap();
-        learn(&mut p, &mut env, 256);
-        p
+        let rows = learn(&mut p, &mut env, 256);
+        (p, rows)
     };
-    let same = run(base.clone());
-    let explicit = run(PpoConfig { critic_learning_rate: Some(base.learning_rate), ..base.clone() });
-    let slow = run(PpoConfig { critic_learning_rate: Some(base.learning_rate / 10.0), ..base.clone() });
+    let (same, rows) = run(base.clone());
+    let explicit = run(PpoConfig { critic_learning_rate: Some(base.learning_rate), ..base.clone() }).0;
+    let (slow, slow_rows) =
+        run(PpoConfig { critic_learning_rate: Some(base.learning_rate / 10.0), ..base.clone() });
+    // Both rates are logged: equal when unset, the critic's own when set.
+    assert!(rows.iter().all(|m| m.critic_learning_rate == m.learning_rate && m.learning_rate > 0.0));
+    let tenth = |m: &UpdateMetrics| {
+        (m.critic_learning_rate - m.learning_rate / 10.0).abs() <= 1e-12 * base.learning_rate
+    };
+    assert!(slow_rows.iter().all(tenth), "{slow_rows:?}");
     for name in ["actor", "log_std", "critic"] {
         assert_eq!(blob(&same, name), blob(&explicit, name), "{name}: explicit default differs");
     }
@@ -126,20 +133,27 @@ fn off_policy_and_a2c_critic_learning_rates() {
         let run = |lr: Option<f64>| {
             let mut env = pendulums(1);
             let mut a = make(lr, &env).unwrap();
-            learn(a.as_mut(), &mut env, 300);
-            a
+            let rows = learn(a.as_mut(), &mut env, 300);
+            (a, rows)
         };
-        let default = run(None);
+        let (default, default_rows) = run(None);
         let shared = default.to_checkpoint();
         let rate: f64 =
             match shared.get_meta::<serde_json::Value>("config").unwrap()["learning_rate"].as_f64() {
                 Some(r) => r,
                 None => panic!("{algo}: no learning_rate in the config"),
             };
-        let explicit = run(Some(rate));
+        let explicit = run(Some(rate)).0;
         assert_eq!(blob(default.as_ref(), critic), blob(explicit.as_ref(), critic), "{algo}");
-        let other = run(Some(rate * 0.1));
+        let (other, other_rows) = run(Some(rate * 0.1));
         assert_ne!(blob(default.as_ref(), critic), blob(other.as_ref(), critic), "{algo}");
+        // Both rates are logged: equal when unset, the critic's own when set.
+        assert!(!default_rows.is_empty() && !other_rows.is_empty(), "{algo}: no metrics");
+        assert!(default_rows.iter().all(|m| m.critic_learning_rate == m.learning_rate), "{algo}");
+        // (A tenth of the actor's, which may be annealed.)
+        let tenth =
+            |m: &UpdateMetrics| (m.critic_learning_rate - 0.1 * m.learning_rate).abs() <= 1e-12 * rate;
+        assert!(other_rows.iter().all(tenth), "{algo}: {other_rows:?}");
         let e = make(Some(f64::NAN), &pendulums(1)).err().unwrap();
         assert!(e.to_string().contains("critic_learning_rate"), "{algo}: {e}");
     }

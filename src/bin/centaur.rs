@@ -123,12 +123,28 @@ fn sweep(args: SweepArgs) -> ExitCode {
         }
     };
     let jobs = args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    for (grid, out) in args.grid.into_iter().zip(outs) {
-        let opts =
-            centaur::sweep::SweepOptions { grid, seeds: args.seeds, out, jobs, overwrite: args.overwrite };
+    for ((grid, checked), out) in grids.iter().zip(outs) {
+        let opts = centaur::sweep::SweepOptions {
+            grid: grid.clone(),
+            seeds: args.seeds,
+            out,
+            jobs,
+            overwrite: args.overwrite,
+        };
         if grids.len() > 1 {
             println!("== {} → {}", opts.grid.display(), opts.out.display());
         }
+        // Said before the first run, which may take a while to end: what runs and where.
+        println!(
+            "{} points × {} seeds = {} runs of {} steps ({} on {}), {jobs} at a time → {} (runs finished before are kept)",
+            checked.points.len(),
+            args.seeds,
+            checked.points.len() as u64 * args.seeds,
+            checked.grid.steps,
+            checked.grid.algo,
+            checked.grid.env,
+            opts.out.display()
+        );
         let done = std::sync::atomic::AtomicUsize::new(0);
         let report = |point: &str, seed: u64, s: &centaur::train::Summary| {
             let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;

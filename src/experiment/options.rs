@@ -77,7 +77,8 @@ pub enum ExperimentError {
     },
     /// Another process is writing an experiment in the directory.
     #[error(
-        "another process is writing an experiment in {dir} (it holds {dir}/.centaur.lock); wait for it to end or choose another --out"
+        "another process is writing an experiment in {dir} (it holds {dir}/{lock}); wait for it to end or choose another --out",
+        lock = crate::rundir::LOCK_FILE
     )]
     Busy {
         /// The directory.

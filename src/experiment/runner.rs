@@ -234,7 +234,7 @@ pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<(), E
 mod legacy {
     use std::fmt;
 
-    use centaur_mpc::Command;
+    use centaur_mpc::{Command, Gait};
 
     use crate::hybrid::{Exploration, ResidualConfig, Steering};
 
@@ -322,8 +322,26 @@ mod legacy {
                 .field("lateral_velocity", lateral_velocity)
                 .field("yaw_rate", yaw_rate)
                 .field("body_height", body_height)
-                .field("gait", gait)
+                .field("gait", &GaitForm(*gait))
                 .finish()
+        }
+    }
+
+    /// A gait as the derived `Debug` of `Gait` wrote it when these records were made, spelt
+    /// out here so that a change to `Gait`'s `Debug` cannot change the frozen form.
+    struct GaitForm(Gait);
+
+    impl fmt::Debug for GaitForm {
+        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str(match self.0 {
+                Gait::Stand => "Stand",
+                Gait::Walk => "Walk",
+                Gait::Trot => "Trot",
+                Gait::Pace => "Pace",
+                Gait::Bound => "Bound",
+                Gait::Pronk => "Pronk",
+                Gait::Gallop => "Gallop",
+            })
         }
     }
 
