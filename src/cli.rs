@@ -284,6 +284,7 @@ impl ExampleArgs {
             eval_every: None,
             overwrite: self.overwrite,
             env_settings,
+            pure_from: None,
         })
     }
 }

@@ -63,6 +63,11 @@ pub struct CompareOptions {
     /// `[env]` settings over the robot's preset for both agents and the controller (empty:
     /// the preset).
     pub env_settings: EnvSettings,
+    /// A finished comparison whose pure-RL agents are reused, seed by seed, instead of
+    /// trained again (see [`ExperimentOptions::pure_from`]): an ablation of the hybrid then
+    /// costs the hybrid's training alone. Its seeds must have been run with the same options
+    /// but for the hybrid's setup.
+    pub pure_from: Option<PathBuf>,
 }
 
 /// Across-seed statistics of one agent.
@@ -290,6 +295,16 @@ pub fn run_compare(
 ) -> Result<CompareSummary, ExperimentError> {
     crate::rundir::check_not_file(&opts.out)
         .map_err(|source| ExperimentError::Io { path: opts.out.clone(), source })?;
+    if let Some(from) = &opts.pure_from {
+        // Replacing or resuming this comparison would write over the runs to be reused.
+        let canonical = |p: &std::path::Path| p.canonicalize().ok();
+        if canonical(from).is_some() && canonical(from) == canonical(&opts.out) {
+            return Err(ExperimentError::PureFromItself { dir: opts.out.clone() });
+        }
+        if !from.join("seed_0").join("experiment.json").is_file() {
+            return Err(ExperimentError::NotAComparison { dir: from.clone() });
+        }
+    }
     if !opts.resume && !opts.overwrite {
         let taken = |f: &str| opts.out.join(f).exists();
         if let Some(file) = ["compare.json", "seed_0"].into_iter().find(|f| taken(f)) {
@@ -313,6 +328,7 @@ pub fn run_compare(
             // A seed's partial run (killed before its summary) is replaced on resume.
             overwrite: opts.resume || opts.overwrite,
             env_settings: opts.env_settings.clone(),
+            pure_from: opts.pure_from.as_ref().map(|dir| dir.join(format!("seed_{seed}"))),
         };
         match opts.resume.then(|| finished_experiment(&exp)).flatten() {
             Some(r) => {

@@ -640,6 +640,59 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     assert_eq!(std::fs::read(out.join("seed_0").join("hybrid").join("checkpoint")).unwrap(), seed_0_ckpt);
     assert!(out.join("seed_1").join("summary.json").is_file());
 
+    // An ablation of the hybrid reusing the pure-RL agents: the pure rows are the first
+    // comparison's (training copied, final evaluation made again), the hybrid's its own.
+    let ablation = out_dir("compare-ablation");
+    let ablate = |extra: &[&str], into: &Path| {
+        let mut with = vec!["--residual-scale", "0.1", "--pure-from"];
+        let from = out.to_str().unwrap();
+        with.push(from);
+        compare_minitaur_ppo(&[&args[..], &with, extra].concat(), &config, into)
+    };
+    let o = ablate(&[], &ablation);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // (Seed 1 as the resume above reran it, with its wall time.)
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("compare.json")).unwrap()).unwrap();
+    let reused: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(ablation.join("compare.json")).unwrap()).unwrap();
+    assert_eq!(reused["pure_rl"], json["pure_rl"]);
+    assert_ne!(reused["hybrid"], json["hybrid"]);
+    for (budget, before) in
+        reused["budgets"].as_array().unwrap().iter().zip(json["budgets"].as_array().unwrap())
+    {
+        for key in ["env_steps", "pure_iqm", "pure_ci95", "pure_falls", "pure_wall_seconds"] {
+            assert_eq!(budget[key], before[key], "{key}");
+        }
+    }
+    for seed in ["seed_0", "seed_1"] {
+        let metrics = |dir: &Path| std::fs::read(dir.join(seed).join("pure_rl").join("metrics.csv")).unwrap();
+        assert_eq!(metrics(&ablation), metrics(&out), "{seed}");
+        let record = std::fs::read_to_string(ablation.join(seed).join("experiment.json")).unwrap();
+        assert!(record.contains("\"pure_from\""), "{record}");
+    }
+    assert!(ablation.join("seed_0").join("pure_rl.mcap").is_file());
+    // Refused: pure RL trained with other options (a shorter budget), the output directory
+    // itself, a directory that holds no comparison.
+    let refused = |extra: &[&str], into: &Path, expected: &str| {
+        let o = ablate(extra, into);
+        assert!(!o.status.success(), "{extra:?}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(expected), "{extra:?}: {err}");
+    };
+    let other = out_dir("compare-ablation-other");
+    refused(&["--envs", "2"], &other, "its pure-RL agent was trained with other options");
+    refused(&["--overwrite"], &out, "names the output directory itself");
+    std::fs::remove_dir_all(&ablation).unwrap();
+    let o = compare_minitaur_ppo(
+        &[&args[..], &["--pure-from", config.to_str().unwrap()]].concat(),
+        &config,
+        &ablation,
+    );
+    assert!(String::from_utf8_lossy(&o.stderr).contains("holds no comparison"), "{o:?}");
+    let _ = std::fs::remove_dir_all(&ablation);
+    let _ = std::fs::remove_dir_all(&other);
+
     // The robustness study on seed 0's run: one episode per agent and condition.
     let seed_0 = out.join("seed_0");
     let robustness = |run: &Path, extra: &[&str]| {

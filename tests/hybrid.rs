@@ -179,6 +179,7 @@ fn bad_residuals_and_configs_are_refused() {
         resume: false,
         overwrite: false,
         env_settings: Default::default(),
+        pure_from: None,
     };
     let err = centaur::compare::run_compare(&opts, &mut |_, _, _| {}).unwrap_err();
     assert!(err.to_string().contains("gamma"), "{err}");

@@ -363,7 +363,7 @@ mod tests {
         assert!(back.value_mean.is_nan() && back.reward_mean.is_nan() && back.kl_coef.is_nan());
         assert_eq!(back.episode_return_mean, -150.0);
         // And one of the 21-column format with the critic's learning rate NaN.
-        let v2_row = row.rsplitn(2, ',').nth(1).unwrap();
+        let v2_row = row.rsplit_once(',').unwrap().0;
         let back = UpdateMetrics::parse_csv_row(v2_row).unwrap();
         assert!(back.critic_learning_rate.is_nan());
         assert_eq!(back.episode_return_mean, -150.0);

@@ -455,6 +455,11 @@ struct CompareArgs {
     /// Replace the comparison already in --out (its run files only).
     #[arg(long)]
     overwrite: bool,
+    /// Reuse the pure-RL agents of a finished comparison (its seed_K directories) instead of
+    /// training them again: for an ablation of the hybrid. That comparison must have been run
+    /// with the same options but for the hybrid's (refused, naming the difference, otherwise)
+    #[arg(long, value_name = "DIR")]
+    pure_from: Option<PathBuf>,
     /// The hybrid's setup.
     #[command(flatten)]
     hybrid: HybridArgs,
@@ -497,6 +502,7 @@ fn compare(args: CompareArgs) -> ExitCode {
         resume: args.resume,
         overwrite: args.overwrite,
         env_settings,
+        pure_from: args.pure_from,
     };
     let seeds = opts.seeds.max(1);
     let bar = ProgressBar::new(seeds * 2 * opts.steps);

@@ -102,6 +102,43 @@ pub enum ExperimentError {
         /// The directory.
         dir: PathBuf,
     },
+    /// A run whose pure-RL agent was to be reused was trained with other options.
+    #[error(
+        "{from}: its pure-RL agent was trained with other options than this run's (only the hybrid's setup may differ): recorded …{recorded}…, here …{given}…"
+    )]
+    PureRunDiffers {
+        /// The run directory given to reuse.
+        from: PathBuf,
+        /// The recorded options around their first difference.
+        recorded: String,
+        /// This run's options around the same place.
+        given: String,
+    },
+    /// A run whose pure-RL agent was to be reused has not finished (no `summary.json`, or
+    /// its pure-RL files are missing).
+    #[error("{from}: no finished run to reuse the pure-RL agent of ({missing} is missing)")]
+    PureRunUnfinished {
+        /// The run directory given to reuse.
+        from: PathBuf,
+        /// The first file missing.
+        missing: &'static str,
+    },
+    /// A directory given as a comparison that holds none.
+    #[error(
+        "{dir} holds no comparison (no seed_0/experiment.json): give the --out directory of a `centaur compare`"
+    )]
+    NotAComparison {
+        /// The directory.
+        dir: PathBuf,
+    },
+    /// The run to reuse the pure-RL agent of is the run's own directory.
+    #[error(
+        "--pure-from names the output directory itself ({dir}); give the directory of another comparison"
+    )]
+    PureFromItself {
+        /// The directory.
+        dir: PathBuf,
+    },
     /// A training stopped because the other agent's, running side by side, failed.
     #[error("stopped: the other agent's training failed")]
     Stopped,
@@ -145,9 +182,22 @@ pub struct ExperimentOptions {
     /// `[env]` settings over the robot's preset, for both agents and the controller alone
     /// (empty: the preset).
     pub env_settings: EnvSettings,
+    /// A finished run (a directory like this one's) whose pure-RL agent is reused instead of
+    /// trained again: its training (metrics, evaluations during training, checkpoint, wall
+    /// times) is copied, its final checkpoint evaluated again here. It must have been run
+    /// with the same options but for the hybrid's setup ([`ExperimentOptions::pure_fingerprint`]);
+    /// pure RL does not depend on the hybrid, so the figures are those of training it again
+    /// with the code that wrote that run. `None`: train it.
+    pub pure_from: Option<PathBuf>,
 }
 
 impl ExperimentOptions {
+    /// What decides the pure-RL agent's results: [`ExperimentOptions::fingerprint`] without
+    /// the hybrid's setup (its `ResidualConfig { … }`).
+    pub fn pure_fingerprint(&self) -> String {
+        pure_part(&self.fingerprint())
+    }
+
     /// Everything that decides the results (not `out`, `threads`, `record` or `overwrite`),
     /// as Rust's `Debug` writes it (floats in their shortest round-trip form): a finished run
     /// whose `experiment.json` holds the same text can be kept instead of run again.
@@ -193,4 +243,32 @@ pub enum Phase {
     TrainHybrid,
     /// Evaluating all three agents: reported once, with default metrics, as it starts.
     Evaluate,
+}
+
+/// A fingerprint without the hybrid's setup: what the pure-RL agent's results depend on
+/// (records of every age write the setup as one `ResidualConfig { … }`).
+pub(crate) fn pure_part(fingerprint: &str) -> String {
+    match fingerprint.find("ResidualConfig {") {
+        Some(_) => fingerprint.replacen(&residual_part(fingerprint), "ResidualConfig { .. }", 1),
+        None => fingerprint.to_string(),
+    }
+}
+
+/// The `ResidualConfig { … }` part of a fingerprint (the whole fingerprint if it has none).
+pub(crate) fn residual_part(fingerprint: &str) -> String {
+    let Some(start) = fingerprint.find("ResidualConfig {") else { return fingerprint.to_string() };
+    let mut depth = 0usize;
+    for (i, c) in fingerprint[start..].char_indices() {
+        match c {
+            '{' => depth += 1,
+            '}' => {
+                depth -= 1;
+                if depth == 0 {
+                    return fingerprint[start..=start + i].to_string();
+                }
+            }
+            _ => {}
+        }
+    }
+    fingerprint[start..].to_string()
 }

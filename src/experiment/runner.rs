@@ -11,7 +11,9 @@ use centaur_mpc::LocomotionController;
 use centaur_rl::{Algorithm, MetricsCsv, Policy, RlError, UpdateMetrics};
 
 use super::evaluation::{Driver, evaluate};
-use super::options::{Curve, ExperimentError, ExperimentOptions, ExperimentResult, Phase, io_err};
+use super::options::{
+    Curve, ExperimentError, ExperimentOptions, ExperimentResult, Phase, io_err, pure_part, residual_part,
+};
 use super::summary::{AgentStats, BudgetEval, ExperimentSummary};
 use crate::hybrid::{ActionMapping, HybridError, ResidualConfig};
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
@@ -155,6 +157,9 @@ struct ExperimentRecord {
     /// The `[env]` settings of both agents (absent: the preset).
     #[serde(default, skip_serializing_if = "EnvSettings::is_empty")]
     env_settings: EnvSettings,
+    /// The run whose pure-RL agent this one reused ([`ExperimentOptions::pure_from`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pure_from: Option<PathBuf>,
 }
 
 /// Creates the run directory, refusing one that already holds a run unless `overwrite`
@@ -174,6 +179,7 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<DirLock, ExperimentError>
         fingerprint: opts.fingerprint(),
         residual: Some(opts.residual.clone()),
         env_settings: opts.env_settings.clone(),
+        pure_from: opts.pure_from.clone(),
     };
     let path = dir.join("experiment.json");
     let text = serde_json::to_string_pretty(&record).expect("the record serialises") + "\n";
@@ -217,7 +223,7 @@ pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<(), E
         Some(trained) => (unrated_if_own(trained) == unrated_if_own(residual), format!("{trained:?}")),
         None => (
             legacy::matches(&record.fingerprint, &unrated_if_own(residual), own_rating),
-            legacy::residual_part(&record.fingerprint),
+            residual_part(&record.fingerprint),
         ),
     };
     if same {
@@ -344,25 +350,75 @@ mod legacy {
             })
         }
     }
+}
 
-    /// The `ResidualConfig { … }` part of a fingerprint (the whole fingerprint if it has none).
-    pub(super) fn residual_part(fingerprint: &str) -> String {
-        let Some(start) = fingerprint.find("ResidualConfig {") else { return fingerprint.to_string() };
-        let mut depth = 0usize;
-        for (i, c) in fingerprint[start..].char_indices() {
-            match c {
-                '{' => depth += 1,
-                '}' => {
-                    depth -= 1;
-                    if depth == 0 {
-                        return fingerprint[start..=start + i].to_string();
-                    }
-                }
-                _ => {}
+/// The text of `a` and `b` around their first difference (up to 60 characters before it and
+/// 60 after), for an error message about two long fingerprints.
+fn around_difference(a: &str, b: &str) -> (String, String) {
+    let at = a
+        .char_indices()
+        .zip(b.chars())
+        .find(|((_, x), y)| x != y)
+        .map_or(a.len().min(b.len()), |((i, _), _)| i);
+    let window = |s: &str| {
+        let start = s[..at.min(s.len())].char_indices().rev().nth(59).map_or(0, |(i, _)| i);
+        s[start..].chars().take(120).collect::<String>()
+    };
+    (window(a), window(b))
+}
+
+/// Copies the pure-RL agent of the finished run in `from` into `opts.out` (its `pure_rl`
+/// files) after checking that it was trained as `opts` would train it, and returns its
+/// training as if it had just run here: the metrics, the evaluations during training, the
+/// recorded wall time and steps. Its final evaluation is made again by the caller, on the
+/// copied checkpoint.
+fn reuse_pure(from: &Path, opts: &ExperimentOptions) -> Result<Trained, ExperimentError> {
+    let read = |file: &'static str| {
+        std::fs::read_to_string(from.join(file)).map_err(|source| match source.kind() {
+            std::io::ErrorKind::NotFound | std::io::ErrorKind::NotADirectory if file == "experiment.json" => {
+                ExperimentError::NotAnExperiment { dir: from.to_path_buf() }
             }
-        }
-        fingerprint[start..].to_string()
+            std::io::ErrorKind::NotFound => {
+                ExperimentError::PureRunUnfinished { from: from.to_path_buf(), missing: file }
+            }
+            _ => ExperimentError::Io { path: from.join(file), source },
+        })
+    };
+    let invalid = |file: &str, e: serde_json::Error| ExperimentError::Io {
+        path: from.join(file),
+        source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
+    };
+    let record: ExperimentRecord =
+        serde_json::from_str(&read("experiment.json")?).map_err(|e| invalid("experiment.json", e))?;
+    let (recorded, given) = (pure_part(&record.fingerprint), opts.pure_fingerprint());
+    if recorded != given {
+        let (recorded, given) = around_difference(&recorded, &given);
+        return Err(ExperimentError::PureRunDiffers { from: from.to_path_buf(), recorded, given });
     }
+    let summary: ExperimentSummary =
+        serde_json::from_str(&read("summary.json")?).map_err(|e| invalid("summary.json", e))?;
+    let dir = opts.out.join("pure_rl");
+    std::fs::create_dir_all(&dir).map_err(io_err(&dir))?;
+    for file in ["metrics.csv", "checkpoint"] {
+        let (src, dst) = (from.join("pure_rl").join(file), dir.join(file));
+        if !src.is_file() {
+            let missing = if file == "checkpoint" { "pure_rl/checkpoint" } else { "pure_rl/metrics.csv" };
+            return Err(ExperimentError::PureRunUnfinished { from: from.to_path_buf(), missing });
+        }
+        std::fs::copy(&src, &dst).map_err(io_err(&dst))?;
+    }
+    let csv = dir.join("metrics.csv");
+    let rows = MetricsCsv::read(&csv).map_err(io_err(&csv))?;
+    // The evaluations during training; the last entry is the final one, made again here.
+    let mut budgets = summary.pure_budgets;
+    budgets.pop();
+    Ok(Trained {
+        checkpoint: dir.join("checkpoint"),
+        rows,
+        wall: summary.pure_rl.wall_seconds,
+        steps: summary.pure_rl.env_steps,
+        budgets,
+    })
 }
 
 /// The result of a run already finished in `opts.out` with the same options (its
@@ -393,6 +449,14 @@ pub fn run_experiment(
     make_residual_env_with(&opts.env, opts.residual.clone(), &opts.env_settings)?;
     // And a learner configuration out of range (reliability probe: no empty run directory).
     opts.algo.validate()?;
+    if let Some(from) = &opts.pure_from {
+        // Replacing this run would remove the files to be reused.
+        let same =
+            |a: &Path, b: &Path| a.canonicalize().ok().is_some_and(|a| b.canonicalize().ok() == Some(a));
+        if same(from, &opts.out) {
+            return Err(ExperimentError::PureFromItself { dir: opts.out.clone() });
+        }
+    }
     let _held = prepare_run_dir(opts)?;
     // Pure RL on the robot environment, the hybrid on the residual environment.
     // Set when one training fails, to stop the other one running side by side.
@@ -404,6 +468,13 @@ pub fn run_experiment(
         r
     };
     let train_pure = |progress: &mut dyn FnMut(Phase, &UpdateMetrics)| {
+        if let Some(from) = &opts.pure_from {
+            let reused = reuse_pure(from, opts)?;
+            if let Some(last) = reused.rows.last() {
+                progress(Phase::TrainPure, last);
+            }
+            return Ok(reused);
+        }
         let mut env = vec_env_of(
             &mut || Ok(make_robot_env_with(&opts.env, &opts.env_settings)? as Box<dyn Env>),
             opts.n_envs,
@@ -594,6 +665,7 @@ mod tests {
             fingerprint,
             residual: residual.cloned(),
             env_settings: EnvSettings::default(),
+            pure_from: None,
         }
     }
 
@@ -697,11 +769,52 @@ mod tests {
     }
 
     #[test]
+    fn the_pure_fingerprint_leaves_out_the_hybrids_setup_only() {
+        assert_eq!(
+            pure_part("(1, ResidualConfig { a: B { c: 1 }, d: 2 }, 3) with S"),
+            "(1, ResidualConfig { .. }, 3) with S"
+        );
+        assert_eq!(pure_part("(no setup)"), "(no setup)");
+        let preset = residual_config("minitaur").unwrap();
+        let opts = ExperimentOptions {
+            env: "minitaur".into(),
+            algo: crate::experiment::tuned_config("minitaur", centaur_rl::AlgoKind::Ppo),
+            steps: 1000,
+            seed: 0,
+            out: PathBuf::from("a"),
+            n_envs: 4,
+            threads: 1,
+            eval_episodes: 10,
+            residual: preset.clone(),
+            record: false,
+            eval_every: None,
+            overwrite: false,
+            env_settings: EnvSettings::default(),
+            pure_from: None,
+        };
+        let other_hybrid = ExperimentOptions {
+            residual: ResidualConfig { rated_speed: Some(3.5), ..preset },
+            out: PathBuf::from("b"),
+            ..opts.clone()
+        };
+        assert_ne!(opts.fingerprint(), other_hybrid.fingerprint());
+        assert_eq!(opts.pure_fingerprint(), other_hybrid.pure_fingerprint());
+        for other_pure in [
+            ExperimentOptions { steps: 2000, ..opts.clone() },
+            ExperimentOptions { seed: 1, ..opts.clone() },
+            ExperimentOptions { n_envs: 8, ..opts.clone() },
+            ExperimentOptions { eval_every: Some(500), ..opts.clone() },
+        ] {
+            assert_ne!(opts.pure_fingerprint(), other_pure.pure_fingerprint());
+        }
+    }
+
+    #[test]
     fn the_residual_part_of_a_fingerprint_is_cut_at_its_closing_brace() {
         assert_eq!(
-            legacy::residual_part("(1, ResidualConfig { a: B { c: 1 }, d: 2 }, 3)"),
+            residual_part("(1, ResidualConfig { a: B { c: 1 }, d: 2 }, 3)"),
             "ResidualConfig { a: B { c: 1 }, d: 2 }"
         );
-        assert_eq!(legacy::residual_part("(no setup)"), "(no setup)");
+        assert_eq!(residual_part("(no setup)"), "(no setup)");
     }
 }
