@@ -211,7 +211,7 @@ pub struct ExampleArgs {
 /// writing (its [`crate::rundir::LOCK_FILE`] held) counts as holding a run, so an example
 /// started while another is still setting up its directory moves on too (two started at the
 /// same instant may still pick one directory; the second is then refused as busy, and
-/// nothing is overwritten).
+/// nothing is overwritten). Probing an existing directory leaves an empty lock file in it.
 pub fn free_run_dir(base: &Path) -> PathBuf {
     let holds_run = |d: &Path| {
         EXPERIMENT_FILES.iter().any(|f| d.join(f).exists())

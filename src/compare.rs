@@ -114,6 +114,10 @@ pub struct CompareSummary {
     pub controller: Aggregate,
     /// Both learners' deterministic evaluations at each training budget, across seeds.
     pub budgets: Vec<BudgetRow>,
+    /// The comparison whose pure-RL agents were reused ([`CompareOptions::pure_from`]): the
+    /// pure-RL wall times are then that run's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pure_from: Option<PathBuf>,
 }
 
 /// Both learners at one training budget, across seeds.
@@ -312,24 +316,32 @@ pub fn run_compare(
         }
     }
     let seeds = opts.seeds.max(1);
+    let seed_options = |seed: u64| ExperimentOptions {
+        env: opts.env.clone(),
+        algo: opts.algo.clone(),
+        steps: opts.steps,
+        seed,
+        out: opts.out.join(format!("seed_{seed}")),
+        n_envs: opts.n_envs,
+        threads: opts.threads,
+        eval_episodes: opts.eval_episodes,
+        residual: opts.residual.clone(),
+        record: seed == 0,
+        eval_every: opts.eval_every,
+        // A seed's partial run (killed before its summary) is replaced on resume.
+        overwrite: opts.resume || opts.overwrite,
+        env_settings: opts.env_settings.clone(),
+        pure_from: opts.pure_from.as_ref().map(|dir| dir.join(format!("seed_{seed}"))),
+    };
+    // Every seed's pure-RL agent to reuse is checked before the first seed trains.
+    for seed in 0..seeds {
+        let exp = seed_options(seed);
+        if let Some(from) = &exp.pure_from {
+            crate::experiment::check_pure_source(from, &exp)?;
+        }
+    }
     let run_seed = |seed: u64, progress: &mut dyn FnMut(u64, Phase, &UpdateMetrics)| {
-        let exp = ExperimentOptions {
-            env: opts.env.clone(),
-            algo: opts.algo.clone(),
-            steps: opts.steps,
-            seed,
-            out: opts.out.join(format!("seed_{seed}")),
-            n_envs: opts.n_envs,
-            threads: opts.threads,
-            eval_episodes: opts.eval_episodes,
-            residual: opts.residual.clone(),
-            record: seed == 0,
-            eval_every: opts.eval_every,
-            // A seed's partial run (killed before its summary) is replaced on resume.
-            overwrite: opts.resume || opts.overwrite,
-            env_settings: opts.env_settings.clone(),
-            pure_from: opts.pure_from.as_ref().map(|dir| dir.join(format!("seed_{seed}"))),
-        };
+        let exp = seed_options(seed);
         match opts.resume.then(|| finished_experiment(&exp)).flatten() {
             Some(r) => {
                 progress(seed, Phase::Evaluate, &UpdateMetrics::default());
@@ -369,6 +381,7 @@ pub fn run_compare(
         pure_rl: aggregate(&runs, |r| &r.pure_rl),
         controller: aggregate(&runs, |r| &r.controller),
         budgets: budget_rows(&runs),
+        pure_from: opts.pure_from.as_ref().map(|p| p.canonicalize().unwrap_or_else(|_| p.clone())),
     };
     let path = opts.out.join("compare.json");
     let text = serde_json::to_string_pretty(&summary)

@@ -672,8 +672,9 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
         assert!(record.contains("\"pure_from\""), "{record}");
     }
     assert!(ablation.join("seed_0").join("pure_rl.mcap").is_file());
-    // Refused: pure RL trained with other options (a shorter budget), the output directory
-    // itself, a directory that holds no comparison.
+    // Refused before anything is written: pure RL trained with other options (another
+    // number of envs), the output directory itself (left as it was), more seeds than the
+    // source ran, a directory that holds no comparison.
     let refused = |extra: &[&str], into: &Path, expected: &str| {
         let o = ablate(extra, into);
         assert!(!o.status.success(), "{extra:?}");
@@ -682,7 +683,36 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     };
     let other = out_dir("compare-ablation-other");
     refused(&["--envs", "2"], &other, "its pure-RL agent was trained with other options");
+    assert!(!other.join("seed_0").exists(), "a refused ablation wrote {}", other.display());
+    let before = std::fs::read(out.join("compare.json")).unwrap();
     refused(&["--overwrite"], &out, "names the output directory itself");
+    assert_eq!(std::fs::read(out.join("compare.json")).unwrap(), before);
+    assert!(out.join("seed_1").join("pure_rl").join("checkpoint").is_file());
+    let three = ["--seeds", "3", "--steps", "512", "--eval-episodes", "1", "--eval-every", "256"];
+    let o = compare_minitaur_ppo(
+        &[&three[..], &["--residual-scale", "0.1", "--pure-from", out.to_str().unwrap()]].concat(),
+        &config,
+        &other,
+    );
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("seed_2 holds no run to reuse the pure-RL agent of"), "{err}");
+    assert!(!other.join("seed_0").exists(), "seeds 0 and 1 trained before seed 2 was found missing");
+    // A source seed without its metrics: refused up front, naming the file.
+    let metrics = out.join("seed_1").join("pure_rl").join("metrics.csv");
+    let aside = out.join("seed_1").join("metrics.csv.aside");
+    std::fs::rename(&metrics, &aside).unwrap();
+    refused(&[], &other, "pure_rl/metrics.csv is missing");
+    std::fs::rename(&aside, &metrics).unwrap();
+    // A source whose recorded evaluation this code does not reproduce (its summary edited
+    // here, as a changed environment would show): refused when its copy is evaluated.
+    let summary_path = out.join("seed_1").join("summary.json");
+    let original = std::fs::read_to_string(&summary_path).unwrap();
+    let mut edited: serde_json::Value = serde_json::from_str(&original).unwrap();
+    edited["pure_rl"]["return_mean"] = serde_json::json!(123.5);
+    std::fs::write(&summary_path, edited.to_string()).unwrap();
+    refused(&[], &other, "evaluates to");
+    std::fs::write(&summary_path, &original).unwrap();
     std::fs::remove_dir_all(&ablation).unwrap();
     let o = compare_minitaur_ppo(
         &[&args[..], &["--pure-from", config.to_str().unwrap()]].concat(),

@@ -292,16 +292,23 @@ impl MetricsCsv {
         let mut lines = text.lines();
         let header = UpdateMetrics::csv_header();
         // The current header, or the 18 or 21 columns of files written before the later
-        // columns existed (a run resumed since has rows of both widths).
+        // columns existed (a resumed run rewrites its file under the current header). Every
+        // row has the header's width: a row cut after 18 or 21 cells is not an older row.
         let older = |n: usize| UpdateMetrics::COLUMNS[..n].join(",");
         let (v1, v2) = (older(UpdateMetrics::COLUMNS_V1), older(UpdateMetrics::COLUMNS_V2));
-        if !lines.next().is_some_and(|h| h == header || h == v1 || h == v2) {
-            return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, "not a metrics.csv header"));
-        }
+        let width = match lines.next() {
+            Some(h) if h == header => UpdateMetrics::COLUMNS.len(),
+            Some(h) if h == v2 => UpdateMetrics::COLUMNS_V2,
+            Some(h) if h == v1 => UpdateMetrics::COLUMNS_V1,
+            _ => {
+                return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, "not a metrics.csv header"));
+            }
+        };
         lines
             .enumerate()
             .map(|(i, l)| {
-                UpdateMetrics::parse_csv_row(l).ok_or_else(|| {
+                let row = (l.split(',').count() == width).then(|| UpdateMetrics::parse_csv_row(l)).flatten();
+                row.ok_or_else(|| {
                     std::io::Error::new(
                         std::io::ErrorKind::InvalidData,
                         format!("line {}: not a metrics row", i + 2),
@@ -371,5 +378,31 @@ mod tests {
         w.drain_into(&mut m);
         assert_eq!(m.episodes, 0);
         assert!(m.episode_return_mean.is_nan());
+    }
+
+    #[test]
+    fn a_file_reads_rows_of_its_headers_width_only() {
+        let path = std::env::temp_dir().join(format!("centaur-metrics-{}.csv", std::process::id()));
+        let mut m = UpdateMetrics::empty();
+        (m.update, m.env_steps, m.learning_rate, m.critic_learning_rate) = (1, 64, 3e-4, 1e-3);
+        let row = m.csv_row();
+        let cut = row.rsplit_once(',').unwrap().0;
+        let header = UpdateMetrics::csv_header();
+        let v2_header = header.rsplit_once(',').unwrap().0;
+        let write = |lines: &[&str]| std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+        write(&[&header, &row, &row]);
+        let rows = MetricsCsv::read(&path).unwrap();
+        assert_eq!((rows.len(), rows[1].critic_learning_rate), (2, 1e-3));
+        // A current file whose last row was cut after 21 cells: an error, not an older row.
+        write(&[&header, &row, cut]);
+        let e = MetricsCsv::read(&path).unwrap_err();
+        assert!(e.to_string().contains("line 3"), "{e}");
+        // A file of the 21-column format reads, the critic's rate NaN.
+        write(&[v2_header, cut]);
+        let rows = MetricsCsv::read(&path).unwrap();
+        assert!(rows[0].critic_learning_rate.is_nan() && rows[0].learning_rate == 3e-4);
+        write(&[v2_header, &row]);
+        assert!(MetricsCsv::read(&path).is_err());
+        std::fs::remove_file(&path).unwrap();
     }
 }

@@ -136,7 +136,7 @@ fn sweep(args: SweepArgs) -> ExitCode {
         }
         // Said before the first run, which may take a while to end: what runs and where.
         println!(
-            "{} points × {} seeds = {} runs of {} steps ({} on {}), {jobs} at a time → {} (runs finished before are kept)",
+            "{} points × {} seeds = {} runs of {} steps ({} on {}), {jobs} at a time → {}",
             checked.points.len(),
             args.seeds,
             checked.points.len() as u64 * args.seeds,

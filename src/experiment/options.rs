@@ -123,6 +123,33 @@ pub enum ExperimentError {
         /// The first file missing.
         missing: &'static str,
     },
+    /// A run directory to reuse the pure-RL agent of that holds no run.
+    #[error(
+        "{dir} holds no run to reuse the pure-RL agent of (no experiment.json): --pure-from takes the --out directory of a comparison run with at least as many seeds"
+    )]
+    NoPureRun {
+        /// The directory.
+        dir: PathBuf,
+    },
+    /// Another process is writing the run whose pure-RL agent was to be reused.
+    #[error("another process is writing {from} (it holds {from}/{lock}); reuse its pure-RL agent when it has finished", lock = crate::rundir::LOCK_FILE)]
+    PureRunBusy {
+        /// The run directory given to reuse.
+        from: PathBuf,
+    },
+    /// The pure-RL agent to reuse evaluates differently here than where it was trained:
+    /// the environment or the code has changed since.
+    #[error(
+        "{from}: its pure-RL agent evaluates to {here} here against {recorded} when it was trained; the environment or the code changed since, so its training cannot stand for this run's — train it again (leave out --pure-from)"
+    )]
+    PureRunChanged {
+        /// The run directory given to reuse.
+        from: PathBuf,
+        /// The recorded final mean return.
+        recorded: f64,
+        /// The mean return of the same evaluation here.
+        here: f64,
+    },
     /// A directory given as a comparison that holds none.
     #[error(
         "{dir} holds no comparison (no seed_0/experiment.json): give the --out directory of a `centaur compare`"

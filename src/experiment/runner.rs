@@ -179,7 +179,7 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<DirLock, ExperimentError>
         fingerprint: opts.fingerprint(),
         residual: Some(opts.residual.clone()),
         env_settings: opts.env_settings.clone(),
-        pure_from: opts.pure_from.clone(),
+        pure_from: opts.pure_from.as_ref().map(|p| p.canonicalize().unwrap_or_else(|_| p.clone())),
     };
     let path = dir.join("experiment.json");
     let text = serde_json::to_string_pretty(&record).expect("the record serialises") + "\n";
@@ -367,20 +367,22 @@ fn around_difference(a: &str, b: &str) -> (String, String) {
     (window(a), window(b))
 }
 
-/// Copies the pure-RL agent of the finished run in `from` into `opts.out` (its `pure_rl`
-/// files) after checking that it was trained as `opts` would train it, and returns its
-/// training as if it had just run here: the metrics, the evaluations during training, the
-/// recorded wall time and steps. Its final evaluation is made again by the caller, on the
-/// copied checkpoint.
-fn reuse_pure(from: &Path, opts: &ExperimentOptions) -> Result<Trained, ExperimentError> {
+/// Checks, reading only, that `from` holds a finished run whose pure-RL agent was trained as
+/// `opts` would train it: the same options but for the hybrid's setup
+/// ([`ExperimentOptions::pure_fingerprint`]), a `summary.json`, and the agent's metrics and
+/// checkpoint, the metrics reaching the summary's steps. Returns its summary.
+pub(crate) fn check_pure_source(
+    from: &Path,
+    opts: &ExperimentOptions,
+) -> Result<ExperimentSummary, ExperimentError> {
+    let unfinished =
+        |missing: &'static str| ExperimentError::PureRunUnfinished { from: from.to_path_buf(), missing };
     let read = |file: &'static str| {
         std::fs::read_to_string(from.join(file)).map_err(|source| match source.kind() {
             std::io::ErrorKind::NotFound | std::io::ErrorKind::NotADirectory if file == "experiment.json" => {
-                ExperimentError::NotAnExperiment { dir: from.to_path_buf() }
+                ExperimentError::NoPureRun { dir: from.to_path_buf() }
             }
-            std::io::ErrorKind::NotFound => {
-                ExperimentError::PureRunUnfinished { from: from.to_path_buf(), missing: file }
-            }
+            std::io::ErrorKind::NotFound => unfinished(file),
             _ => ExperimentError::Io { path: from.join(file), source },
         })
     };
@@ -397,26 +399,64 @@ fn reuse_pure(from: &Path, opts: &ExperimentOptions) -> Result<Trained, Experime
     }
     let summary: ExperimentSummary =
         serde_json::from_str(&read("summary.json")?).map_err(|e| invalid("summary.json", e))?;
+    if !from.join("pure_rl").join("checkpoint").is_file() {
+        return Err(unfinished("pure_rl/checkpoint"));
+    }
+    let csv = from.join("pure_rl").join("metrics.csv");
+    let rows = MetricsCsv::read(&csv).map_err(|source| match source.kind() {
+        std::io::ErrorKind::NotFound => unfinished("pure_rl/metrics.csv"),
+        _ => ExperimentError::Io { path: csv.clone(), source },
+    })?;
+    if rows.last().map(|m| m.env_steps) != Some(summary.pure_rl.env_steps) {
+        return Err(unfinished("the last rows of pure_rl/metrics.csv"));
+    }
+    Ok(summary)
+}
+
+/// Copies the pure-RL agent of the finished run in `from` into `opts.out` (its `pure_rl`
+/// files, with `from` locked meanwhile so that no other process rewrites it) after checking
+/// it ([`check_pure_source`]), evaluates the copy as the run evaluated it and refuses it if
+/// the figures differ (the environment or the code changed since), and returns its
+/// training as if it had just run here: the metrics, the evaluations during training, the
+/// recorded wall time and steps. Its final evaluation is made again by the caller.
+fn reuse_pure(from: &Path, opts: &ExperimentOptions) -> Result<Trained, ExperimentError> {
+    // A read-only source cannot be locked, and nothing can rewrite it either.
+    let _source = match crate::rundir::lock_dir(from) {
+        Ok(lock) => Some(lock),
+        Err(Claim::Busy) => return Err(ExperimentError::PureRunBusy { from: from.to_path_buf() }),
+        Err(Claim::Taken(_) | Claim::Io(..)) => None,
+    };
+    let summary = check_pure_source(from, opts)?;
     let dir = opts.out.join("pure_rl");
     std::fs::create_dir_all(&dir).map_err(io_err(&dir))?;
     for file in ["metrics.csv", "checkpoint"] {
-        let (src, dst) = (from.join("pure_rl").join(file), dir.join(file));
-        if !src.is_file() {
-            let missing = if file == "checkpoint" { "pure_rl/checkpoint" } else { "pure_rl/metrics.csv" };
-            return Err(ExperimentError::PureRunUnfinished { from: from.to_path_buf(), missing });
-        }
-        std::fs::copy(&src, &dst).map_err(io_err(&dst))?;
+        let dst = dir.join(file);
+        std::fs::copy(from.join("pure_rl").join(file), &dst).map_err(io_err(&dst))?;
     }
     let csv = dir.join("metrics.csv");
     let rows = MetricsCsv::read(&csv).map_err(io_err(&csv))?;
+    let mut driver = Driver::Pure {
+        env: make_robot_env_with(&opts.env, &opts.env_settings)?,
+        policy: Policy::load(&dir.join("checkpoint")).map_err(RlError::from)?,
+    };
+    let here = evaluate(&mut driver, opts.eval_episodes, 1_000_000 + opts.seed, None)?;
+    let then = &summary.pure_rl;
+    let figures = |s: &AgentStats| (s.return_mean.to_bits(), s.falls, s.episodes);
+    if figures(&here) != figures(then) {
+        return Err(ExperimentError::PureRunChanged {
+            from: from.to_path_buf(),
+            recorded: then.return_mean,
+            here: here.return_mean,
+        });
+    }
     // The evaluations during training; the last entry is the final one, made again here.
     let mut budgets = summary.pure_budgets;
     budgets.pop();
     Ok(Trained {
         checkpoint: dir.join("checkpoint"),
         rows,
-        wall: summary.pure_rl.wall_seconds,
-        steps: summary.pure_rl.env_steps,
+        wall: then.wall_seconds,
+        steps: then.env_steps,
         budgets,
     })
 }
@@ -456,6 +496,8 @@ pub fn run_experiment(
         if same(from, &opts.out) {
             return Err(ExperimentError::PureFromItself { dir: opts.out.clone() });
         }
+        // And a source that cannot be reused is refused before anything is written.
+        check_pure_source(from, opts)?;
     }
     let _held = prepare_run_dir(opts)?;
     // Pure RL on the robot environment, the hybrid on the residual environment.
@@ -807,6 +849,22 @@ mod tests {
         ] {
             assert_ne!(opts.pure_fingerprint(), other_pure.pure_fingerprint());
         }
+    }
+
+    #[test]
+    fn a_difference_is_quoted_with_its_surroundings() {
+        let (a, b) = around_difference("(1, 2, 3)", "(1, 5, 3)");
+        assert_eq!((a.as_str(), b.as_str()), ("(1, 2, 3)", "(1, 5, 3)"));
+        // Long texts: from 60 characters before the difference, 120 in all, on character
+        // boundaries (the fingerprints hold "·" and "±").
+        let long = |c: char| format!("{}{c}{}", "±".repeat(100), "x".repeat(200));
+        let (a, b) = around_difference(&long('a'), &long('b'));
+        assert_eq!((a.chars().count(), b.chars().count()), (120, 120));
+        assert!(a.starts_with(&"±".repeat(60)) && a[("±".len() * 60)..].starts_with('a'), "{a}");
+        assert!(b.contains('b') && !b.contains('a'));
+        // One text a prefix of the other: the difference is where the shorter ends.
+        let (a, b) = around_difference("abc", "abcdef");
+        assert_eq!((a.as_str(), b.as_str()), ("abc", "abcdef"));
     }
 
     #[test]
