@@ -301,8 +301,7 @@ pub fn run_compare(
         .map_err(|source| ExperimentError::Io { path: opts.out.clone(), source })?;
     if let Some(from) = &opts.pure_from {
         // Replacing or resuming this comparison would write over the runs to be reused.
-        let canonical = |p: &std::path::Path| p.canonicalize().ok();
-        if canonical(from).is_some() && canonical(from) == canonical(&opts.out) {
+        if crate::rundir::same_path(from, &opts.out) {
             return Err(ExperimentError::PureFromItself { dir: opts.out.clone() });
         }
         if !from.join("seed_0").join("experiment.json").is_file() {
@@ -381,7 +380,7 @@ pub fn run_compare(
         pure_rl: aggregate(&runs, |r| &r.pure_rl),
         controller: aggregate(&runs, |r| &r.controller),
         budgets: budget_rows(&runs),
-        pure_from: opts.pure_from.as_ref().map(|p| p.canonicalize().unwrap_or_else(|_| p.clone())),
+        pure_from: opts.pure_from.as_deref().map(crate::rundir::recorded_path),
     };
     let path = opts.out.join("compare.json");
     let text = serde_json::to_string_pretty(&summary)

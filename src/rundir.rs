@@ -19,6 +19,17 @@ pub fn write_atomic(path: &Path, text: &str) -> std::io::Result<()> {
     })
 }
 
+/// Whether `a` and `b` name the same existing directory (or file), however spelt.
+pub fn same_path(a: &Path, b: &Path) -> bool {
+    a.canonicalize().ok().is_some_and(|a| b.canonicalize().ok() == Some(a))
+}
+
+/// `path` made absolute and free of `..` and links where it exists (what a record keeps), else
+/// as given.
+pub fn recorded_path(path: &Path) -> PathBuf {
+    path.canonicalize().unwrap_or_else(|_| path.to_path_buf())
+}
+
 /// Refuses an output directory path that exists as something else (a file): checked before
 /// a run starts, so that no run's work is lost to a typo in `--out`.
 pub fn check_not_file(dir: &Path) -> std::io::Result<()> {
@@ -98,6 +109,18 @@ pub fn claim(dir: &Path, files: &[&'static str], replace: bool) -> Result<DirLoc
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn one_directory_spelt_two_ways_is_the_same_path() {
+        let dir = std::env::temp_dir().join(format!("centaur-same-path-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        assert!(same_path(&dir, &dir.join("sub").join("..")));
+        assert!(!same_path(&dir, &dir.join("sub")));
+        assert!(!same_path(&dir.join("absent"), &dir.join("absent")), "nothing there is no same place");
+        assert_eq!(recorded_path(&dir.join("sub").join("..")), dir.canonicalize().unwrap());
+        assert_eq!(recorded_path(Path::new("no/such/dir")), Path::new("no/such/dir"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn a_claimed_directory_is_refused_then_replaced_keeping_other_files() {

@@ -179,7 +179,7 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<DirLock, ExperimentError>
         fingerprint: opts.fingerprint(),
         residual: Some(opts.residual.clone()),
         env_settings: opts.env_settings.clone(),
-        pure_from: opts.pure_from.as_ref().map(|p| p.canonicalize().unwrap_or_else(|_| p.clone())),
+        pure_from: opts.pure_from.as_deref().map(crate::rundir::recorded_path),
     };
     let path = dir.join("experiment.json");
     let text = serde_json::to_string_pretty(&record).expect("the record serialises") + "\n";
@@ -491,9 +491,7 @@ pub fn run_experiment(
     opts.algo.validate()?;
     if let Some(from) = &opts.pure_from {
         // Replacing this run would remove the files to be reused.
-        let same =
-            |a: &Path, b: &Path| a.canonicalize().ok().is_some_and(|a| b.canonicalize().ok() == Some(a));
-        if same(from, &opts.out) {
+        if crate::rundir::same_path(from, &opts.out) {
             return Err(ExperimentError::PureFromItself { dir: opts.out.clone() });
         }
         // And a source that cannot be reused is refused before anything is written.
