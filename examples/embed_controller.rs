@@ -14,7 +14,7 @@
 //! plans arrive as late as they would on the robot. Allocations are counted on the loop's
 //! thread only. A checkpoint inside a run directory is checked against the hybrid setup
 //! its `experiment.json` records (the Minitaur preset's): a policy trained with another
-//! (e.g. before the preset's 3.0 m/s rating) is refused, naming both — retrain it with
+//! (e.g. before the preset's 3.5 m/s rating) is refused, naming both — retrain it with
 //! `residual_ppo_minitaur`.
 
 use std::path::{Path, PathBuf};

@@ -13,12 +13,12 @@
 //! `--env minitaur|minitaur-fast`, `--envs N` (parallel environments per agent),
 //! `--threads T`, `--eval-episodes K`, `--config FILE` (TOML hyperparameters for both agents
 //! instead of the tuned Minitaur set), `--no-record`, and the hybrid's setup over the
-//! Minitaur preset (a 2 m/s trot whose speed the policy steers within ±1 m/s, residual
+//! Minitaur preset (a 2 m/s trot whose speed the policy steers within ±1.5 m/s, residual
 //! scale 0.25): `--speed V`, `--steer-speed S`, `--steer-yaw-rate S`, `--residual-scale X`,
 //! `--parts both|residual|command`, `--explore-residual σ`, `--explore-steering σ`,
-//! `--rated-speed V` (the trot's rating: 3.0 m/s in the preset, so the steering reaches
-//! 3 m/s; 2.5, the controller's own rating, reproduces the runs measured before it, see the
-//! README).
+//! `--rated-speed V` (the trot's rating: 3.5 m/s in the preset, so the steering reaches
+//! 3.5 m/s; `--rated-speed 3.0 --steer-speed 1.0` reproduces the preset of 2026-11-27 and
+//! `--rated-speed 2.5 --steer-speed 1.0` the runs measured before it, see the README).
 
 use std::process::ExitCode;
 

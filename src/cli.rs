@@ -126,7 +126,7 @@ pub struct HybridArgs {
     /// The controller's rated speed for the hybrid's gait, m/s, replacing the controller's
     /// own (its steered commands are clamped to it); above the controller's own rating the
     /// controller alone is not measured to hold [default: the hybrid preset's: minitaur
-    /// 3.0 (its trot's own is 2.5), the controller's own elsewhere]
+    /// 3.5 (its trot's own is 2.5), the controller's own elsewhere]
     #[arg(long)]
     pub rated_speed: Option<f64>,
 }

@@ -141,7 +141,7 @@ pub struct ResidualConfig {
     pub command: Command,
     /// The controller's rated speed (m/s) for the command's gait, replacing the
     /// controller's own (`None`, the default: the controller's own; see
-    /// [`ResidualConfig::rate_controller`]; the Minitaur hybrid preset sets 3.0 over the
+    /// [`ResidualConfig::rate_controller`]; the Minitaur hybrid preset sets 3.5 over the
     /// trot's own 2.5). The controller clamps every steered command to the rating, so the
     /// steering cannot take the gait faster than this; above the controller's own rating the
     /// controller alone is not measured to hold on every body, and the learner has to find

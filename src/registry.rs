@@ -5,7 +5,7 @@
 //! | name | environment | controller | hybrid `<name>-residual` |
 //! |---|---|---|---|
 //! | `pendulum` | Gymnasium's Pendulum-v1 ([`centaur_gym::pendulum::Pendulum`]) | — | — |
-//! | `minitaur`, `minitaur-fast`, `minitaur-deterministic` | PyBullet's MinitaurBulletEnv-v0 ([`centaur_envs::MinitaurEnv`]; `-fast`: 3.3 ms physics steps; `-deterministic`: no randomisation) | Minitaur | trot 2 m/s steered ±1 m/s (rated 3.0 m/s), scale 0.25, exploration σ 0.3 |
+//! | `minitaur`, `minitaur-fast`, `minitaur-deterministic` | PyBullet's MinitaurBulletEnv-v0 ([`centaur_envs::MinitaurEnv`]; `-fast`: 3.3 ms physics steps; `-deterministic`: no randomisation) | Minitaur | trot 2 m/s steered ±1.5 m/s (rated 3.5 m/s), scale 0.25, exploration σ 0.3 |
 //! | `ant`, `ant27` | Gymnasium Ant-v5 (`ant27`: the 27-d observation without contact forces) | Ant | trot 1 m/s steered ±0.5 m/s, scale 0.3, exploration σ 0.1 |
 //! | `walker2d` | Gymnasium Walker2d-v5 | Walker2d | walk 0.5 m/s, scale 0.1, exploration σ 0.1 |
 //! | `humanoid` | Gymnasium Humanoid-v5 | Humanoid | stand (steps in place), scale 0.3 |
@@ -59,19 +59,20 @@ fn modular(config: ModularConfig, s: &EnvSettings) -> Result<Box<dyn RobotEnv>, 
 }
 
 /// The Minitaur's hybrid: a quarter of the leg model's range around a 2 m/s trot whose
-/// speed the policy steers within ±1 m/s, so to 3 m/s; the trot is rated 3.0 m/s here
-/// (the controller's own rating is 2.5 m/s, where it clamped the steering: the hybrid
-/// plateaued at ≈ 22.4 from 500k samples; rated 3.0 its IQM over 5 seeds is 25.3 at 1M
-/// and over 3 seeds 26.4 at 2M, with no falls; the controller alone trots 3.0 m/s on 1 of
-/// 5 seeds, the residual holds it); a gentle start with σ 0.3 on the residual (≈ 0.075
-/// action units per joint) and 0.5 on the steering. On seed 0 of the main example, rated
-/// 2.5, a ±0.5 m/s span reached 19.8 in 300k steps, ±1 m/s 21.8 (the steering's gradient
-/// is twice as large).
+/// speed the policy steers within ±1.5 m/s, so to 3.5 m/s; the trot is rated 3.5 m/s here
+/// (since 2026-11-27; the controller's own rating is 2.5 m/s, where it clamped the steering:
+/// the hybrid plateaued at ≈ 22.4 from 500k samples; rated 3.0 with ±1 m/s its IQM over 5
+/// seeds was 25.3 at 1M and over 3 seeds 26.4 at 2M, below pure PPO's 26.8; rated 3.5 with
+/// ±1.5 m/s 26.5 at 1M and 27.9 at 2M, with no falls at either; the controller alone trots
+/// 3.0 m/s on 1 of 5 seeds, the residual holds it); a gentle start with σ 0.3 on the
+/// residual (≈ 0.075 action units per joint) and 0.5 on the steering. On seed 0 of the
+/// main example, rated 2.5, a ±0.5 m/s span reached 19.8 in 300k steps, ±1 m/s 21.8 (the
+/// steering's gradient is twice as large).
 fn minitaur_residual() -> ResidualConfig {
     ResidualConfig {
-        steering: Steering { speed: 1.0, yaw_rate: 0.0 },
+        steering: Steering { speed: 1.5, yaw_rate: 0.0 },
         exploration: Some(Exploration { residual: 0.3, steering: 0.5 }),
-        rated_speed: Some(3.0),
+        rated_speed: Some(3.5),
         ..ResidualConfig::new(0.25, Command::forward(2.0, Gait::Trot))
     }
 }
@@ -473,7 +474,7 @@ mod tests {
             .unwrap();
         assert_eq!(env.controller().config().offer(centaur_mpc::Gait::Trot).unwrap().max_speed, 2.8);
         let env = make_residual_env("minitaur", preset.clone()).unwrap();
-        assert_eq!(env.controller().config().offer(centaur_mpc::Gait::Trot).unwrap().max_speed, 3.0);
+        assert_eq!(env.controller().config().offer(centaur_mpc::Gait::Trot).unwrap().max_speed, 3.5);
         let env =
             make_residual_env("minitaur", ResidualConfig { rated_speed: None, ..preset.clone() }).unwrap();
         assert_eq!(env.controller().config().offer(centaur_mpc::Gait::Trot).unwrap().max_speed, 2.5);

@@ -754,7 +754,7 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
         assert!(!o.status.success(), "{other:?}");
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(
-            err.contains("was trained with ResidualConfig {") && err.contains("rated_speed: Some(3.0)"),
+            err.contains("was trained with ResidualConfig {") && err.contains("rated_speed: Some(3.5)"),
             "{err}"
         );
     }

@@ -348,7 +348,7 @@ fn controller_return(config: &ResidualConfig, env_name: &str, seed: u64) -> f64 
     }
 }
 
-/// A Minitaur hybrid steered to the top of its range (+1: 3 m/s commanded) for `steps`
+/// A Minitaur hybrid steered to the top of its range (+1: 3.5 m/s commanded) for `steps`
 /// steps from reset seed 3: the observations' and rewards' bits.
 fn full_steer_trace(config: ResidualConfig, steps: usize) -> Vec<u64> {
     let mut env = make_residual_env("minitaur", config).unwrap();
@@ -359,18 +359,18 @@ fn full_steer_trace(config: ResidualConfig, steps: usize) -> Vec<u64> {
 }
 
 /// `rated_speed: Some(2.5)` is the trot's own rating: the hybrid runs as with no rating of
-/// its own, to the bit, even steered past it (so runs measured before the preset's 3.0
-/// rating are reproduced by `--rated-speed 2.5`); the preset's 3.0 lets the steering through.
+/// its own, to the bit, even steered past it (so runs measured before the preset's first
+/// rating are reproduced by `--rated-speed 2.5`); the preset's 3.5 lets the steering through.
 #[test]
 fn the_trots_own_rating_reproduces_the_old_preset_bit_for_bit() {
     let preset = residual_config("minitaur").unwrap();
-    assert_eq!(preset.rated_speed, Some(3.0));
+    assert_eq!(preset.rated_speed, Some(3.5));
     let steps = 150;
     let unrated = full_steer_trace(ResidualConfig { rated_speed: None, ..preset.clone() }, steps);
     let same = full_steer_trace(ResidualConfig { rated_speed: Some(2.5), ..preset.clone() }, steps);
     let lifted = full_steer_trace(preset, steps);
     assert_eq!(unrated, same, "rated 2.5 differs from the trot's own rating");
-    assert_ne!(unrated, lifted, "the preset's 3.0 rating changed nothing");
+    assert_ne!(unrated, lifted, "the preset's 3.5 rating changed nothing");
 }
 
 #[test]
@@ -406,12 +406,12 @@ fn steering_the_speed_up_makes_the_robot_run_faster() {
         (ret, env.command().forward_velocity)
     };
     let (slow, v_slow) = run(-1.0);
-    // +0.5: 2.5 m/s, the controller's own rating (the preset's 3.0, at +1, is the
-    // residual's to hold: the controller alone falls there on this seed).
-    let (fast, v_fast) = run(0.5);
-    assert_eq!((v_slow, v_fast), (1.0, 2.5));
+    // +0.25: 2.375 m/s, below the controller's own rating of 2.5 (the preset's 3.5, at +1,
+    // is the residual's to hold: the controller alone falls above 2.75 m/s).
+    let (fast, v_fast) = run(0.25);
+    assert_eq!((v_slow, v_fast), (0.5, 2.375));
     // 4 s, most of it at the steered speed: ≈ 5 m apart.
-    assert!(fast > slow + 3.0, "steering +0.5 scored {fast:.2}, −1 {slow:.2}");
+    assert!(fast > slow + 3.0, "steering +0.25 scored {fast:.2}, −1 {slow:.2}");
 }
 
 /// The gentle start: an untrained hybrid's stochastic training episodes (PPO's

@@ -727,7 +727,7 @@ mod tests {
     fn a_run_is_evaluated_only_with_the_setup_it_was_trained_with() {
         let dir = temp_dir("trained-with");
         let trained = residual_config("minitaur").unwrap();
-        assert_eq!(trained.rated_speed, Some(3.0));
+        assert_eq!(trained.rated_speed, Some(3.5));
         assert!(matches!(check_trained_with(&dir, &trained), Err(ExperimentError::NotAnExperiment { .. })));
         write_record(&dir, &record(Some(&trained), "(not read)".into()));
         check_trained_with(&dir, &trained).unwrap();
@@ -772,7 +772,12 @@ mod tests {
         const OLDEST: &str = "ResidualConfig { scale: [0.25], joint_residual: true, steering: Steering { speed: 1.0, yaw_rate: 0.0 }, exploration: Some(Exploration { residual: 0.3, steering: 0.5 }), include_reference: true, command: Command { forward_velocity: 2.0, lateral_velocity: 0.0, yaw_rate: 0.0, body_height: None, gait: Trot } }";
         const RATED: &str = "ResidualConfig { scale: [0.25], joint_residual: true, steering: Steering { speed: 1.0, yaw_rate: 0.0 }, exploration: Some(Exploration { residual: 0.3, steering: 0.5 }), warmup_with_policy: false, include_reference: true, command: Command { forward_velocity: 2.0, lateral_velocity: 0.0, yaw_rate: 0.0, body_height: None, gait: Trot }, rated_speed: Some(3.0) }";
         let dir = temp_dir("legacy-record");
-        let preset = residual_config("minitaur").unwrap();
+        // The preset of 2026-11-27: steered ±1 m/s, rated 3.0.
+        let preset = ResidualConfig {
+            steering: crate::hybrid::Steering { speed: 1.0, yaw_rate: 0.0 },
+            rated_speed: Some(3.0),
+            ..residual_config("minitaur").unwrap()
+        };
         let at = |rated_speed| ResidualConfig { rated_speed, ..preset.clone() };
         let legacy =
             |residual: &str| record(None, format!("(\"minitaur\", Ppo(..), 4, 10, {residual}, None)"));
@@ -803,7 +808,7 @@ mod tests {
     fn the_record_holds_the_setup_as_data() {
         let preset = residual_config("minitaur").unwrap();
         let text = serde_json::to_string_pretty(&record(Some(&preset), String::new())).unwrap();
-        assert!(text.contains("\"rated_speed\": 3.0") && text.contains("\"gait\": \"trot\""), "{text}");
+        assert!(text.contains("\"rated_speed\": 3.5") && text.contains("\"gait\": \"trot\""), "{text}");
         let back: ExperimentRecord = serde_json::from_str(&text).unwrap();
         assert_eq!(back.residual, Some(preset));
     }
@@ -833,7 +838,7 @@ mod tests {
             pure_from: None,
         };
         let other_hybrid = ExperimentOptions {
-            residual: ResidualConfig { rated_speed: Some(3.5), ..preset },
+            residual: ResidualConfig { rated_speed: Some(3.0), ..preset },
             out: PathBuf::from("b"),
             ..opts.clone()
         };
