@@ -21,7 +21,7 @@
 //! |---|---|---|---|
 //! | `max_episode_steps`, `frame_skip` (the Minitaur's `action_repeat`) | ✓ | ✓ | ✓ |
 //! | `joint_history`, `drop_base_orientation` (observation) | ✓ | ✓ | ✓ |
-//! | `distance_weight`, `energy_weight`, `drift_weight`, `shake_weight`, `distance_limit`, `randomize`, `latency`, `observation_noise_std` | ✓ | | |
+//! | `distance_weight`, `energy_weight`, `drift_weight`, `shake_weight`, `distance_limit`, `randomize`, `motor_strength`, `latency`, `observation_noise_std` | ✓ | | |
 //! | `forward_reward_weight`, `contact_cost_weight`, `healthy_reward`, `terminate_when_unhealthy`, `healthy_z_range`, `healthy_angle_range` | | ✓ | |
 //! | `ctrl_cost_weight`, `reset_noise_scale` | | ✓ | ✓ |
 //! | `observation` (`"full"`, `"hinges_orientation"`, `"hinges"`) | | | ✓ |
@@ -69,6 +69,11 @@ pub struct EnvSettings {
     /// Minitaur: randomise the robot at reset (`false`: the nominal robot).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub randomize: Option<bool>,
+    /// Minitaur: motor strength drawn at every reset within `[low, high]`, a factor on
+    /// every motor's torque (the randomisation's `motor_strength`; default `[1, 1]`, off as
+    /// in v0; Tan et al. 2018 trained with it for sim-to-real). Needs the randomisation on.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub motor_strength: Option<[f64; 2]>,
     /// Minitaur: control latency (s), 0 to [`centaur_envs::minitaur::MAX_LATENCY`].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub latency: Option<f64>,
@@ -124,13 +129,14 @@ pub struct NotApplicable {
 
 const COMMON: [&str; 5] =
     ["max_episode_steps", "frame_skip", "joint_history", "drop_base_orientation", "pushes"];
-const MINITAUR: [&str; 8] = [
+const MINITAUR: [&str; 9] = [
     "distance_weight",
     "energy_weight",
     "drift_weight",
     "shake_weight",
     "distance_limit",
     "randomize",
+    "motor_strength",
     "latency",
     "observation_noise_std",
 ];
@@ -166,6 +172,7 @@ impl EnvSettings {
             ("shake_weight", s.shake_weight.is_some()),
             ("distance_limit", s.distance_limit.is_some()),
             ("randomize", s.randomize.is_some()),
+            ("motor_strength", s.motor_strength.is_some()),
             ("latency", s.latency.is_some()),
             ("observation_noise_std", s.observation_noise_std.is_some()),
             ("forward_reward_weight", s.forward_reward_weight.is_some()),
@@ -223,6 +230,19 @@ impl EnvSettings {
             Some(false) => c.randomization = None,
             Some(true) if c.randomization.is_none() => c.randomization = Some(Default::default()),
             _ => {}
+        }
+        if let Some([low, high]) = s.motor_strength {
+            // A range drawn at reset means nothing without the randomisation: refused, not
+            // dropped (the env's validation checks the range itself).
+            let Some(r) = c.randomization.as_mut() else {
+                let keys = COMMON.iter().chain(&MINITAUR).copied().filter(|k| *k != "motor_strength");
+                return Err(NotApplicable {
+                    key: "motor_strength",
+                    env: "the Minitaur without randomisation (randomize = false)",
+                    keys: keys.collect(),
+                });
+            };
+            r.motor_strength = (low, high);
         }
         Ok(c)
     }
@@ -309,6 +329,21 @@ mod tests {
         assert_eq!(s.minitaur(MinitaurConfig::default()).unwrap_err().key, "healthy_reward");
 
         assert!(split_run_toml("[env]\nhealthy_rewrd = 5.0\n").unwrap_err().contains("healthy_rewrd"));
+        // Motor strength drawn at reset: into the randomisation; refused without it and on
+        // other robots; a bad range is the env's to refuse.
+        let (s, _) = split_run_toml("[env]\nmotor_strength = [0.8, 1.2]\n").unwrap();
+        let m = s.minitaur(MinitaurConfig::default()).unwrap();
+        assert_eq!(m.randomization.unwrap().motor_strength, (0.8, 1.2));
+        assert_eq!(s.locomotion(LocomotionConfig::ant()).unwrap_err().key, "motor_strength");
+        let (s, _) = split_run_toml("[env]\nmotor_strength = [0.8, 1.2]\nrandomize = false\n").unwrap();
+        let e = s.minitaur(MinitaurConfig::default()).unwrap_err();
+        assert!(e.key == "motor_strength" && e.to_string().contains("randomize = false"), "{e}");
+        for bad in ["[0.0, 1.0]", "[1.2, 0.8]", "[0.8, inf]"] {
+            let (s, _) = split_run_toml(&format!("[env]\nmotor_strength = {bad}\n")).unwrap();
+            let m = s.minitaur(MinitaurConfig::default()).unwrap();
+            let e = m.validate().unwrap_err().to_string();
+            assert!(e.contains("motor_strength"), "{bad}: {e}");
+        }
         assert!(split_run_toml("[env]\nmax_episode_steps = -3\n").is_err());
         assert_eq!(split_run_toml("gamma = 0.9\n").unwrap(), (EnvSettings::default(), None));
         // The modular observation ablation: a set by name, refused on other robots.

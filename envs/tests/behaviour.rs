@@ -260,6 +260,12 @@ fn settings_out_of_range_are_refused_naming_the_field() {
         assert!(err.to_string().contains(says), "{says}: {err}");
     }
     let minitaur = MinitaurConfig::default;
+    let strength = |low, high| {
+        Some(centaur_envs::minitaur::MinitaurRandomization {
+            motor_strength: (low, high),
+            ..Default::default()
+        })
+    };
     let minitaur_cases = [
         ("latency = 1000000000.0", MinitaurConfig { latency: 1e9, ..minitaur() }),
         ("latency = -0.01", MinitaurConfig { latency: -0.01, ..minitaur() }),
@@ -270,6 +276,12 @@ fn settings_out_of_range_are_refused_naming_the_field() {
         ("action_repeat (frame_skip in [env]) = 0", MinitaurConfig { action_repeat: 0, ..minitaur() }),
         ("shake_weight = NaN", MinitaurConfig { shake_weight: f64::NAN, ..minitaur() }),
         ("joint_history = 1000", MinitaurConfig { obs: history(1000), ..minitaur() }),
+        ("motor_strength = (-0.2, 1.0)", MinitaurConfig { randomization: strength(-0.2, 1.0), ..minitaur() }),
+        ("motor_strength = (1.2, 0.8)", MinitaurConfig { randomization: strength(1.2, 0.8), ..minitaur() }),
+        (
+            "motor_strength = (0.8, NaN)",
+            MinitaurConfig { randomization: strength(0.8, f64::NAN), ..minitaur() },
+        ),
     ];
     for (says, config) in minitaur_cases {
         let err = MinitaurEnv::new(config).err().unwrap_or_else(|| panic!("{says}: accepted"));

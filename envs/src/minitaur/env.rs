@@ -181,6 +181,14 @@ impl MinitaurConfig {
                 self.distance_limit
             ));
         }
+        if let Some(r) = &self.randomization {
+            let (low, high) = r.motor_strength;
+            if !(low.is_finite() && high.is_finite() && low > 0.0 && low <= high) {
+                return bad(&format!(
+                    "randomization.motor_strength = ({low:?}, {high:?}): expected 0 < low ≤ high, finite"
+                ));
+            }
+        }
         if self.action == MinitaurAction::Pwm && !matches!(self.motor_control, MotorControl::Accurate(_)) {
             return bad("PWM actions need the accurate motor model");
         }
