@@ -115,6 +115,19 @@ pub struct EnvSettings {
     pub pushes: Option<PushSchedule>,
 }
 
+/// `[env]` keys that change only what a run trains on — perturbations drawn at reset or
+/// during episodes — and not what its policies observe, do or are rewarded for: a policy
+/// trained with them runs in the robot's preset environment as it is (the robustness study
+/// and `embed_controller` take such runs; any other key is refused there).
+pub const TRAINING_ONLY: [&str; 2] = ["motor_strength", "pushes"];
+
+impl EnvSettings {
+    /// The keys given that are not [`TRAINING_ONLY`]: those that change the task itself.
+    pub fn task_keys(&self) -> Vec<&'static str> {
+        self.given().into_iter().filter(|k| !TRAINING_ONLY.contains(k)).collect()
+    }
+}
+
 /// A key of `[env]` that the environment does not have.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("[env] {key} does not apply to {env} (its keys: {})", keys.join(", "))]

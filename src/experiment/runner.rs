@@ -204,11 +204,14 @@ pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<(), E
         path: path.clone(),
         source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
     })?;
-    // The studies that check with this run the robot's preset environment.
-    if !record.env_settings.is_empty() {
+    // The studies that check with this run the robot's preset environment: settings that
+    // only perturbed training (motor strength drawn at reset, pushes) leave its policies
+    // fit for it; any other changes the task.
+    let task_keys = record.env_settings.task_keys();
+    if !task_keys.is_empty() {
         return Err(ExperimentError::EnvSettingsNotCovered {
             run: dir.to_path_buf(),
-            keys: record.env_settings.given().join(", "),
+            keys: task_keys.join(", "),
         });
     }
     let own_rating = controller_config(&record.env)
@@ -761,6 +764,31 @@ mod tests {
 
         std::fs::write(dir.join("experiment.json"), "{ not json").unwrap();
         assert!(matches!(check_trained_with(&dir, &trained), Err(ExperimentError::Io { .. })));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A run trained with `[env]` settings that only perturbed its training (motor strength
+    /// drawn at reset, pushes) is fit for the preset environment; one whose settings change
+    /// the task is refused, naming those keys only.
+    #[test]
+    fn training_only_settings_leave_a_run_fit_for_the_preset_env() {
+        let dir = temp_dir("training-only");
+        let preset = residual_config("minitaur").unwrap();
+        let with = |toml: &str| {
+            let (env_settings, _) = crate::settings::split_run_toml(toml).unwrap();
+            ExperimentRecord { env_settings, ..record(Some(&preset), String::new()) }
+        };
+        write_record(
+            &dir,
+            &with(
+                "[env]\nmotor_strength = [0.8, 1.2]\npushes = { force = 5.0, every = 2.0, duration = 0.1 }\n",
+            ),
+        );
+        check_trained_with(&dir, &preset).unwrap();
+        write_record(&dir, &with("[env]\nmotor_strength = [0.8, 1.2]\nenergy_weight = 0.0\n"));
+        let err = check_trained_with(&dir, &preset).unwrap_err();
+        let ExperimentError::EnvSettingsNotCovered { ref keys, .. } = err else { panic!("{err}") };
+        assert_eq!(keys, "energy_weight");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
