@@ -251,7 +251,7 @@ impl EnvSettings {
                 let keys = COMMON.iter().chain(&MINITAUR).copied().filter(|k| *k != "motor_strength");
                 return Err(NotApplicable {
                     key: "motor_strength",
-                    env: "the Minitaur without randomisation (randomize = false)",
+                    env: "the Minitaur without its randomisation (randomize = false, or minitaur-deterministic: add randomize = true)",
                     keys: keys.collect(),
                 });
             };
@@ -351,6 +351,16 @@ mod tests {
         let (s, _) = split_run_toml("[env]\nmotor_strength = [0.8, 1.2]\nrandomize = false\n").unwrap();
         let e = s.minitaur(MinitaurConfig::default()).unwrap_err();
         assert!(e.key == "motor_strength" && e.to_string().contains("randomize = false"), "{e}");
+        // The deterministic Minitaur (no randomisation): refused as it is, taken with it on.
+        let deterministic = MinitaurConfig { randomization: None, ..MinitaurConfig::default() };
+        let (s, _) = split_run_toml("[env]\nmotor_strength = [0.8, 1.2]\n").unwrap();
+        assert!(s.minitaur(deterministic.clone()).unwrap_err().to_string().contains("randomize = true"));
+        let (s, _) = split_run_toml("[env]\nmotor_strength = [0.8, 1.2]\nrandomize = true\n").unwrap();
+        assert_eq!(s.minitaur(deterministic).unwrap().randomization.unwrap().motor_strength, (0.8, 1.2));
+        // Every training-only key is a key some robot has.
+        for k in TRAINING_ONLY {
+            assert!(COMMON.contains(&k) || MINITAUR.contains(&k), "{k}");
+        }
         for bad in ["[0.0, 1.0]", "[1.2, 0.8]", "[0.8, inf]"] {
             let (s, _) = split_run_toml(&format!("[env]\nmotor_strength = {bad}\n")).unwrap();
             let m = s.minitaur(MinitaurConfig::default()).unwrap();

@@ -556,7 +556,10 @@ fn compare_takes_the_env_table_of_its_run_file() {
         .output()
         .unwrap();
     assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("trained with [env] settings (max_episode_steps)"));
+    assert!(
+        String::from_utf8_lossy(&o.stderr)
+            .contains("trained with [env] settings that change the task (max_episode_steps)")
+    );
     // A key the robot does not have: refused before anything is written.
     std::fs::write(&config, "n_steps = 64\n[env]\nhealthy_reward = 1.0\n").unwrap();
     std::fs::remove_dir_all(&out).unwrap();
@@ -747,6 +750,15 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     for r in rows.as_array().unwrap() {
         assert_eq!(r["controller"]["episodes"].as_u64(), Some(1));
     }
+    // With the controller told only the nominal motor: its own file, robustness.json kept.
+    let before = std::fs::read_to_string(seed_0.join("robustness.json")).unwrap();
+    let o = robustness(&seed_0, &["--nominal-motor"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let nominal: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(seed_0.join("robustness_nominal_motor.json")).unwrap())
+            .unwrap();
+    assert_eq!(nominal.as_array().unwrap().len(), 10);
+    assert_eq!(std::fs::read_to_string(seed_0.join("robustness.json")).unwrap(), before);
     // A hybrid evaluated with another setup than it was trained with (without its steering,
     // or at another rating): refused, naming both setups.
     for other in [&["--parts", "residual"][..], &["--rated-speed", "2.5"]] {

@@ -439,3 +439,40 @@ fn every_robot_env_records_its_configuration_as_json() {
         serde_json::from_str(&envs.last().unwrap().config_text().unwrap()).unwrap();
     assert!(gecko["body"]["nodes"].as_array().is_some_and(|n| n.len() > 1), "{gecko}");
 }
+
+/// `action_for_torques` inverts the motor drawn at reset by default (strength included) and,
+/// with `MotorInverse::Nominal`, the data sheet's whatever was drawn: on a robot whose drawn
+/// motor is 20 % weak the nominal inverse is the default `MotorModel`'s at the robot's motor
+/// state, and the drawn inverse asks for more.
+#[test]
+fn the_nominal_motor_inverse_does_not_see_the_drawn_motor() {
+    use centaur_envs::minitaur::{
+        MOTOR_DIRECTION, MinitaurRandomization, MotorInverse, MotorModel, motor_angles_to_leg_model,
+    };
+    let tau = [0.4, -0.3, 0.2, -0.1, 0.3, -0.2, 0.1, -0.4];
+    let weak = Some(MinitaurRandomization { motor_strength: (0.8, 0.8), ..Default::default() });
+    let actions = |motor_inverse: MotorInverse| {
+        let config =
+            MinitaurConfig { randomization: weak.clone(), motor_inverse, ..MinitaurConfig::default() };
+        let mut env = MinitaurEnv::new(config).unwrap();
+        let mut obs = vec![0.0f32; env.observation_space().dim()];
+        env.reset(Some(7), &mut obs).unwrap();
+        let mut out = [0.0f32; 8];
+        env.action_for_torques(&tau, &mut out);
+        (out, env.motor_state())
+    };
+    let (nominal, (q, qd)) = actions(MotorInverse::Nominal);
+    let (drawn, state) = actions(MotorInverse::Drawn);
+    assert_eq!(state, (q, qd), "the inverse changed the reset");
+    let sheet = MotorModel::default();
+    let angles: [f64; 8] =
+        std::array::from_fn(|i| sheet.angle_for_torque(MOTOR_DIRECTION[i] * tau[i], q[i], qd[i]));
+    let expected = motor_angles_to_leg_model(&angles).map(|a| (a as f32).clamp(-1.0, 1.0));
+    assert_eq!(nominal, expected);
+    assert_ne!(drawn, nominal);
+    // The recorded configuration leaves the default out (runs recorded before read the same).
+    let text =
+        |m| serde_json::to_string(&MinitaurConfig { motor_inverse: m, ..MinitaurConfig::default() }).unwrap();
+    assert!(!text(MotorInverse::Drawn).contains("motor_inverse"));
+    assert!(text(MotorInverse::Nominal).contains("\"motor_inverse\":\"nominal\""));
+}

@@ -12,6 +12,7 @@ use centaur::experiment::{Condition, RobustnessOptions, robustness_table, run_ro
 use centaur::experiment::{Phase, tuned_config};
 use centaur::registry::residual_config;
 use centaur::train::{TrainOptions, parse_run_config, read_config_file, read_run_record, resume, train};
+use centaur_envs::minitaur::MotorInverse;
 use centaur_mpc::{Gait, MpcSolver};
 use centaur_rl::AlgoKind;
 use clap::{Args, Parser, Subcommand};
@@ -291,6 +292,12 @@ struct RobustnessArgs {
     /// Deterministic episodes per agent and condition.
     #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = positive_count)]
     episodes: usize,
+    /// The controller (alone and in the hybrid) turns its torques into actions with the
+    /// nominal motor model instead of the one drawn at reset (strength, damping and battery
+    /// voltage, which a controller on the robot would not know); writes
+    /// robustness_nominal_motor.json instead of robustness.json
+    #[arg(long)]
+    nominal_motor: bool,
     /// The hybrid's setup the run was trained with (the robot's preset by default; a run
     /// whose `experiment.json` records another is refused, naming both).
     #[command(flatten)]
@@ -313,11 +320,13 @@ fn robustness(args: RobustnessArgs) -> ExitCode {
         episodes: args.episodes.max(1),
         seed: 2_000_000,
         conditions: Condition::standard(),
+        motor_inverse: if args.nominal_motor { MotorInverse::Nominal } else { MotorInverse::Drawn },
     };
     match run_robustness(&opts) {
         Ok(rows) => {
             print!("{}", robustness_table(&rows));
-            let path = args.run.join("robustness.json");
+            let name = if args.nominal_motor { "robustness_nominal_motor.json" } else { "robustness.json" };
+            let path = args.run.join(name);
             let text = serde_json::to_string_pretty(&rows).expect("rows serialise");
             if let Err(e) = std::fs::write(&path, text + "\n") {
                 eprintln!("error: {}: {e}", path.display());

@@ -84,14 +84,16 @@ pub enum ExperimentError {
         /// The directory.
         dir: PathBuf,
     },
-    /// A run trained with `[env]` settings, given to a study that runs the preset env.
+    /// A run trained with `[env]` settings that change the task, given to a study that runs
+    /// the preset env (settings that only perturbed training, `settings::TRAINING_ONLY`, are
+    /// accepted).
     #[error(
-        "{run}: its agents were trained with [env] settings ({keys}); this runs the robot's preset environment, on which they were not trained"
+        "{run}: its agents were trained with [env] settings that change the task ({keys}); this runs the robot's preset environment, on which they were not trained"
     )]
     EnvSettingsNotCovered {
         /// The run directory.
         run: PathBuf,
-        /// The `[env]` keys it was trained with.
+        /// The `[env]` keys it was trained with that change the task.
         keys: String,
     },
     /// A directory that holds no experiment (no `experiment.json`).

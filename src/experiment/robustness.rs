@@ -13,7 +13,8 @@
 
 use std::path::PathBuf;
 
-use centaur_envs::{MinitaurConfig, MinitaurEnv, RobotEnv, minitaur::MinitaurRandomization};
+use centaur_envs::minitaur::{MinitaurRandomization, MotorInverse};
+use centaur_envs::{MinitaurConfig, MinitaurEnv, RobotEnv};
 use centaur_gym::Env;
 use centaur_mpc::LocomotionController;
 use centaur_rl::{Policy, RlError};
@@ -106,6 +107,11 @@ pub struct RobustnessOptions {
     pub seed: u64,
     /// The conditions.
     pub conditions: Vec<Condition>,
+    /// The motor model the controller's torques are turned into actions with, for the
+    /// controller alone and inside the hybrid ([`MotorInverse::Drawn`], as in training: the
+    /// motor drawn at reset, strength included; [`MotorInverse::Nominal`]: the data sheet's,
+    /// as a controller on the robot would know it).
+    pub motor_inverse: MotorInverse,
 }
 
 /// The three agents under one condition.
@@ -138,7 +144,7 @@ pub fn run_robustness(opts: &RobustnessOptions) -> Result<Vec<RobustnessRow>, Ex
     let load = |agent: &str| Policy::load(&opts.run.join(agent).join("checkpoint")).map_err(RlError::from);
     let (pure_policy, hybrid_policy) = (load("pure_rl")?, load("hybrid")?);
     let robot = |c: &Condition| -> Result<Box<dyn RobotEnv>, ExperimentError> {
-        Ok(Box::new(MinitaurEnv::new(c.minitaur())?))
+        Ok(Box::new(MinitaurEnv::new(MinitaurConfig { motor_inverse: opts.motor_inverse, ..c.minitaur() })?))
     };
     let controller = |env: &dyn RobotEnv| -> Result<LocomotionController, ExperimentError> {
         Ok(LocomotionController::new(env.model(), controller_cfg.clone()).map_err(HybridError::from)?)

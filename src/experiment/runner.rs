@@ -192,7 +192,10 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<DirLock, ExperimentError>
 /// steering span or parts) would be judged on a controller it never saw. A rating equal to
 /// the controller's own for the gait is the same controller as none
 /// (`the_trots_own_rating_reproduces_the_old_preset_bit_for_bit`), so the two match. Records
-/// from before the setup was stored as data are matched by their text.
+/// from before the setup was stored as data are matched by their text. A run trained with
+/// `[env]` settings is refused unless they only perturbed training
+/// ([`crate::settings::TRAINING_ONLY`]: motor strength drawn at reset, pushes), since the
+/// callers run the robot's preset environment.
 /// `centaur robustness` and `examples/embed_controller` check with it.
 pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<(), ExperimentError> {
     let path = dir.join("experiment.json");

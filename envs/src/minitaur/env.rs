@@ -116,6 +116,34 @@ pub struct MinitaurConfig {
     pub obs: ObsOptions,
     /// Periodic pushes on the base during every episode (default: none).
     pub pushes: Option<PushSchedule>,
+    /// Which motor model [`RobotEnv::action_for_torques`] inverts (default:
+    /// [`MotorInverse::Drawn`], as before this field existed). Left out of the recorded
+    /// configuration at its default, so runs recorded before it read the same.
+    #[serde(skip_serializing_if = "MotorInverse::is_drawn")]
+    pub motor_inverse: MotorInverse,
+}
+
+/// The motor model a controller's torques are turned into actions with
+/// ([`RobotEnv::action_for_torques`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MotorInverse {
+    /// The motor drawn at reset — battery voltage, viscous damping and motor strength
+    /// included: the controller is told the randomised motor, which a controller on the
+    /// robot would not know (strength and damping at least). Every controller and hybrid
+    /// figure up to 2026-11-27 was measured so.
+    #[default]
+    Drawn,
+    /// The nominal motor of [`MinitaurConfig::motor_control`], whatever was drawn: the
+    /// controller knows only the data sheet.
+    Nominal,
+}
+
+impl MotorInverse {
+    /// Whether this is [`MotorInverse::Drawn`] (the default).
+    pub fn is_drawn(&self) -> bool {
+        *self == MotorInverse::Drawn
+    }
 }
 
 impl Default for MinitaurConfig {
@@ -138,6 +166,7 @@ impl Default for MinitaurConfig {
             capsule_feet: true,
             obs: ObsOptions::default(),
             pushes: None,
+            motor_inverse: MotorInverse::Drawn,
         }
     }
 }
@@ -692,12 +721,16 @@ impl RobotEnv for MinitaurEnv {
     /// torque → PWM → desired motor angle (position modes) → leg model (clipped to ±1).
     fn action_for_torques(&self, tau: &[f64], out: &mut [f32]) {
         let (q, qd) = self.motor_state();
+        let motor = match (&self.config.motor_control, self.config.motor_inverse) {
+            (MotorControl::Accurate(nominal), MotorInverse::Nominal) => nominal,
+            _ => &self.motor,
+        };
         let mut cmd = [0.0f64; 8];
         for i in 0..8 {
             let t = MOTOR_DIRECTION[i] * tau[i];
             cmd[i] = match (&self.config.motor_control, self.config.action) {
-                (MotorControl::Accurate(_), MinitaurAction::Pwm) => self.motor.pwm_for_torque(t, qd[i]),
-                (MotorControl::Accurate(_), _) => self.motor.angle_for_torque(t, q[i], qd[i]),
+                (MotorControl::Accurate(_), MinitaurAction::Pwm) => motor.pwm_for_torque(t, qd[i]),
+                (MotorControl::Accurate(_), _) => motor.angle_for_torque(t, q[i], qd[i]),
                 (MotorControl::Pd { kp, kd, .. }, _) => q[i] + (t + kd * qd[i]) / kp,
             };
         }

@@ -44,6 +44,7 @@ mod motor;
 
 pub use env::{
     MAX_LATENCY, MinitaurAction, MinitaurConfig, MinitaurEnv, MinitaurRandomization, MotorControl,
+    MotorInverse,
 };
 pub use legs::{leg_model_to_motor_angles, motor_angles_to_leg_model};
 pub use model::{
