@@ -21,7 +21,7 @@
 //! |---|---|---|---|
 //! | `max_episode_steps`, `frame_skip` (the Minitaur's `action_repeat`) | ✓ | ✓ | ✓ |
 //! | `joint_history`, `drop_base_orientation` (observation) | ✓ | ✓ | ✓ |
-//! | `distance_weight`, `energy_weight`, `drift_weight`, `shake_weight`, `distance_limit`, `randomize`, `motor_strength`, `latency`, `observation_noise_std` | ✓ | | |
+//! | `distance_weight`, `energy_weight`, `drift_weight`, `shake_weight`, `distance_limit`, `randomize`, `motor_strength`, `motor_inverse`, `latency`, `observation_noise_std` | ✓ | | |
 //! | `forward_reward_weight`, `contact_cost_weight`, `healthy_reward`, `terminate_when_unhealthy`, `healthy_z_range`, `healthy_angle_range` | | ✓ | |
 //! | `ctrl_cost_weight`, `reset_noise_scale` | | ✓ | ✓ |
 //! | `observation` (`"full"`, `"hinges_orientation"`, `"hinges"`) | | | ✓ |
@@ -29,6 +29,7 @@
 //! The Pendulum takes `max_episode_steps` only. Checkpoints and run records keep the
 //! settings (an empty table is the preset).
 
+use centaur_envs::minitaur::MotorInverse;
 use centaur_envs::{LocomotionConfig, MinitaurConfig, ModularConfig, ModularObservation, PushSchedule};
 use centaur_gym::pendulum::Pendulum;
 use serde::{Deserialize, Serialize};
@@ -74,6 +75,12 @@ pub struct EnvSettings {
     /// in v0; Tan et al. 2018 trained with it for sim-to-real). Needs the randomisation on.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub motor_strength: Option<[f64; 2]>,
+    /// Minitaur: the motor model a controller's torques are turned into actions with,
+    /// `"drawn"` (the default: the motor drawn at reset) or `"nominal"` (the data sheet's;
+    /// [`centaur_envs::minitaur::MotorInverse`]). Changes the hybrid's reference action, so
+    /// it is a task key, not a training-only one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub motor_inverse: Option<MotorInverse>,
     /// Minitaur: control latency (s), 0 to [`centaur_envs::minitaur::MAX_LATENCY`].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub latency: Option<f64>,
@@ -142,7 +149,7 @@ pub struct NotApplicable {
 
 const COMMON: [&str; 5] =
     ["max_episode_steps", "frame_skip", "joint_history", "drop_base_orientation", "pushes"];
-const MINITAUR: [&str; 9] = [
+const MINITAUR: [&str; 10] = [
     "distance_weight",
     "energy_weight",
     "drift_weight",
@@ -150,6 +157,7 @@ const MINITAUR: [&str; 9] = [
     "distance_limit",
     "randomize",
     "motor_strength",
+    "motor_inverse",
     "latency",
     "observation_noise_std",
 ];
@@ -186,6 +194,7 @@ impl EnvSettings {
             ("distance_limit", s.distance_limit.is_some()),
             ("randomize", s.randomize.is_some()),
             ("motor_strength", s.motor_strength.is_some()),
+            ("motor_inverse", s.motor_inverse.is_some()),
             ("latency", s.latency.is_some()),
             ("observation_noise_std", s.observation_noise_std.is_some()),
             ("forward_reward_weight", s.forward_reward_weight.is_some()),
@@ -239,6 +248,7 @@ impl EnvSettings {
         set(&mut c.latency, s.latency);
         set(&mut c.observation_noise_std, s.observation_noise_std);
         set(&mut c.pushes, s.pushes.map(Some));
+        set(&mut c.motor_inverse, s.motor_inverse);
         match s.randomize {
             Some(false) => c.randomization = None,
             Some(true) if c.randomization.is_none() => c.randomization = Some(Default::default()),
@@ -357,6 +367,12 @@ mod tests {
         assert!(s.minitaur(deterministic.clone()).unwrap_err().to_string().contains("randomize = true"));
         let (s, _) = split_run_toml("[env]\nmotor_strength = [0.8, 1.2]\nrandomize = true\n").unwrap();
         assert_eq!(s.minitaur(deterministic).unwrap().randomization.unwrap().motor_strength, (0.8, 1.2));
+        // The controller's motor inverse: by name, the Minitaur's only, a task key.
+        let (s, _) = split_run_toml("[env]\nmotor_inverse = \"nominal\"\n").unwrap();
+        assert_eq!(s.minitaur(MinitaurConfig::default()).unwrap().motor_inverse, MotorInverse::Nominal);
+        assert_eq!(s.task_keys(), ["motor_inverse"]);
+        assert_eq!(s.locomotion(LocomotionConfig::ant()).unwrap_err().key, "motor_inverse");
+        assert!(split_run_toml("[env]\nmotor_inverse = \"exact\"\n").unwrap_err().contains("exact"));
         // Every training-only key is a key some robot has.
         for k in TRAINING_ONLY {
             assert!(COMMON.contains(&k) || MINITAUR.contains(&k), "{k}");

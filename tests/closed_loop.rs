@@ -361,6 +361,22 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
         "{stdout}"
     );
     let _ = std::fs::remove_dir_all(&out);
+    // The controller told only the nominal motor: recorded in the summary; refused on a
+    // robot without the Minitaur's motor model.
+    let nominal = |env: &str| {
+        let args = ["control", "--env", env, "--nominal-motor", "--seconds", "1", "--out"];
+        Process::new(env!("CARGO_BIN_EXE_centaur")).args(args).arg(&out).output().unwrap()
+    };
+    let o = nominal("minitaur");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(json["nominal_motor"], true);
+    let _ = std::fs::remove_dir_all(&out);
+    let o = nominal("ant");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("motor_inverse"), "{err}");
+    let _ = std::fs::remove_dir_all(&out);
     // Regression (reliability probe): `--out` naming a file is refused before the run.
     let file = std::env::temp_dir().join(format!("centaur-control-file-{}", std::process::id()));
     std::fs::write(&file, "not a directory").unwrap();

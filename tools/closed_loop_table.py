@@ -4,14 +4,15 @@ controller tables (Markdown): survival counts, mean speed, yaw drift, tilt, cost
 transport proxy and tick times, each over the seeds.
 
     cargo build --release --features cli --bin centaur
-    python3 tools/closed_loop_table.py [--seeds 5] [--only minitaur] [--table speed|push|noise|turn|steps|unrated|all]
+    python3 tools/closed_loop_table.py [--seeds 5] [--only minitaur] [--table speed|push|noise|turn|steps|unrated|all] [--nominal-motor]
 
 Every run is 10 s after a 1 s ramp (`--measure-from 1`, 11 s simulated), with the env's
 randomisation as in training (each reset seed draws it). A row passes when no seed falls,
 every seed's mean speed is within 15 % of the command and every yaw drift is below 0.2 rad
 (turning rows: the mean yaw rate and the speed along the heading within 15 %).
 `--table unrated` runs gaits and speeds the presets do not offer (`centaur control
---unrated`) to show why. No dependencies beyond the standard library; each run writes
+--unrated`) to show why; `--nominal-motor` runs the Minitaur rows with the controller told only
+the nominal motor (`centaur control --nominal-motor`). No dependencies beyond the standard library; each run writes
 /tmp/centaur-closed-loop/<n>/.
 """
 
@@ -96,9 +97,10 @@ STEP_ROWS = [("minitaur", "trot", "0:0,1:1.5,6:0"), ("minitaur", "trot", "0:0,1:
 
 
 class Runner:
-    def __init__(self, binary: str, seeds: int):
+    def __init__(self, binary: str, seeds: int, always=()):
         self.binary = binary
         self.seeds = seeds
+        self.always = tuple(always)
         self.n = 0
         self.root = Path("/tmp/centaur-closed-loop")
 
@@ -107,7 +109,7 @@ class Runner:
         self.n += 1
         cmd = [self.binary, "control", "--env", env, "--gait", gait, "--speed", str(speed),
                "--seconds", str(seconds), "--measure-from", str(measure_from), "--seed", str(seed),
-               "--out", str(out), *extra]
+               "--out", str(out), *extra, *self.always]
         subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
         return json.loads((out / "summary.json").read_text())
 
@@ -156,8 +158,10 @@ def main() -> int:
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--only", help="run only this robot's rows")
     ap.add_argument("--table", default="all", choices=["speed", "push", "noise", "turn", "steps", "unrated", "all"])
+    ap.add_argument("--nominal-motor", action="store_true",
+                    help="Minitaur rows only: the controller's torques become actions through the nominal motor model")
     args = ap.parse_args()
-    r = Runner(args.bin, args.seeds)
+    r = Runner(args.bin, args.seeds, always=("--nominal-motor",) if args.nominal_motor else ())
     pick = lambda rows: [row for row in rows if not args.only or row[0] == args.only]
     want = lambda t: args.table in (t, "all")
     print(f"Seeds 0–{args.seeds - 1}; 10 s after a 1 s ramp.\n")

@@ -401,6 +401,10 @@ struct ControlArgs {
     /// controller's speed clamp is lifted too).
     #[arg(long)]
     unrated: bool,
+    /// Minitaur: turn the controller's torques into actions with the nominal motor model,
+    /// not the one drawn at reset (which a controller on the robot would not know)
+    #[arg(long)]
+    nominal_motor: bool,
 }
 
 /// `--speed-schedule`'s pairs (a newtype, so that clap takes the list as one value).
@@ -586,6 +590,7 @@ fn control(args: ControlArgs) -> ExitCode {
         speed_schedule: args.speed_schedule.map(|s| s.0).unwrap_or_default(),
         action_noise: args.action_noise,
         unrated: args.unrated,
+        nominal_motor: args.nominal_motor,
     };
     let result = check_out_dir(&args.out)
         .and_then(|()| run_control(&opts))

@@ -125,7 +125,7 @@ pub struct MinitaurConfig {
 
 /// The motor model a controller's torques are turned into actions with
 /// ([`RobotEnv::action_for_torques`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum MotorInverse {
     /// The motor drawn at reset — battery voltage, viscous damping and motor strength
