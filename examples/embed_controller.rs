@@ -22,8 +22,10 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use centaur::deploy::{HybridStack, Simulated};
+use centaur::envs::minitaur::MotorInverse;
 use centaur::experiment::check_trained_with;
-use centaur::registry::{controller_config, make_robot_env, residual_config};
+use centaur::registry::{controller_config, make_robot_env_with, residual_config};
+use centaur::settings::EnvSettings;
 use centaur_mpc::MpcExecution;
 use centaur_rl::Policy;
 use centaur_test_support::{CountingAllocator, thread_allocations};
@@ -56,18 +58,33 @@ fn main() {
     };
     let has_policy = policy.is_some();
     let residual = residual_config("minitaur").expect("the Minitaur has a hybrid preset");
-    // A checkpoint inside a run directory: its hybrid must have been trained with this setup.
+    // A checkpoint inside a run directory: its hybrid must have been trained with this setup,
+    // and its controller is told the motor it was told in training.
+    let mut settings =
+        EnvSettings { max_episode_steps: Some((seconds / 0.01) as usize + 1), ..EnvSettings::default() };
     if let Some(run) =
         checkpoint.parent().and_then(Path::parent).filter(|r| r.join("experiment.json").is_file())
         && has_policy
-        && let Err(e) = check_trained_with(run, &residual)
     {
-        eprintln!("embed_controller: {e}");
-        std::process::exit(1);
+        match check_trained_with(run, &residual) {
+            Ok(trained) => {
+                if trained.controller_motor == Some(MotorInverse::Drawn) {
+                    eprintln!(
+                        "embed_controller: {} was trained with the controller told the motor drawn at reset (the default until 2026-11-27); it is told so here too",
+                        run.display()
+                    );
+                }
+                settings.motor_inverse = trained.controller_motor;
+            }
+            Err(e) => {
+                eprintln!("embed_controller: {e}");
+                std::process::exit(1);
+            }
+        }
     }
 
     // The robot: a simulated Minitaur (the residual setup must be the one trained with).
-    let mut env = make_robot_env("minitaur", Some((seconds / 0.01) as usize + 1)).expect("minitaur");
+    let mut env = make_robot_env_with("minitaur", &settings).expect("minitaur");
     let mut obs = vec![0.0f32; env.observation_space().dim()];
     env.reset(Some(2024), &mut obs).expect("reset");
     let mut controller = controller_config("minitaur").expect("controller preset");

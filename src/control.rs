@@ -11,7 +11,9 @@ use centaur_gym::{BoxSpace, EnvError, Rng};
 use centaur_mpc::{Command, ConfigError, Gait, GaitOffer, LocomotionController, MpcExecution, MpcSolver};
 
 use crate::hybrid::{ActionMapping, HybridError};
-use crate::registry::{RegistryError, controller_config, make_robot_env, make_robot_env_with};
+use crate::registry::{
+    RegistryError, controller_config, controller_motor, make_robot_env, make_robot_env_with,
+};
 use crate::settings::EnvSettings;
 use centaur_envs::minitaur::MotorInverse;
 
@@ -120,10 +122,12 @@ pub struct ControlOptions {
     /// runs (offered ones at their own periods) at any speed, to measure what is not rated
     /// (default: false, a gait or speed outside the offers is refused).
     pub unrated: bool,
-    /// Minitaur: turn the controller's torques into actions with the nominal motor model
-    /// instead of the one drawn at reset (`MotorInverse::Nominal`; a controller on the robot
-    /// does not know its motors' drawn strength, damping and battery voltage) (default: false).
-    pub nominal_motor: bool,
+    /// Minitaur: turn the controller's torques into actions with the motor model drawn at
+    /// reset (`MotorInverse::Drawn`, the default until 2026-11-27, to reproduce figures
+    /// measured then) instead of the nominal one (default: false: the nominal motor, since a
+    /// controller on the robot does not know its motors' drawn strength, damping and battery
+    /// voltage).
+    pub drawn_motor: bool,
 }
 
 impl Default for ControlOptions {
@@ -142,7 +146,7 @@ impl Default for ControlOptions {
             speed_schedule: Vec::new(),
             action_noise: 0.0,
             unrated: false,
-            nominal_motor: false,
+            drawn_motor: false,
         }
     }
 }
@@ -206,9 +210,9 @@ pub struct ControlSummary {
     pub action_noise: f64,
     /// Whether the run lifted the gait offers (`--unrated`).
     pub unrated: bool,
-    /// Whether the controller's torques became actions through the nominal motor model
-    /// (`--nominal-motor`).
-    pub nominal_motor: bool,
+    /// The motor model the controller's torques became actions through, on a Minitaur
+    /// (`nominal`, or `drawn` with `--drawn-motor`; `null`: a robot whose actions are torques).
+    pub controller_motor: Option<MotorInverse>,
     /// Per segment of the speed schedule (one segment without a schedule): its time span,
     /// commanded speed and the mean forward speed over it along the heading at its start.
     pub segments: Vec<SegmentSummary>,
@@ -341,7 +345,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     }
     let settings = EnvSettings {
         max_episode_steps: Some(steps + 1),
-        motor_inverse: opts.nominal_motor.then_some(MotorInverse::Nominal),
+        motor_inverse: opts.drawn_motor.then_some(MotorInverse::Drawn),
         ..EnvSettings::default()
     };
     let mut env = make_robot_env_with(&opts.env, &settings)?;
@@ -511,7 +515,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         mean_forward_speed: if t > t0 { forward_path / (t - t0) } else { 0.0 },
         action_noise: opts.action_noise,
         unrated: opts.unrated,
-        nominal_motor: opts.nominal_motor,
+        controller_motor: controller_motor(&opts.env, &settings),
         segments,
     })
 }

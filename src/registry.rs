@@ -15,6 +15,7 @@
 
 use std::path::{Path, PathBuf};
 
+use centaur_envs::minitaur::MotorInverse;
 use centaur_envs::{
     Body, LocomotionConfig, LocomotionEnv, MinitaurConfig, MinitaurEnv, ModularConfig, ModularEnv,
     ModularError, RobotEnv, RobotEnvError,
@@ -395,6 +396,14 @@ pub fn make_robot_env_with(name: &str, settings: &EnvSettings) -> Result<Box<dyn
     }
     let spec = robot(name).ok_or_else(|| RegistryError::UnknownEnv { name: name.to_string() })?;
     (spec.build)(settings)
+}
+
+/// The motor model the controller of robot environment `name` is told with `settings`
+/// ([`centaur_envs::MinitaurConfig::motor_inverse`], the Minitaur's: its controller's torques
+/// become motor commands through it). `None`: a robot whose actions are torques.
+pub fn controller_motor(name: &str, settings: &EnvSettings) -> Option<MotorInverse> {
+    (robot(name).is_some() && name.starts_with("minitaur"))
+        .then(|| settings.motor_inverse.unwrap_or_default())
 }
 
 /// The controller preset of a robot environment.

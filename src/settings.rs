@@ -76,9 +76,11 @@ pub struct EnvSettings {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub motor_strength: Option<[f64; 2]>,
     /// Minitaur: the motor model a controller's torques are turned into actions with,
-    /// `"drawn"` (the default: the motor drawn at reset) or `"nominal"` (the data sheet's;
-    /// [`centaur_envs::minitaur::MotorInverse`]). Changes the hybrid's reference action, so
-    /// it is a task key, not a training-only one.
+    /// `"nominal"` (the default since 2026-11-27: the data sheet's) or `"drawn"` (the motor
+    /// drawn at reset, the default until then; [`centaur_envs::minitaur::MotorInverse`]).
+    /// Changes the hybrid's reference action, so it is a task key, not a training-only one
+    /// (the studies that rerun a trained hybrid tell its controller the same motor,
+    /// [`crate::experiment::TrainedWith`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub motor_inverse: Option<MotorInverse>,
     /// Minitaur: control latency (s), 0 to [`centaur_envs::minitaur::MAX_LATENCY`].
@@ -368,8 +370,8 @@ mod tests {
         let (s, _) = split_run_toml("[env]\nmotor_strength = [0.8, 1.2]\nrandomize = true\n").unwrap();
         assert_eq!(s.minitaur(deterministic).unwrap().randomization.unwrap().motor_strength, (0.8, 1.2));
         // The controller's motor inverse: by name, the Minitaur's only, a task key.
-        let (s, _) = split_run_toml("[env]\nmotor_inverse = \"nominal\"\n").unwrap();
-        assert_eq!(s.minitaur(MinitaurConfig::default()).unwrap().motor_inverse, MotorInverse::Nominal);
+        let (s, _) = split_run_toml("[env]\nmotor_inverse = \"drawn\"\n").unwrap();
+        assert_eq!(s.minitaur(MinitaurConfig::default()).unwrap().motor_inverse, MotorInverse::Drawn);
         assert_eq!(s.task_keys(), ["motor_inverse"]);
         assert_eq!(s.locomotion(LocomotionConfig::ant()).unwrap_err().key, "motor_inverse");
         assert!(split_run_toml("[env]\nmotor_inverse = \"exact\"\n").unwrap_err().contains("exact"));

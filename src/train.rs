@@ -143,15 +143,25 @@ pub struct RunRecord {
 /// Where the environment a run recorded (`recorded`, [`centaur_gym::Env::config_text`])
 /// differs from the one built today, or `None` when it does not: the first value of the
 /// record that today's lacks or holds otherwise, by its path. Fields only today's has (added
-/// since) are no difference; a record that is not JSON (written before 2026-11-27) is not
-/// compared.
+/// since) are no difference, but for a hybrid's Minitaur (`robot.motor_inverse`): a record
+/// without it was written before it existed, with the controller told the drawn motor
+/// ([`centaur_envs::minitaur::MotorInverse::legacy`]), and today's default is the nominal one.
+/// A record that is not JSON (written before 2026-11-27) is not compared.
 pub fn config_difference(recorded: &str, today: &str) -> Option<String> {
     fn first(path: &str, r: &serde_json::Value, t: Option<&serde_json::Value>) -> Option<String> {
         match (r, t) {
             (serde_json::Value::Object(r), Some(serde_json::Value::Object(t))) => {
-                r.iter().find_map(|(k, v)| {
-                    let sub = if path.is_empty() { k.clone() } else { format!("{path}.{k}") };
-                    first(&sub, v, t.get(k))
+                let legacy_inverse = match (path, r.get("motor_inverse"), t.get("motor_inverse")) {
+                    ("robot", None, Some(today)) if today != "drawn" => Some(format!(
+                        "robot.motor_inverse: recorded absent (the drawn motor, until 2026-11-27), today {today}"
+                    )),
+                    _ => None,
+                };
+                legacy_inverse.or_else(|| {
+                    r.iter().find_map(|(k, v)| {
+                        let sub = if path.is_empty() { k.clone() } else { format!("{path}.{k}") };
+                        first(&sub, v, t.get(k))
+                    })
                 })
             }
             (serde_json::Value::Array(r), Some(serde_json::Value::Array(t))) if r.len() == t.len() => {
@@ -899,4 +909,34 @@ fn run_segments(
         }
     }
     Ok(summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::config_difference;
+
+    #[test]
+    fn a_field_added_since_is_no_difference_but_a_hybrids_legacy_motor_inverse_is() {
+        let (old, new) = (r#"{"a": 1, "b": {"c": 2}}"#, r#"{"a": 1, "b": {"c": 2, "d": 3}}"#);
+        assert_eq!(config_difference(old, new), None);
+        assert_eq!(config_difference(new, old).unwrap(), "b.d: recorded 3, today absent");
+        assert_eq!(config_difference(r#"{"a": 1}"#, r#"{"a": 2}"#).unwrap(), "a: recorded 1, today 2");
+        // A pure learner's Minitaur never uses the inverse: a record without it is the same env.
+        assert_eq!(config_difference(r#"{"x": 1}"#, r#"{"x": 1, "motor_inverse": "nominal"}"#), None);
+        // A hybrid recorded before the field existed was told the drawn motor.
+        let hybrid = |robot: &str| format!(r#"{{"robot": {robot}, "residual": {{"scale": 0.25}}}}"#);
+        let (legacy, nominal, drawn) = (
+            hybrid(r#"{"x": 1}"#),
+            hybrid(r#"{"x": 1, "motor_inverse": "nominal"}"#),
+            hybrid(r#"{"x": 1, "motor_inverse": "drawn"}"#),
+        );
+        let d = config_difference(&legacy, &nominal).unwrap();
+        assert!(
+            d.starts_with("robot.motor_inverse: recorded absent") && d.ends_with("today \"nominal\""),
+            "{d}"
+        );
+        assert_eq!(config_difference(&legacy, &drawn), None);
+        assert_eq!(config_difference(&nominal, &nominal), None);
+        assert!(config_difference(&drawn, &nominal).unwrap().contains("recorded \"drawn\""));
+    }
 }

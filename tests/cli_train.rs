@@ -751,14 +751,28 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
         assert_eq!(r["controller"]["episodes"].as_u64(), Some(1));
     }
     // With the controller told only the nominal motor: its own file, robustness.json kept.
+    // This run was trained with the nominal motor (the default since 2026-11-27), which the
+    // study follows by default: the two files agree.
     let before = std::fs::read_to_string(seed_0.join("robustness.json")).unwrap();
     let o = robustness(&seed_0, &["--nominal-motor"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let nominal: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(seed_0.join("robustness_nominal_motor.json")).unwrap())
-            .unwrap();
+    let nominal_text = std::fs::read_to_string(seed_0.join("robustness_nominal_motor.json")).unwrap();
+    let nominal: serde_json::Value = serde_json::from_str(&nominal_text).unwrap();
     assert_eq!(nominal.as_array().unwrap().len(), 10);
     assert_eq!(std::fs::read_to_string(seed_0.join("robustness.json")).unwrap(), before);
+    assert_eq!(nominal_text, before);
+    // A record from before the switch (no `controller_motor`) was trained with the drawn
+    // motor, which the study then follows: another table.
+    let record_path = seed_0.join("experiment.json");
+    let record = std::fs::read_to_string(&record_path).unwrap();
+    let mut legacy: serde_json::Value = serde_json::from_str(&record).unwrap();
+    assert_eq!(legacy["controller_motor"], "nominal");
+    legacy.as_object_mut().unwrap().remove("controller_motor");
+    std::fs::write(&record_path, serde_json::to_string_pretty(&legacy).unwrap()).unwrap();
+    let o = robustness(&seed_0, &[]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_ne!(std::fs::read_to_string(seed_0.join("robustness.json")).unwrap(), before);
+    std::fs::write(&record_path, record).unwrap();
     // A hybrid evaluated with another setup than it was trained with (without its steering,
     // or at another rating): refused, naming both setups.
     for other in [&["--parts", "residual"][..], &["--rated-speed", "2.5"]] {

@@ -342,6 +342,7 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
         assert!(json.get(key).is_some(), "summary.json lacks `{key}`: {text}");
     }
     assert_eq!(json["env"], "minitaur");
+    assert_eq!(json["controller_motor"], "nominal");
     assert!((json["seconds"].as_f64().unwrap() - 1.0).abs() < 0.02);
     let stdout = String::from_utf8_lossy(&status.stdout);
     assert!(stdout.contains("minitaur trot at 0.3 m/s for 1.0 s: mean speed"), "{stdout}");
@@ -361,19 +362,19 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
         "{stdout}"
     );
     let _ = std::fs::remove_dir_all(&out);
-    // The controller told only the nominal motor: recorded in the summary; refused on a
-    // robot without the Minitaur's motor model.
-    let nominal = |env: &str| {
-        let args = ["control", "--env", env, "--nominal-motor", "--seconds", "1", "--out"];
+    // The controller told the motor drawn at reset (the default until 2026-11-27): recorded
+    // in the summary; refused on a robot without the Minitaur's motor model.
+    let drawn = |env: &str| {
+        let args = ["control", "--env", env, "--drawn-motor", "--seconds", "1", "--out"];
         Process::new(env!("CARGO_BIN_EXE_centaur")).args(args).arg(&out).output().unwrap()
     };
-    let o = nominal("minitaur");
+    let o = drawn("minitaur");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(json["nominal_motor"], true);
+    assert_eq!(json["controller_motor"], "drawn");
     let _ = std::fs::remove_dir_all(&out);
-    let o = nominal("ant");
+    let o = drawn("ant");
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("motor_inverse"), "{err}");
     let _ = std::fs::remove_dir_all(&out);

@@ -11,8 +11,9 @@ randomisation as in training (each reset seed draws it). A row passes when no se
 every seed's mean speed is within 15 % of the command and every yaw drift is below 0.2 rad
 (turning rows: the mean yaw rate and the speed along the heading within 15 %).
 `--table unrated` runs gaits and speeds the presets do not offer (`centaur control
---unrated`) to show why; `--nominal-motor` runs the Minitaur rows with the controller told only
-the nominal motor (`centaur control --nominal-motor`). No dependencies beyond the standard library; each run writes
+--unrated`) to show why. The Minitaur's controller is told the nominal motor (the default since
+2026-11-27); `--drawn-motor` runs its rows with the controller told the motor drawn at reset, as
+every figure before then was measured (`centaur control --drawn-motor`). No dependencies beyond the standard library; each run writes
 /tmp/centaur-closed-loop/<n>/.
 """
 
@@ -158,10 +159,11 @@ def main() -> int:
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--only", help="run only this robot's rows")
     ap.add_argument("--table", default="all", choices=["speed", "push", "noise", "turn", "steps", "unrated", "all"])
-    ap.add_argument("--nominal-motor", action="store_true",
-                    help="Minitaur rows only: the controller's torques become actions through the nominal motor model")
+    ap.add_argument("--drawn-motor", action="store_true",
+                    help="Minitaur rows only: the controller's torques become actions through the motor drawn at reset "
+                         "(the default until 2026-11-27)")
     args = ap.parse_args()
-    r = Runner(args.bin, args.seeds, always=("--nominal-motor",) if args.nominal_motor else ())
+    r = Runner(args.bin, args.seeds, always=("--drawn-motor",) if args.drawn_motor else ())
     pick = lambda rows: [row for row in rows if not args.only or row[0] == args.only]
     want = lambda t: args.table in (t, "all")
     print(f"Seeds 0–{args.seeds - 1}; 10 s after a 1 s ramp.\n")

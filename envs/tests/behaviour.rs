@@ -440,10 +440,10 @@ fn every_robot_env_records_its_configuration_as_json() {
     assert!(gecko["body"]["nodes"].as_array().is_some_and(|n| n.len() > 1), "{gecko}");
 }
 
-/// `action_for_torques` inverts the motor drawn at reset by default (strength included) and,
-/// with `MotorInverse::Nominal`, the data sheet's whatever was drawn: on a robot whose drawn
-/// motor is 20 % weak the nominal inverse is the default `MotorModel`'s at the robot's motor
-/// state, and the drawn inverse asks for more.
+/// `action_for_torques` inverts the data sheet's motor by default (`MotorInverse::Nominal`)
+/// whatever was drawn and, with `MotorInverse::Drawn`, the motor drawn at reset (strength
+/// included): on a robot whose drawn motor is 20 % weak the nominal inverse is the default
+/// `MotorModel`'s at the robot's motor state, and the drawn inverse asks for more.
 #[test]
 fn the_nominal_motor_inverse_does_not_see_the_drawn_motor() {
     use centaur_envs::minitaur::{
@@ -470,9 +470,12 @@ fn the_nominal_motor_inverse_does_not_see_the_drawn_motor() {
     let expected = motor_angles_to_leg_model(&angles).map(|a| (a as f32).clamp(-1.0, 1.0));
     assert_eq!(nominal, expected);
     assert_ne!(drawn, nominal);
-    // The recorded configuration leaves the default out (runs recorded before read the same).
+    assert_eq!(MinitaurConfig::default().motor_inverse, MotorInverse::Nominal);
+    // The recorded configuration always names it (a record without it is from before it
+    // existed: the drawn motor, `MotorInverse::legacy`).
     let text =
         |m| serde_json::to_string(&MinitaurConfig { motor_inverse: m, ..MinitaurConfig::default() }).unwrap();
-    assert!(!text(MotorInverse::Drawn).contains("motor_inverse"));
+    assert!(text(MotorInverse::Drawn).contains("\"motor_inverse\":\"drawn\""));
     assert!(text(MotorInverse::Nominal).contains("\"motor_inverse\":\"nominal\""));
+    assert_eq!(MotorInverse::legacy(), MotorInverse::Drawn);
 }

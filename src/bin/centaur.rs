@@ -293,9 +293,10 @@ struct RobustnessArgs {
     #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = positive_count)]
     episodes: usize,
     /// The controller (alone and in the hybrid) turns its torques into actions with the
-    /// nominal motor model instead of the one drawn at reset (strength, damping and battery
-    /// voltage, which a controller on the robot would not know); writes
-    /// robustness_nominal_motor.json instead of robustness.json
+    /// nominal motor model, whatever the run was trained with (by default: the one it was
+    /// trained with, the nominal one since 2026-11-27, before then the one drawn at reset,
+    /// whose strength, damping and battery voltage a controller on the robot would not know);
+    /// writes robustness_nominal_motor.json instead of robustness.json
     #[arg(long)]
     nominal_motor: bool,
     /// The hybrid's setup the run was trained with (the robot's preset by default; a run
@@ -320,7 +321,7 @@ fn robustness(args: RobustnessArgs) -> ExitCode {
         episodes: args.episodes.max(1),
         seed: 2_000_000,
         conditions: Condition::standard(),
-        motor_inverse: if args.nominal_motor { MotorInverse::Nominal } else { MotorInverse::Drawn },
+        motor_inverse: args.nominal_motor.then_some(MotorInverse::Nominal),
     };
     match run_robustness(&opts) {
         Ok(rows) => {
@@ -401,10 +402,11 @@ struct ControlArgs {
     /// controller's speed clamp is lifted too).
     #[arg(long)]
     unrated: bool,
-    /// Minitaur: turn the controller's torques into actions with the nominal motor model,
-    /// not the one drawn at reset (which a controller on the robot would not know)
+    /// Minitaur: turn the controller's torques into actions with the motor model drawn at
+    /// reset (which a controller on the robot would not know; the default until 2026-11-27)
+    /// instead of the nominal one
     #[arg(long)]
-    nominal_motor: bool,
+    drawn_motor: bool,
 }
 
 /// `--speed-schedule`'s pairs (a newtype, so that clap takes the list as one value).
@@ -590,7 +592,7 @@ fn control(args: ControlArgs) -> ExitCode {
         speed_schedule: args.speed_schedule.map(|s| s.0).unwrap_or_default(),
         action_noise: args.action_noise,
         unrated: args.unrated,
-        nominal_motor: args.nominal_motor,
+        drawn_motor: args.drawn_motor,
     };
     let result = check_out_dir(&args.out)
         .and_then(|()| run_control(&opts))

@@ -2,6 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
+use centaur_envs::minitaur::MotorInverse;
 use centaur_gym::EnvError;
 use centaur_rl::{AlgoConfig, RlError};
 
@@ -9,7 +10,7 @@ use super::summary::ExperimentSummary;
 use crate::hybrid::{HybridError, ResidualConfig};
 use crate::plot::PlotError;
 use crate::recording::RecordError;
-use crate::registry::RegistryError;
+use crate::registry::{RegistryError, controller_motor};
 use crate::settings::EnvSettings;
 
 /// Why an experiment failed.
@@ -245,9 +246,21 @@ impl ExperimentOptions {
             )
         );
         // Runs on the preset keep the fingerprint they had before settings existed.
-        if self.env_settings.is_empty() { base } else { format!("{base} with {:?}", self.env_settings) }
+        let with =
+            if self.env_settings.is_empty() { base } else { format!("{base} with {:?}", self.env_settings) };
+        // The Minitaur's default motor inverse changed on 2026-11-27 (to the nominal motor):
+        // a hybrid run before then on the default has no mark, and is not this run.
+        let default_nominal = self.env_settings.motor_inverse.is_none()
+            && controller_motor(&self.env, &self.env_settings) == Some(MotorInverse::Nominal);
+        if default_nominal { with + NOMINAL_MOTOR_MARK } else { with }
     }
 }
+
+/// The end of a fingerprint whose Minitaur controller is told the nominal motor by default
+/// ([`centaur_envs::MinitaurConfig::motor_inverse`]): absent in those recorded before
+/// the change of 2026-11-27, when the default was the drawn motor. Pure RL does not depend on it
+/// ([`pure_part`] leaves it out).
+pub(crate) const NOMINAL_MOTOR_MARK: &str = "; the controller told the nominal motor";
 
 /// Training curve of one agent: `(env steps, mean training episode return)` per update.
 pub type Curve = Vec<(u64, f64)>;
@@ -275,8 +288,10 @@ pub enum Phase {
 }
 
 /// A fingerprint without the hybrid's setup: what the pure-RL agent's results depend on
-/// (records of every age write the setup as one `ResidualConfig { … }`).
+/// (records of every age write the setup as one `ResidualConfig { … }`), nor the motor the
+/// controller is told ([`NOMINAL_MOTOR_MARK`]).
 pub(crate) fn pure_part(fingerprint: &str) -> String {
+    let fingerprint = fingerprint.strip_suffix(NOMINAL_MOTOR_MARK).unwrap_or(fingerprint);
     match fingerprint.find("ResidualConfig {") {
         Some(_) => fingerprint.replacen(&residual_part(fingerprint), "ResidualConfig { .. }", 1),
         None => fingerprint.to_string(),

@@ -108,10 +108,11 @@ pub struct RobustnessOptions {
     /// The conditions.
     pub conditions: Vec<Condition>,
     /// The motor model the controller's torques are turned into actions with, for the
-    /// controller alone and inside the hybrid ([`MotorInverse::Drawn`], as in training: the
-    /// motor drawn at reset, strength included; [`MotorInverse::Nominal`]: the data sheet's,
-    /// as a controller on the robot would know it).
-    pub motor_inverse: MotorInverse,
+    /// controller alone and inside the hybrid (`None`: the one the run was trained with,
+    /// [`super::TrainedWith::controller_motor`]; [`MotorInverse::Nominal`]: the data
+    /// sheet's, as a controller on the robot would know it; [`MotorInverse::Drawn`]: the
+    /// motor drawn at reset, strength included, the default until 2026-11-27).
+    pub motor_inverse: Option<MotorInverse>,
 }
 
 /// The three agents under one condition.
@@ -138,13 +139,14 @@ pub fn run_robustness(opts: &RobustnessOptions) -> Result<Vec<RobustnessRow>, Ex
             env: opts.env.clone(),
         });
     }
-    check_trained_with(&opts.run, &opts.residual)?;
+    let trained = check_trained_with(&opts.run, &opts.residual)?;
+    let motor_inverse = opts.motor_inverse.or(trained.controller_motor).unwrap_or_default();
     let mut controller_cfg = controller_config(&opts.env)?;
     opts.residual.rate_controller(&mut controller_cfg)?;
     let load = |agent: &str| Policy::load(&opts.run.join(agent).join("checkpoint")).map_err(RlError::from);
     let (pure_policy, hybrid_policy) = (load("pure_rl")?, load("hybrid")?);
     let robot = |c: &Condition| -> Result<Box<dyn RobotEnv>, ExperimentError> {
-        Ok(Box::new(MinitaurEnv::new(MinitaurConfig { motor_inverse: opts.motor_inverse, ..c.minitaur() })?))
+        Ok(Box::new(MinitaurEnv::new(MinitaurConfig { motor_inverse, ..c.minitaur() })?))
     };
     let controller = |env: &dyn RobotEnv| -> Result<LocomotionController, ExperimentError> {
         Ok(LocomotionController::new(env.model(), controller_cfg.clone()).map_err(HybridError::from)?)

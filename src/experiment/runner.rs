@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
+use centaur_envs::minitaur::MotorInverse;
 use centaur_gym::{Env, VecEnv};
 use centaur_mpc::LocomotionController;
 use centaur_rl::{Algorithm, MetricsCsv, Policy, RlError, UpdateMetrics};
@@ -17,7 +18,7 @@ use super::options::{
 use super::summary::{AgentStats, BudgetEval, ExperimentSummary};
 use crate::hybrid::{ActionMapping, HybridError, ResidualConfig};
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
-use crate::registry::{controller_config, make_residual_env_with, make_robot_env_with};
+use crate::registry::{controller_config, controller_motor, make_residual_env_with, make_robot_env_with};
 use crate::residual::start_as_controller;
 use crate::rundir::{Claim, DirLock, claim, write_atomic};
 use crate::settings::EnvSettings;
@@ -160,6 +161,28 @@ struct ExperimentRecord {
     /// The run whose pure-RL agent this one reused ([`ExperimentOptions::pure_from`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pure_from: Option<PathBuf>,
+    /// The motor the controller was told, on a Minitaur ([`controller_motor`]). Records
+    /// written before the change of 2026-11-27 lack it: theirs was the one in their `[env]` settings, or
+    /// else the drawn motor ([`MotorInverse::legacy`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    controller_motor: Option<MotorInverse>,
+}
+
+impl ExperimentRecord {
+    /// The motor the run's controller was told (`None`: not a Minitaur).
+    fn controller_motor(&self) -> Option<MotorInverse> {
+        let recorded = || self.env_settings.motor_inverse.unwrap_or_else(MotorInverse::legacy);
+        self.controller_motor.or_else(|| controller_motor(&self.env, &self.env_settings).map(|_| recorded()))
+    }
+}
+
+/// What a run's hybrid was trained with, as far as the studies that reuse it need to know
+/// ([`check_trained_with`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TrainedWith {
+    /// The motor the controller was told, on a Minitaur (`None`: another robot); the studies
+    /// tell it the same unless asked otherwise.
+    pub controller_motor: Option<MotorInverse>,
 }
 
 /// Creates the run directory, refusing one that already holds a run unless `overwrite`
@@ -180,6 +203,7 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<DirLock, ExperimentError>
         residual: Some(opts.residual.clone()),
         env_settings: opts.env_settings.clone(),
         pure_from: opts.pure_from.as_deref().map(crate::rundir::recorded_path),
+        controller_motor: controller_motor(&opts.env, &opts.env_settings),
     };
     let path = dir.join("experiment.json");
     let text = serde_json::to_string_pretty(&record).expect("the record serialises") + "\n";
@@ -194,10 +218,11 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<DirLock, ExperimentError>
 /// (`the_trots_own_rating_reproduces_the_old_preset_bit_for_bit`), so the two match. Records
 /// from before the setup was stored as data are matched by their text. A run trained with
 /// `[env]` settings is refused unless they only perturbed training
-/// ([`crate::settings::TRAINING_ONLY`]: motor strength drawn at reset, pushes), since the
-/// callers run the robot's preset environment.
+/// ([`crate::settings::TRAINING_ONLY`]: motor strength drawn at reset, pushes) or set the
+/// motor the controller is told, which is returned ([`TrainedWith`]), since the callers run
+/// the robot's preset environment with it.
 /// `centaur robustness` and `examples/embed_controller` check with it.
-pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<(), ExperimentError> {
+pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<TrainedWith, ExperimentError> {
     let path = dir.join("experiment.json");
     let text = std::fs::read_to_string(&path).map_err(|source| match source.kind() {
         std::io::ErrorKind::NotFound => ExperimentError::NotAnExperiment { dir: dir.to_path_buf() },
@@ -209,8 +234,10 @@ pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<(), E
     })?;
     // The studies that check with this run the robot's preset environment: settings that
     // only perturbed training (motor strength drawn at reset, pushes) leave its policies
-    // fit for it; any other changes the task.
-    let task_keys = record.env_settings.task_keys();
+    // fit for it, and they tell the controller the motor it was told; any other changes the
+    // task.
+    let task_keys: Vec<_> =
+        record.env_settings.task_keys().into_iter().filter(|k| *k != "motor_inverse").collect();
     if !task_keys.is_empty() {
         return Err(ExperimentError::EnvSettingsNotCovered {
             run: dir.to_path_buf(),
@@ -233,7 +260,7 @@ pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<(), E
         ),
     };
     if same {
-        return Ok(());
+        return Ok(TrainedWith { controller_motor: record.controller_motor() });
     }
     Err(ExperimentError::SetupMismatch { run: dir.to_path_buf(), trained, given: format!("{residual:?}") })
 }
@@ -712,6 +739,7 @@ mod tests {
             residual: residual.cloned(),
             env_settings: EnvSettings::default(),
             pure_from: None,
+            controller_motor: Some(MotorInverse::Nominal),
         }
     }
 
@@ -792,6 +820,33 @@ mod tests {
         let err = check_trained_with(&dir, &preset).unwrap_err();
         let ExperimentError::EnvSettingsNotCovered { ref keys, .. } = err else { panic!("{err}") };
         assert_eq!(keys, "energy_weight");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// The motor the controller was told is read back for the studies: as recorded; in a
+    /// record from before it was (2026-11-27), the one its `[env]` settings name, or else the
+    /// drawn motor, the default then. Setting it is no task change.
+    #[test]
+    fn the_studies_learn_which_motor_the_controller_was_told() {
+        let dir = temp_dir("controller-motor");
+        let preset = residual_config("minitaur").unwrap();
+        let told = |record: ExperimentRecord| {
+            write_record(&dir, &record);
+            check_trained_with(&dir, &preset).unwrap().controller_motor
+        };
+        let now = record(Some(&preset), String::new());
+        assert_eq!(
+            told(ExperimentRecord { controller_motor: Some(MotorInverse::Nominal), ..now }),
+            Some(MotorInverse::Nominal)
+        );
+        let legacy = || ExperimentRecord { controller_motor: None, ..record(Some(&preset), String::new()) };
+        assert_eq!(told(legacy()), Some(MotorInverse::Drawn));
+        let (env_settings, _) =
+            crate::settings::split_run_toml("[env]\nmotor_inverse = \"nominal\"\n").unwrap();
+        assert_eq!(told(ExperimentRecord { env_settings, ..legacy() }), Some(MotorInverse::Nominal));
+        // A robot whose actions are torques has none.
+        let ant = ExperimentRecord { env: "ant".into(), residual: None, ..legacy() };
+        assert_eq!(ant.controller_motor(), None);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
@@ -883,6 +938,20 @@ mod tests {
         ] {
             assert_ne!(opts.pure_fingerprint(), other_pure.pure_fingerprint());
         }
+        // The Minitaur's default motor inverse (nominal since 2026-11-27) marks the
+        // fingerprint: a run on the old default (no mark) is not kept as this one, but its
+        // pure-RL agent, which never uses the inverse, can be reused.
+        assert!(opts.fingerprint().ends_with(super::super::options::NOMINAL_MOTOR_MARK));
+        let before =
+            opts.fingerprint().strip_suffix(super::super::options::NOMINAL_MOTOR_MARK).unwrap().to_string();
+        assert_eq!(pure_part(&before), opts.pure_fingerprint());
+        let (drawn, _) = crate::settings::split_run_toml("[env]\nmotor_inverse = \"drawn\"\n").unwrap();
+        let told_drawn = ExperimentOptions { env_settings: drawn, ..opts.clone() };
+        assert!(
+            !told_drawn.fingerprint().contains("nominal motor") && told_drawn.fingerprint().contains("Drawn")
+        );
+        let ant = ExperimentOptions { env: "ant".into(), ..opts.clone() };
+        assert!(!ant.fingerprint().contains("nominal motor"));
     }
 
     #[test]

@@ -117,9 +117,9 @@ pub struct MinitaurConfig {
     /// Periodic pushes on the base during every episode (default: none).
     pub pushes: Option<PushSchedule>,
     /// Which motor model [`RobotEnv::action_for_torques`] inverts (default:
-    /// [`MotorInverse::Drawn`], as before this field existed). Left out of the recorded
-    /// configuration at its default, so runs recorded before it read the same.
-    #[serde(skip_serializing_if = "MotorInverse::is_drawn")]
+    /// [`MotorInverse::Nominal`] since 2026-11-27; [`MotorInverse::Drawn`] before). Always
+    /// recorded; a recorded configuration without it was written before it existed, with
+    /// the drawn motor ([`MotorInverse::legacy`]).
     pub motor_inverse: MotorInverse,
 }
 
@@ -130,19 +130,19 @@ pub struct MinitaurConfig {
 pub enum MotorInverse {
     /// The motor drawn at reset — battery voltage, viscous damping and motor strength
     /// included: the controller is told the randomised motor, which a controller on the
-    /// robot would not know (strength and damping at least). Every controller and hybrid
-    /// figure up to 2026-11-27 was measured so.
-    #[default]
+    /// robot would not know (strength and damping at least). The default up to 2026-11-27:
+    /// every controller and hybrid figure measured before then was measured so.
     Drawn,
     /// The nominal motor of [`MinitaurConfig::motor_control`], whatever was drawn: the
-    /// controller knows only the data sheet.
+    /// controller knows only the data sheet, as it would on the robot. The default.
+    #[default]
     Nominal,
 }
 
 impl MotorInverse {
-    /// Whether this is [`MotorInverse::Drawn`] (the default).
-    pub fn is_drawn(&self) -> bool {
-        *self == MotorInverse::Drawn
+    /// The motor inverse of a configuration recorded before the field existed: the drawn one.
+    pub fn legacy() -> MotorInverse {
+        MotorInverse::Drawn
     }
 }
 
@@ -166,7 +166,7 @@ impl Default for MinitaurConfig {
             capsule_feet: true,
             obs: ObsOptions::default(),
             pushes: None,
-            motor_inverse: MotorInverse::Drawn,
+            motor_inverse: MotorInverse::Nominal,
         }
     }
 }
