@@ -16,7 +16,8 @@
 //! its `experiment.json` records (the Minitaur preset's): a policy trained with another
 //! (e.g. before the preset's 3.5 m/s rating) is refused, naming both — retrain it with
 //! `residual_ppo_minitaur`; so is one trained with `[env]` settings that change the task
-//! (those that only perturbed training, motor strength drawn at reset and pushes, are taken).
+//! (those that only perturbed training, motor strength drawn at reset and pushes, are taken,
+//! and the motor its controller was told, `motor_inverse`, is told it here too).
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};

@@ -4,7 +4,7 @@ controller tables (Markdown): survival counts, mean speed, yaw drift, tilt, cost
 transport proxy and tick times, each over the seeds.
 
     cargo build --release --features cli --bin centaur
-    python3 tools/closed_loop_table.py [--seeds 5] [--only minitaur] [--table speed|push|noise|turn|steps|unrated|all] [--nominal-motor]
+    python3 tools/closed_loop_table.py [--seeds 5] [--only minitaur] [--table speed|push|noise|turn|steps|unrated|all] [--drawn-motor]
 
 Every run is 10 s after a 1 s ramp (`--measure-from 1`, 11 s simulated), with the env's
 randomisation as in training (each reset seed draws it). A row passes when no seed falls,
@@ -98,10 +98,10 @@ STEP_ROWS = [("minitaur", "trot", "0:0,1:1.5,6:0"), ("minitaur", "trot", "0:0,1:
 
 
 class Runner:
-    def __init__(self, binary: str, seeds: int, always=()):
+    def __init__(self, binary: str, seeds: int, minitaur_extra=()):
         self.binary = binary
         self.seeds = seeds
-        self.always = tuple(always)
+        self.minitaur_extra = tuple(minitaur_extra)
         self.n = 0
         self.root = Path("/tmp/centaur-closed-loop")
 
@@ -110,7 +110,7 @@ class Runner:
         self.n += 1
         cmd = [self.binary, "control", "--env", env, "--gait", gait, "--speed", str(speed),
                "--seconds", str(seconds), "--measure-from", str(measure_from), "--seed", str(seed),
-               "--out", str(out), *extra, *self.always]
+               "--out", str(out), *extra, *(self.minitaur_extra if env.startswith("minitaur") else ())]
         subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
         return json.loads((out / "summary.json").read_text())
 
@@ -163,7 +163,7 @@ def main() -> int:
                     help="Minitaur rows only: the controller's torques become actions through the motor drawn at reset "
                          "(the default until 2026-11-27)")
     args = ap.parse_args()
-    r = Runner(args.bin, args.seeds, always=("--drawn-motor",) if args.drawn_motor else ())
+    r = Runner(args.bin, args.seeds, minitaur_extra=("--drawn-motor",) if args.drawn_motor else ())
     pick = lambda rows: [row for row in rows if not args.only or row[0] == args.only]
     want = lambda t: args.table in (t, "all")
     print(f"Seeds 0–{args.seeds - 1}; 10 s after a 1 s ramp.\n")

@@ -87,7 +87,7 @@ pub enum ExperimentError {
     },
     /// A run trained with `[env]` settings that change the task, given to a study that runs
     /// the preset env (settings that only perturbed training, `settings::TRAINING_ONLY`, are
-    /// accepted).
+    /// accepted, and `motor_inverse`, which the study follows).
     #[error(
         "{run}: its agents were trained with [env] settings that change the task ({keys}); this runs the robot's preset environment, on which they were not trained"
     )]
@@ -245,20 +245,21 @@ impl ExperimentOptions {
                 self.eval_every
             )
         );
+        // The motor the Minitaur's controller is told is written as a mark at the end, not
+        // as a setting: its default changed on 2026-11-27 from the drawn motor to the
+        // nominal one, and runs before then (no mark) are the runs told the drawn motor,
+        // by default or by `[env] motor_inverse = "drawn"`.
+        let settings = EnvSettings { motor_inverse: None, ..self.env_settings.clone() };
         // Runs on the preset keep the fingerprint they had before settings existed.
-        let with =
-            if self.env_settings.is_empty() { base } else { format!("{base} with {:?}", self.env_settings) };
-        // The Minitaur's default motor inverse changed on 2026-11-27 (to the nominal motor):
-        // a hybrid run before then on the default has no mark, and is not this run.
-        let default_nominal = self.env_settings.motor_inverse.is_none()
-            && controller_motor(&self.env, &self.env_settings) == Some(MotorInverse::Nominal);
-        if default_nominal { with + NOMINAL_MOTOR_MARK } else { with }
+        let with = if settings.is_empty() { base } else { format!("{base} with {settings:?}") };
+        let nominal = controller_motor(&self.env, &self.env_settings) == Some(MotorInverse::Nominal);
+        if nominal { with + NOMINAL_MOTOR_MARK } else { with }
     }
 }
 
-/// The end of a fingerprint whose Minitaur controller is told the nominal motor by default
-/// ([`centaur_envs::MinitaurConfig::motor_inverse`]): absent in those recorded before
-/// the change of 2026-11-27, when the default was the drawn motor. Pure RL does not depend on it
+/// The end of the fingerprint of a run whose Minitaur controller is told the nominal motor
+/// ([`centaur_envs::MinitaurConfig::motor_inverse`], the default since 2026-11-27): absent in
+/// those told the drawn motor, the default before then. Pure RL does not depend on it
 /// ([`pure_part`] leaves it out).
 pub(crate) const NOMINAL_MOTOR_MARK: &str = "; the controller told the nominal motor";
 

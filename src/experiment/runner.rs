@@ -129,7 +129,7 @@ fn train_one(
 }
 
 /// The files and folders an experiment writes into its directory.
-pub const EXPERIMENT_FILES: [&str; 10] = [
+pub const EXPERIMENT_FILES: [&str; 11] = [
     "experiment.json",
     "summary.json",
     "learning_curves.png",
@@ -140,6 +140,7 @@ pub const EXPERIMENT_FILES: [&str; 10] = [
     "hybrid.mcap",
     "controller.mcap",
     "robustness.json",
+    "robustness_nominal_motor.json",
 ];
 
 /// `experiment.json`: what a run directory was run with.
@@ -945,11 +946,20 @@ mod tests {
         let before =
             opts.fingerprint().strip_suffix(super::super::options::NOMINAL_MOTOR_MARK).unwrap().to_string();
         assert_eq!(pure_part(&before), opts.pure_fingerprint());
-        let (drawn, _) = crate::settings::split_run_toml("[env]\nmotor_inverse = \"drawn\"\n").unwrap();
-        let told_drawn = ExperimentOptions { env_settings: drawn, ..opts.clone() };
+        // Told the drawn motor explicitly, a run has the fingerprint of a run before the
+        // switch (it is one); told the nominal motor explicitly, that of today's default.
+        let told = |toml: &str| {
+            let (env_settings, _) = crate::settings::split_run_toml(toml).unwrap();
+            ExperimentOptions { env_settings, ..opts.clone() }.fingerprint()
+        };
+        assert_eq!(told("[env]\nmotor_inverse = \"drawn\"\n"), before);
+        assert_eq!(told("[env]\nmotor_inverse = \"nominal\"\n"), opts.fingerprint());
+        let other = told("[env]\nmotor_inverse = \"drawn\"\nenergy_weight = 0.0\n");
         assert!(
-            !told_drawn.fingerprint().contains("nominal motor") && told_drawn.fingerprint().contains("Drawn")
+            other.contains("energy_weight: Some(0.0)") && other.contains("motor_inverse: None"),
+            "{other}"
         );
+        assert!(!other.contains("Drawn") && !other.contains("nominal motor"), "{other}");
         let ant = ExperimentOptions { env: "ant".into(), ..opts.clone() };
         assert!(!ant.fingerprint().contains("nominal motor"));
     }
