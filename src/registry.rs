@@ -42,11 +42,24 @@ pub struct RobotSpec {
     /// The residual preset of the hybrid: the command the controller follows and the
     /// residual's scale (`None`: no hybrid).
     pub residual: Option<fn() -> ResidualConfig>,
+    /// The motor model the controller is told with these settings, read from the env's
+    /// preset with the settings over it (`None`: the robot's actions are torques).
+    pub controller_motor: fn(&EnvSettings) -> Option<MotorInverse>,
 }
 
 /// A Minitaur env with settings over `config`.
 fn minitaur(config: MinitaurConfig, s: &EnvSettings) -> Result<Box<dyn RobotEnv>, RegistryError> {
     Ok(Box::new(MinitaurEnv::new(s.minitaur(config)?)?))
+}
+
+/// The motor a Minitaur's controller is told: `[env] motor_inverse` over the preset's.
+fn minitaur_motor(preset: MinitaurConfig, s: &EnvSettings) -> Option<MotorInverse> {
+    Some(s.motor_inverse.unwrap_or(preset.motor_inverse))
+}
+
+/// A robot whose actions are torques: its controller is told no motor model.
+fn torque_actions(_: &EnvSettings) -> Option<MotorInverse> {
+    None
 }
 
 /// A Gymnasium locomotion env with settings over `config`.
@@ -115,72 +128,84 @@ pub const ROBOTS: &[RobotSpec] = &[
         build: |s| minitaur(MinitaurConfig::default(), s),
         controller: Some(ControllerConfig::minitaur),
         residual: Some(minitaur_residual),
+        controller_motor: |s| minitaur_motor(MinitaurConfig::default(), s),
     },
     RobotSpec {
         name: "minitaur-fast",
         build: |s| minitaur(MinitaurConfig::fast(), s),
         controller: Some(ControllerConfig::minitaur),
         residual: Some(minitaur_residual),
+        controller_motor: |s| minitaur_motor(MinitaurConfig::fast(), s),
     },
     RobotSpec {
         name: "minitaur-deterministic",
         build: |s| minitaur(MinitaurConfig::deterministic(), s),
         controller: Some(ControllerConfig::minitaur),
         residual: Some(minitaur_residual),
+        controller_motor: |s| minitaur_motor(MinitaurConfig::deterministic(), s),
     },
     RobotSpec {
         name: "ant",
         build: |s| locomotion(LocomotionConfig::ant(), s),
         controller: Some(ControllerConfig::ant),
         residual: Some(ant_residual),
+        controller_motor: torque_actions,
     },
     RobotSpec {
         name: "ant27",
         build: |s| locomotion(LocomotionConfig::ant_27d(), s),
         controller: Some(ControllerConfig::ant),
         residual: Some(ant_residual),
+        controller_motor: torque_actions,
     },
     RobotSpec {
         name: "walker2d",
         build: |s| locomotion(LocomotionConfig::walker2d(), s),
         controller: Some(ControllerConfig::walker2d),
         residual: Some(walker2d_residual),
+        controller_motor: torque_actions,
     },
     RobotSpec {
         name: "hopper",
         build: |s| locomotion(LocomotionConfig::hopper(), s),
         controller: None,
         residual: None,
+        controller_motor: torque_actions,
     },
     RobotSpec {
         name: "halfcheetah",
         build: |s| locomotion(LocomotionConfig::half_cheetah(), s),
         controller: None,
         residual: None,
+        controller_motor: torque_actions,
     },
     RobotSpec {
         name: "humanoid",
         build: |s| locomotion(LocomotionConfig::humanoid(), s),
         controller: Some(ControllerConfig::humanoid),
         residual: Some(humanoid_residual),
+        controller_motor: torque_actions,
     },
     RobotSpec {
         name: "gecko",
         build: |s| modular(ModularConfig::gecko(), s),
         controller: None,
         residual: None,
+        controller_motor: torque_actions,
     },
     RobotSpec {
         name: "modular-ant",
         build: |s| modular(ModularConfig::ant(), s),
         controller: None,
         residual: None,
+        controller_motor: torque_actions,
     },
     RobotSpec {
         name: "spider",
         build: |s| modular(ModularConfig::spider(), s),
         controller: None,
         residual: None,
+        controller_motor: torque_actions,
     },
 ];
 
@@ -402,8 +427,7 @@ pub fn make_robot_env_with(name: &str, settings: &EnvSettings) -> Result<Box<dyn
 /// ([`centaur_envs::MinitaurConfig::motor_inverse`], the Minitaur's: its controller's torques
 /// become motor commands through it). `None`: a robot whose actions are torques.
 pub fn controller_motor(name: &str, settings: &EnvSettings) -> Option<MotorInverse> {
-    (robot(name).is_some() && name.starts_with("minitaur"))
-        .then(|| settings.motor_inverse.unwrap_or_default())
+    robot(name).and_then(|spec| (spec.controller_motor)(settings))
 }
 
 /// The controller preset of a robot environment.
@@ -489,6 +513,28 @@ mod tests {
         assert_eq!(env.controller().config().offer(centaur_mpc::Gait::Trot).unwrap().max_speed, 2.5);
         let bad = make_residual_env("minitaur", ResidualConfig { rated_speed: Some(f64::NAN), ..preset });
         assert!(bad.is_err_and(|e| e.to_string().contains("rated_speed")));
+    }
+
+    /// The motor each robot's controller is told comes from its own preset with the
+    /// settings over it: the Minitaur presets are told the env's motor (`[env]
+    /// motor_inverse` wins), the torque-actuated robots none.
+    #[test]
+    fn controller_motor_reads_each_robots_preset() {
+        let drawn = EnvSettings { motor_inverse: Some(MotorInverse::Drawn), ..EnvSettings::default() };
+        let presets = [
+            ("minitaur", MinitaurConfig::default()),
+            ("minitaur-fast", MinitaurConfig::fast()),
+            ("minitaur-deterministic", MinitaurConfig::deterministic()),
+        ];
+        for (name, preset) in presets {
+            let built = EnvSettings::default().minitaur(preset.clone()).unwrap();
+            assert_eq!(controller_motor(name, &EnvSettings::default()), Some(built.motor_inverse), "{name}");
+            assert_eq!(controller_motor(name, &drawn), Some(MotorInverse::Drawn), "{name}");
+        }
+        for r in ROBOTS.iter().filter(|r| !r.name.starts_with("minitaur")) {
+            assert_eq!(controller_motor(r.name, &EnvSettings::default()), None, "{}", r.name);
+        }
+        assert_eq!(controller_motor("minitaur-nonesuch", &EnvSettings::default()), None);
     }
 
     #[test]
