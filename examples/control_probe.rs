@@ -123,6 +123,7 @@ fn main() {
                 "stance_joint_kp" => cfg.stance_joint_gains.0 = x,
                 "stance_joint_kd" => cfg.stance_joint_gains.1 = x,
                 "rating" => cfg.gaits.iter_mut().for_each(|o| o.max_speed = x),
+                "unrated" => cfg.offer_every_gait(),
                 "mu" => {
                     cfg.mpc.mu = x;
                     cfg.wbc.mu = x

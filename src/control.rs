@@ -8,7 +8,7 @@ use std::time::Instant;
 use centaur_dynamics::nalgebra::Vector3;
 use centaur_envs::RobotEnv;
 use centaur_gym::{BoxSpace, EnvError, Rng};
-use centaur_mpc::{Command, ConfigError, Gait, GaitOffer, LocomotionController, MpcExecution, MpcSolver};
+use centaur_mpc::{Command, ConfigError, Gait, LocomotionController, MpcExecution, MpcSolver};
 
 use crate::hybrid::{ActionMapping, HybridError};
 use crate::registry::{
@@ -355,16 +355,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     }
     config.mpc.solver = opts.mpc_solver;
     if opts.unrated {
-        let n_legs = config.robot.n_legs;
-        let offered = std::mem::take(&mut config.gaits);
-        config.gaits = Gait::ALL
-            .iter()
-            .filter(|g| g.supported(n_legs))
-            .map(|&g| {
-                let scale = offered.iter().find(|o| o.gait == g).map_or(1.0, |o| o.period_scale);
-                GaitOffer { gait: g, period_scale: scale, max_speed: f64::INFINITY }
-            })
-            .collect();
+        config.offer_every_gait();
     }
     // Refuse a gait the robot does not offer, or a speed above its rating, naming what works.
     for v in std::iter::once(opts.speed).chain(opts.speed_schedule.iter().map(|p| p.1)) {

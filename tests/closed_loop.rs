@@ -1,7 +1,7 @@
 //! The model-based controller alone, in closed loop with the simulator: what `centaur control`
 //! promises for the quadrupeds (trot at a commanded speed, stand still, survive a lateral push)
 //! for Walker2d (stand, walk at 0.5 m/s) and for the Humanoid (balance on point feet by
-//! stepping in place, under pushes).
+//! stepping in place, under pushes; walk at 0.3 m/s).
 
 use std::process::Command as Process;
 
@@ -290,10 +290,11 @@ fn walker2d_walks_at_the_commanded_speed() {
 fn the_humanoid_balances_by_stepping_in_place() {
     // Point feet: a stand command steps in place. It fell within 1.5 s when it tried to
     // stand still on them.
-    // Three seeds: each stays up 10 s and creeps forward less than 0.08 m/s (0.04–0.06 m/s
-    // measured on seeds 0–9, 0.41–0.64 m in 10 s); without the foothold position feedback it
-    // walked off at 0.12 m/s. Its yaw wanders (median 0.10 rad on seeds 0–9, 0.67 at worst):
-    // the median of the three stays below 0.2 rad.
+    // Three seeds: each stays up 10 s and creeps forward less than 0.08 m/s (0.02–0.03 m/s
+    // measured on seeds 0–4, 0.22–0.27 m in 10 s, since 2026-11-28; 0.04–0.06 m/s on seeds
+    // 0–9 with the weaker foothold position feedback before); without that feedback it
+    // walked off at 0.12 m/s. Its yaw wanders less than 0.1 rad on seeds 0–4 (up to 0.67 on
+    // seeds 0–9 before): the median of the three stays below 0.2 rad.
     let runs = run_seeds("humanoid", Gait::Stand, 0.0, 0.0, 0..3);
     for s in &runs {
         assert_stands(s, 0.8, f64::INFINITY);
@@ -301,6 +302,18 @@ fn the_humanoid_balances_by_stepping_in_place() {
     }
     let yaw = median(runs.iter().map(|s| s.yaw_drift).collect());
     assert!(yaw < 0.2, "humanoid: median yaw drift {yaw:.3} rad");
+}
+
+#[test]
+fn the_humanoid_walks_at_the_commanded_speed() {
+    // 0.3 m/s for 10 s after a 1 s ramp, the tolerances: no fall, mean speed within
+    // 15 %, yaw drift below 0.2 rad. Measured 0.33 m/s and 0.05 rad on seed 0 (on seeds 0–19
+    // 0.33–0.34 m/s, 19 of 20 drifting less than 0.2 rad); it fell on 4 of seeds 0–4 before
+    // the 2026-11-28 preset.
+    let s = run("humanoid", Gait::Walk, 0.3, 1.0, None);
+    assert!(!s.fell, "humanoid fell after {:.2} s", s.seconds);
+    assert!((s.mean_speed - 0.3).abs() < 0.045, "humanoid: mean speed {:.3} m/s for 0.3", s.mean_speed);
+    assert!(s.yaw_drift < 0.2, "humanoid: yaw drift {:.3} rad", s.yaw_drift);
 }
 
 #[test]

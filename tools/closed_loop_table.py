@@ -43,13 +43,14 @@ SPEED_ROWS = [
     ("walker2d", "stand", 0.0),
     ("walker2d", "walk", 0.5),
     ("humanoid", "stand", 0.0),
+    ("humanoid", "walk", 0.3),
+    ("humanoid", "walk", 0.4),
 ]
 # Targets the presets do not rate (run with --unrated): why they are not offered.
 UNRATED_ROWS = [
     ("ant", "trot", 1.5),
     ("ant", "walk", 0.5),
     ("walker2d", "walk", 1.0),
-    ("humanoid", "walk", 0.3),
     ("humanoid", "walk", 0.5),
     ("minitaur", "trot", 2.75),
     ("minitaur", "bound", 1.0),
@@ -71,6 +72,7 @@ PUSH_ROWS = [
     ("ant", "trot", 0.3, 40), ("ant", "trot", 0.3, -40),
     ("ant", "trot", 1.0, 40), ("ant", "trot", 1.0, -40),
     ("humanoid", "stand", 0.0, 40), ("humanoid", "stand", 0.0, -40),
+    ("humanoid", "walk", 0.3, 40), ("humanoid", "walk", 0.3, -40),
 ]
 # (robot, gait, speed, action noise as a fraction of each entry's half-range)
 NOISE_ROWS = [
@@ -94,7 +96,7 @@ TURN_ROWS = [
     ("minitaur", "trot", 1.0, 0.5), ("minitaur", "trot", 1.0, -0.5),
 ]
 # (robot, gait, schedule)
-STEP_ROWS = [("minitaur", "trot", "0:0,1:1.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:1.0"), ("minitaur", "trot", "0:0,1:1.0,4:0.3,7:0")]
+STEP_ROWS = [("minitaur", "trot", "0:0,1:1.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:1.0"), ("minitaur", "trot", "0:0,1:1.0,4:0.3,7:0"), ("humanoid", "walk", "0:0,1:0.4,6:0")]
 
 
 class Runner:

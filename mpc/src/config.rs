@@ -392,8 +392,9 @@ impl ControllerConfig {
     /// command steps in place ([`ControllerConfig::step_in_place`]) with the biped walk gait
     /// at 0.7 of its period (0.56 s), the standing MPC weights and the WBC. The footholds are
     /// a capture-point variant: carried with the CoM rather than the trunk (which sways 1.3 m
-    /// above the feet), with velocity feedback 0.2 s and a weak position feedback (0.15/s)
-    /// that slows its forward creep to 0.03–0.05 m/s. Commanded speeds ramp at 0.3 m/s².
+    /// above the feet), with velocity feedback 0.1 s and a position feedback (0.3/s) toward
+    /// the integral of the commanded velocity. Commanded speeds ramp at 0.3 m/s². It walks
+    /// (the same gait, moving) at up to 0.4 m/s.
     pub fn humanoid() -> Self {
         let contacts = vec![
             ContactSpec { frame: "left_foot".into(), offset: [0.0, 0.0, 0.1], radius: 0.075, leg: 0 },
@@ -410,20 +411,36 @@ impl ControllerConfig {
             loop_closures: vec![],
         });
         c.mpc = MpcConfig::stand();
+        // The horizon is one gait cycle: 16 × 35 ms = 0.56 s. The yaw weight is 3 × the
+        // standing weights' 10: a point foot turns the body only through its horizontal force
+        // offset from the centre of mass, and with the weaker weight the heading swung with a
+        // growing ~3 s oscillation until the robot fell.
         c.mpc.horizon = 16;
-        c.mpc.dt = 0.05;
+        c.mpc.dt = 0.035;
+        c.mpc.state_weights[2] = 30.0;
         c.swing_height = 0.08;
         c.step_in_place = true;
         c.gait_period_scale = 0.7;
-        c.raibert_kv = 0.2;
+        // Footholds: velocity feedback 0.1 s on top of the capture point's √(h/g) ≈ 0.29 s,
+        // position feedback 0.3/s. Measured with `control_probe humanoid walk … --set
+        // unrated=1` over seeds 0–19 (2026-11-28), 10 s after a 1 s ramp:
+        // - until then (0.2 s, 0.15/s, 50 ms stages, yaw weight 10) the walk fell on 4 of
+        //   seeds 0–4 at 0.3 m/s (its speed ran away to 0.45–0.56 m/s, its heading swung);
+        // - 0.1 s and 0.3/s: 20/20 up at 0.3 m/s, 15/20 at 0.5 m/s; 0.3 s or 0.5 s fell within
+        //   1.3–5 s on every seed, 0 s ran away to 0.7–0.85 m/s;
+        // - with yaw weight 30 and 35 ms stages as well: 20/20 at 0.2, 0.3 and 0.4 m/s (yaw
+        //   drift ≤ 0.22 rad), 17/20 at 0.5 m/s (30 or 40 ms stages: 9/15). Standing, it creeps
+        //   half as far as before (0.22–0.31 m in 10 s) and survives 4 N·s pushes from every
+        //   side on seeds 0–4 (before: 15 of those 20 runs).
+        c.raibert_kv = 0.1;
         c.foothold_from_com = true;
-        c.foothold_position_gain = 0.15;
+        c.foothold_position_gain = 0.3;
         c.position_leash = 0.5;
-        // Walking (not offered, see below) started more reliably from a slower speed ramp.
+        // Walking started more reliably from a slower speed ramp.
         c.max_acceleration = 0.3;
-        // Walking is not offered: commanded 0.3 m/s it fell on 4 of seeds 0–4 within 11 s
-        // (`tools/closed_loop_table.py --table unrated`). A stand command steps in place.
-        c.gaits = vec![GaitOffer::new(Gait::Stand, 0.0)];
+        // Rated 0.4 m/s: at 0.5 m/s it fell on 3 of 20 seeds (above). A stand command steps
+        // in place.
+        c.gaits = vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Walk, 0.4)];
         c
     }
 
@@ -552,6 +569,21 @@ impl ControllerConfig {
     /// The offer of `gait`, if any (allocation-free: the controller looks it up every tick).
     pub fn find_offer(&self, gait: Gait) -> Option<&GaitOffer> {
         self.gaits.iter().find(|o| o.gait == gait)
+    }
+
+    /// Lifts the gait offers, to show why a gait is not offered: every gait defined for the
+    /// robot's leg count, at the period scale of its offer (1 when not offered), unrated.
+    pub fn offer_every_gait(&mut self) {
+        let n_legs = self.robot.n_legs;
+        let offered = std::mem::take(&mut self.gaits);
+        self.gaits = Gait::ALL
+            .iter()
+            .filter(|g| g.supported(n_legs))
+            .map(|&g| {
+                let scale = offered.iter().find(|o| o.gait == g).map_or(1.0, |o| o.period_scale);
+                GaitOffer { gait: g, period_scale: scale, max_speed: f64::INFINITY }
+            })
+            .collect();
     }
 
     /// Checks that `gait` is offered and `speed` (m/s, planar) within its rating.

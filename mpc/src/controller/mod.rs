@@ -342,6 +342,21 @@ mod tests {
         assert_eq!(scales[Gait::Walk.index()], 0.75);
         assert_eq!(scales[Gait::Trot.index()], 0.7);
         assert_eq!(scales[Gait::Bound.index()], 0.0);
+        // Lifted (`--unrated`): every quadruped gait, the offered ones at their own scales.
+        let mut all = cfg.clone();
+        all.offer_every_gait();
+        assert!(all.validate().is_ok());
+        assert_eq!(all.gaits.len(), Gait::ALL.len());
+        assert!(all.check_command(Gait::Bound, 5.0).is_ok() && all.check_command(Gait::Trot, 5.0).is_ok());
+        assert_eq!(all.period_scales()[Gait::Walk.index()], 0.75);
+        assert_eq!(all.period_scales()[Gait::Bound.index()], 1.0);
+        // The Humanoid offers its walk to 0.4 m/s; lifted, a biped gets stand and walk only.
+        let humanoid = ControllerConfig::humanoid();
+        assert!(humanoid.check_command(Gait::Walk, 0.4).is_ok());
+        assert!(matches!(humanoid.check_command(Gait::Walk, 0.5), Err(ConfigError::SpeedAboveRating { .. })));
+        let mut biped = humanoid.clone();
+        biped.offer_every_gait();
+        assert_eq!(biped.gaits.iter().map(|o| o.gait).collect::<Vec<_>>(), [Gait::Stand, Gait::Walk]);
         // Validation: stand must be offered, once; scales positive; gaits defined for the legs.
         let bad =
             |gaits: Vec<GaitOffer>| ControllerConfig { gaits, ..ControllerConfig::minitaur() }.validate();
