@@ -426,10 +426,10 @@ impl ControllerConfig {
         // unrated=1` over seeds 0–19 (2026-11-28), 10 s after a 1 s ramp:
         // - until then (0.2 s, 0.15/s, 50 ms stages, yaw weight 10) the walk fell on 4 of
         //   seeds 0–4 at 0.3 m/s (its speed ran away to 0.45–0.56 m/s, its heading swung);
-        // - 0.1 s and 0.3/s: 20/20 up at 0.3 m/s, 15/20 at 0.5 m/s; 0.3 s or 0.5 s fell within
-        //   1.3–5 s on every seed, 0 s ran away to 0.7–0.85 m/s;
+        // - 0.1 s and 0.3/s: 20/20 up at 0.3 m/s, 15/20 at 0.5 m/s; 0.3 s or 0.5 s (with 0.15/s) fell
+        //   within 1.3–5 s on every seed, 0 s ran away to 0.7–0.85 m/s;
         // - with yaw weight 30 and 35 ms stages as well: 20/20 at 0.2, 0.3 and 0.4 m/s (yaw
-        //   drift ≤ 0.22 rad), 17/20 at 0.5 m/s (30 or 40 ms stages: 9/15). Standing, it creeps
+        //   drift ≤ 0.21 rad), 17/20 at 0.5 m/s (30 or 40 ms stages: 9/15). Standing, it creeps
         //   half as far as before (0.22–0.31 m in 10 s) and survives 4 N·s pushes from every
         //   side on seeds 0–4 (before: 15 of those 20 runs).
         c.raibert_kv = 0.1;
