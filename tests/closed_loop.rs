@@ -33,6 +33,19 @@ fn assert_trots(s: &ControlSummary) {
     assert!(s.yaw_drift < 0.3, "{}: yaw drift {:.3} rad", s.env, s.yaw_drift);
 }
 
+/// The controller issue's target for a commanded `speed`: no fall, mean speed within 15 %,
+/// yaw drift below 0.2 rad.
+fn assert_meets_target(s: &ControlSummary, speed: f64) {
+    assert!(!s.fell, "{} fell after {:.2} s", s.env, s.seconds);
+    assert!(
+        (s.mean_speed - speed).abs() <= 0.15 * speed,
+        "{}: mean speed {:.3} m/s for {speed}",
+        s.env,
+        s.mean_speed
+    );
+    assert!(s.yaw_drift < 0.2, "{}: yaw drift {:.3} rad", s.env, s.yaw_drift);
+}
+
 /// Stands 10 s: no fall, the body drifts less than `tol` metres in the plane and turns less
 /// than `max_yaw` radians.
 fn assert_stands(s: &ControlSummary, tol: f64, max_yaw: f64) {
@@ -85,10 +98,7 @@ fn the_minitaur_trots_with_the_mpc_on_a_worker_thread() {
 /// ramp, speed within 15 %, yaw drift below 0.2 rad.
 #[test]
 fn the_minitaur_trots_at_two_metres_per_second() {
-    let s = run("minitaur", Gait::Trot, 2.0, 2.0, None);
-    assert!(!s.fell, "fell after {:.2} s", s.seconds);
-    assert!((s.mean_speed - 2.0).abs() < 0.3, "mean speed {:.3} m/s for 2.0", s.mean_speed);
-    assert!(s.yaw_drift < 0.2, "yaw drift {:.3} rad", s.yaw_drift);
+    assert_meets_target(&run("minitaur", Gait::Trot, 2.0, 2.0, None), 2.0);
 }
 
 /// A learner's exploration perturbs the controller's actions: Gaussian noise of 10 % of the
@@ -156,10 +166,7 @@ fn the_ant_trots_at_the_commanded_speed() {
 /// below 0.2 rad (seed 0; seeds 0–4 made 0.95–0.98 m/s on 2026-11-26).
 #[test]
 fn the_ant_trots_at_one_metre_per_second() {
-    let s = run("ant", Gait::Trot, 1.0, 1.0, None);
-    assert!(!s.fell, "ant fell after {:.2} s", s.seconds);
-    assert!((s.mean_speed - 1.0).abs() < 0.15, "ant: mean speed {:.3} m/s for 1.0", s.mean_speed);
-    assert!(s.yaw_drift < 0.2, "ant: yaw drift {:.3} rad", s.yaw_drift);
+    assert_meets_target(&run("ant", Gait::Trot, 1.0, 1.0, None), 1.0);
 }
 
 /// The Ant's static walk, offered to 0.3 m/s since its joint PD runs on the env's servo.
@@ -310,10 +317,7 @@ fn the_humanoid_walks_at_the_commanded_speed() {
     // 15 %, yaw drift below 0.2 rad. Measured 0.33 m/s and 0.05 rad on seed 0 (on seeds 0–19
     // 0.33–0.34 m/s, 19 of 20 drifting less than 0.2 rad); it fell on 4 of seeds 0–4 before
     // the 2026-11-28 preset.
-    let s = run("humanoid", Gait::Walk, 0.3, 1.0, None);
-    assert!(!s.fell, "humanoid fell after {:.2} s", s.seconds);
-    assert!((s.mean_speed - 0.3).abs() < 0.045, "humanoid: mean speed {:.3} m/s for 0.3", s.mean_speed);
-    assert!(s.yaw_drift < 0.2, "humanoid: yaw drift {:.3} rad", s.yaw_drift);
+    assert_meets_target(&run("humanoid", Gait::Walk, 0.3, 1.0, None), 0.3);
 }
 
 #[test]
