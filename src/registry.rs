@@ -117,7 +117,7 @@ fn walker2d_residual() -> ResidualConfig {
 }
 
 /// The Humanoid's hybrid: 10 % of the control range around a 0.3 m/s walk whose speed the
-/// policy steers within ±0.1 m/s (the walk is rated 0.4 m/s); a gentle start with σ 0.1 on
+/// policy steers within ±0.1 m/s (the walk is rated 0.5 m/s); a gentle start with σ 0.1 on
 /// the residual and 0.5 on the steering. With 30 % the hybrid fell in 2 of 20 evaluation
 /// episodes at 57k samples (seeds 0–1, PPO's defaults), with 10 % in none (both level with
 /// the controller alone at 200k). Until the controller walked (2026-11-28) it was 30 %

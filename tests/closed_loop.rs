@@ -313,11 +313,14 @@ fn the_humanoid_balances_by_stepping_in_place() {
 
 #[test]
 fn the_humanoid_walks_at_the_commanded_speed() {
-    // 0.3 m/s for 10 s after a 1 s ramp, the tolerances: no fall, mean speed within
-    // 15 %, yaw drift below 0.2 rad. Measured 0.33 m/s and 0.05 rad on seed 0 (on seeds 0–19
-    // 0.33–0.34 m/s, 19 of 20 drifting less than 0.2 rad); it fell on 4 of seeds 0–4 before
-    // the 2026-11-28 preset.
-    assert_meets_target(&run("humanoid", Gait::Walk, 0.3, 1.0, None), 0.3);
+    // 0.3 and 0.5 m/s (the two rows) for 10 s after a 1 s ramp, the issue's
+    // tolerances: no fall, mean speed within 15 %, yaw drift below 0.2 rad. At 0.3 m/s it
+    // fell on 4 of seeds 0–4 before the 2026-11-28 preset; at 0.5 m/s it fell on 3 of seeds
+    // 0–19 and drifted up to 0.59 rad on 2 more before the stronger posture task (the same
+    // day; since, 40 of 40 seeds at either speed).
+    for speed in [0.3, 0.5] {
+        assert_meets_target(&run("humanoid", Gait::Walk, speed, 1.0, None), speed);
+    }
 }
 
 #[test]

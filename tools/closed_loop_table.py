@@ -45,13 +45,15 @@ SPEED_ROWS = [
     ("humanoid", "stand", 0.0),
     ("humanoid", "walk", 0.3),
     ("humanoid", "walk", 0.4),
+    ("humanoid", "walk", 0.5),
 ]
 # Targets the presets do not rate (run with --unrated): why they are not offered.
 UNRATED_ROWS = [
     ("ant", "trot", 1.5),
     ("ant", "walk", 0.5),
     ("walker2d", "walk", 1.0),
-    ("humanoid", "walk", 0.5),
+    ("humanoid", "walk", 0.6),
+    ("humanoid", "walk", 0.7),
     ("minitaur", "trot", 2.75),
     ("minitaur", "bound", 1.0),
     ("minitaur", "gallop", 1.0),
@@ -73,6 +75,9 @@ PUSH_ROWS = [
     ("ant", "trot", 1.0, 40), ("ant", "trot", 1.0, -40),
     ("humanoid", "stand", 0.0, 40), ("humanoid", "stand", 0.0, -40),
     ("humanoid", "walk", 0.3, 40), ("humanoid", "walk", 0.3, -40),
+    ("humanoid", "walk", 0.5, 40), ("humanoid", "walk", 0.5, -40),
+    # Above the walk's 0.5 m/s rating (run with --unrated): why it is rated 0.5.
+    ("humanoid", "walk", 0.6, 40), ("humanoid", "walk", 0.6, -40),
 ]
 # (robot, gait, speed, action noise as a fraction of each entry's half-range)
 NOISE_ROWS = [
@@ -94,9 +99,14 @@ TURN_ROWS = [
     ("minitaur", "trot", 0.6, 0.3), ("minitaur", "trot", 0.6, -0.3),
     ("minitaur", "trot", 0.6, 0.5), ("minitaur", "trot", 0.6, -0.5),
     ("minitaur", "trot", 1.0, 0.5), ("minitaur", "trot", 1.0, -0.5),
+    ("humanoid", "walk", 0.3, 0.3), ("humanoid", "walk", 0.3, -0.3),
+    ("humanoid", "walk", 0.5, 0.3), ("humanoid", "walk", 0.5, -0.3),
+    ("humanoid", "walk", 0.5, 0.5), ("humanoid", "walk", 0.5, -0.5),
 ]
+# Push rows above the preset's rating.
+UNRATED_PUSH_ROWS = {("humanoid", "walk", 0.6)}
 # (robot, gait, schedule)
-STEP_ROWS = [("minitaur", "trot", "0:0,1:1.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:1.0"), ("minitaur", "trot", "0:0,1:1.0,4:0.3,7:0"), ("humanoid", "walk", "0:0,1:0.4,6:0")]
+STEP_ROWS = [("minitaur", "trot", "0:0,1:1.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:1.0"), ("minitaur", "trot", "0:0,1:1.0,4:0.3,7:0"), ("humanoid", "walk", "0:0,1:0.5,6:0")]
 
 
 class Runner:
@@ -182,7 +192,8 @@ def main() -> int:
         print("| robot | gait, command | push | survived | mean speed (m/s) | max tilt (rad) |")
         print("|---|---|---|---|---:|---:|")
         for env, gait, speed, f in pick(PUSH_ROWS):
-            runs = r.seeds_of(env, gait, speed, extra=("--push-force", str(f)))
+            unrated = ("--unrated",) if (env, gait, speed) in UNRATED_PUSH_ROWS else ()
+            runs = r.seeds_of(env, gait, speed, extra=("--push-force", str(f)) + unrated)
             print(f"| {env} | {gait} {speed:g} m/s | {f:+g} N × 0.1 s ({abs(f) * 0.1:g} N·s) | {survived(runs)} | "
                   f"{rng([x['mean_speed'] for x in runs])} | {rng([x['max_tilt'] for x in runs], '{:.2f}')} |")
             sys.stdout.flush()

@@ -350,10 +350,10 @@ mod tests {
         assert!(all.check_command(Gait::Bound, 5.0).is_ok() && all.check_command(Gait::Trot, 5.0).is_ok());
         assert_eq!(all.period_scales()[Gait::Walk.index()], 0.75);
         assert_eq!(all.period_scales()[Gait::Bound.index()], 1.0);
-        // The Humanoid offers its walk to 0.4 m/s; lifted, a biped gets stand and walk only.
+        // The Humanoid offers its walk to 0.5 m/s; lifted, a biped gets stand and walk only.
         let humanoid = ControllerConfig::humanoid();
-        assert!(humanoid.check_command(Gait::Walk, 0.4).is_ok());
-        assert!(matches!(humanoid.check_command(Gait::Walk, 0.5), Err(ConfigError::SpeedAboveRating { .. })));
+        assert!(humanoid.check_command(Gait::Walk, 0.5).is_ok());
+        assert!(matches!(humanoid.check_command(Gait::Walk, 0.6), Err(ConfigError::SpeedAboveRating { .. })));
         let mut biped = humanoid.clone();
         biped.offer_every_gait();
         assert_eq!(biped.gaits.iter().map(|o| o.gait).collect::<Vec<_>>(), [Gait::Stand, Gait::Walk]);
