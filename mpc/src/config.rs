@@ -393,8 +393,9 @@ impl ControllerConfig {
     /// at 0.7 of its period (0.56 s), the standing MPC weights and the WBC. The footholds are
     /// a capture-point variant: carried with the CoM rather than the trunk (which sways 1.3 m
     /// above the feet), with velocity feedback 0.1 s and a position feedback (0.3/s) toward
-    /// the integral of the commanded velocity. Commanded speeds ramp at 0.3 m/s². It walks
-    /// (the same gait, moving) at up to 0.4 m/s.
+    /// the integral of the commanded velocity. Commanded speeds ramp at 0.3 m/s². A posture
+    /// task 4 × the default keeps the arms and abdomen from swinging the torso's heading. It
+    /// walks (the same gait, moving) at up to 0.5 m/s (0.6 m/s unrated).
     pub fn humanoid() -> Self {
         let contacts = vec![
             ContactSpec { frame: "left_foot".into(), offset: [0.0, 0.0, 0.1], radius: 0.075, leg: 0 },
