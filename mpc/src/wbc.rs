@@ -409,6 +409,14 @@ impl WholeBodyQp {
         self.cfg.body_axis_weights[axis] = weight;
     }
 
+    /// Sets the posture weight ([`WbcConfig::w_posture`]) for the next solves. The
+    /// controller changes it while a trot is staggered for turning; the caller passes a
+    /// validated weight.
+    pub(crate) fn set_posture_weight(&mut self, weight: f64) {
+        debug_assert!(weight.is_finite() && weight >= 0.0);
+        self.cfg.w_posture = weight;
+    }
+
     /// Status of the last solve.
     pub fn status(&self) -> QpStatus {
         self.status

@@ -410,6 +410,21 @@ mod tests {
         };
         let stagger_after_2s = |speed: f64, yaw_rate: f64| stagger_after_2s_heading(speed, yaw_rate, 0.0);
         assert_eq!(stagger_after_2s(0.5, 0.0), 0.0, "straight: no stagger");
+        // The whole-body QP's posture weight: the preset's 0.01 on a straight trot, its
+        // turning weight 0.05 while staggered.
+        let posture_after_2s = |yaw_rate: f64| {
+            let mut c = LocomotionController::new(&model, ControllerConfig::minitaur()).unwrap();
+            let s = c.nominal_state();
+            let command = Command { yaw_rate, ..Command::forward(0.5, Gait::Trot) };
+            for k in 0..200 {
+                c.tick(&s, &command, k as f64 * 0.01);
+            }
+            c.torques.wbc.config().w_posture
+        };
+        assert_eq!(ControllerConfig::minitaur().wbc.w_posture, 0.01);
+        assert_eq!(posture_after_2s(0.0), 0.01);
+        assert_eq!(posture_after_2s(0.5), ControllerConfig::minitaur().turn_posture_weight);
+        assert_eq!(ControllerConfig::minitaur().turn_posture_weight, 0.05);
         // 0.6 of the cycle per rad/s, clamped at MAX_STAGGER; the left legs lead a left turn.
         assert!((stagger_after_2s(0.5, 0.2) - 0.12).abs() < 1e-9);
         assert_eq!(stagger_after_2s(0.5, 0.5), crate::MAX_STAGGER);
@@ -429,6 +444,8 @@ mod tests {
         assert!(nan.contains("turn_max_speed"), "{nan}");
         let low = bad(ControllerConfig { turn_swing_height: -0.01, ..ControllerConfig::minitaur() });
         assert!(low.contains("turn_swing_height"), "{low}");
+        let neg = bad(ControllerConfig { turn_posture_weight: -0.01, ..ControllerConfig::minitaur() });
+        assert!(neg.contains("turn_posture_weight"), "{neg}");
     }
 
     #[test]

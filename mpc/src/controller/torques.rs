@@ -75,9 +75,16 @@ impl Torques {
         status: &mut ControllerStatus,
     ) -> bool {
         let (cfg, robot, est, reference, height) = (cx.cfg, cx.robot, cx.est, cx.reference, cx.height);
-        let turning = cx.gait.pattern().stagger != 0.0 && cfg.turn_yaw_weight > 0.0;
+        let staggered = cx.gait.pattern().stagger != 0.0;
+        let turning = staggered && cfg.turn_yaw_weight > 0.0;
         let yaw_weight = if turning { cfg.turn_yaw_weight } else { cfg.wbc.body_axis_weights[5] };
         self.wbc.set_body_axis_weight(5, yaw_weight);
+        let posture = if staggered && cfg.turn_posture_weight > 0.0 {
+            cfg.turn_posture_weight
+        } else {
+            cfg.wbc.w_posture
+        };
+        self.wbc.set_posture_weight(posture);
         let nc = robot.n_contacts();
         let m = robot.mass;
         let gvec = robot.model.gravity;
