@@ -194,12 +194,19 @@ impl Env for ResidualEnv {
         self.env.max_episode_steps()
     }
 
-    /// The robot's configuration and the residual setup (the controller's preset is not
-    /// part of it: runs of `centaur compare` check the setup they were trained with,
-    /// [`crate::experiment::check_trained_with`]).
+    /// The robot's configuration, the residual setup and the controller's whole
+    /// configuration (gains, weights, offers; since 2026-11-28): a run resumed or a
+    /// checkpoint evaluated on a controller whose preset changed since is refused, naming
+    /// the first difference (records from before hold no `controller` and are not checked
+    /// for it). Runs of `centaur compare` also check the residual setup they were trained
+    /// with ([`crate::experiment::check_trained_with`]).
     fn config_text(&self) -> Option<String> {
         let robot: serde_json::Value = serde_json::from_str(&self.env.config_text()?).ok()?;
-        Some(serde_json::json!({ "robot": robot, "residual": self.config }).to_string())
+        let controller = serde_json::to_value(self.controller.config()).ok()?;
+        Some(
+            serde_json::json!({ "robot": robot, "residual": self.config, "controller": controller })
+                .to_string(),
+        )
     }
 
     fn dt(&self) -> f64 {

@@ -8,7 +8,7 @@ use crate::robot::{BaseSpec, ContactSpec, LoopClosureSpec, RobotSpec};
 use crate::wbc::WbcConfig;
 
 /// Where the convex MPC runs ([`crate::ControllerConfig::mpc_execution`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 pub enum MpcExecution {
     /// Inside [`crate::LocomotionController::tick`], every `mpc_period`: deterministic (the
     /// same states give the same commands bit for bit), as simulation and training need.
@@ -36,7 +36,7 @@ pub enum MpcExecution {
 }
 
 /// How joint torques are computed from the MPC forces.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 pub enum ControlMode {
     /// The whole-body QP ([`crate::WholeBodyQp`]).
     #[default]
@@ -48,7 +48,7 @@ pub enum ControlMode {
 
 /// A gait a configuration offers ([`ControllerConfig::gaits`]): the controller runs it at
 /// its own period, up to its rated speed.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct GaitOffer {
     /// The gait.
     pub gait: Gait,
@@ -77,7 +77,7 @@ impl GaitOffer {
 }
 
 /// Everything the [`crate::LocomotionController`] needs besides the model.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ControllerConfig {
     /// The robot description.
     pub robot: RobotSpec,

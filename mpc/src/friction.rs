@@ -5,7 +5,7 @@
 //! cone and `μ' = μ/√2` for the inscribed one (which never allows a force outside the cone).
 
 /// How friction is imposed on contact forces.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 pub enum FrictionModel {
     /// The exact second-order cone.
     #[default]

@@ -17,7 +17,7 @@ pub const MAX_CONTACTS: usize = 8;
 /// capsule's end) whose contact point is its lowest point, `c − r e_z`, recomputed from the
 /// link's orientation every tick (flat ground). The contact constraints then act on the
 /// material point of the link that touches the ground.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ContactSpec {
     /// Frame (link) the point moves with.
     pub frame: String,
@@ -33,7 +33,7 @@ pub struct ContactSpec {
 /// given directions (unit vectors in `frame_a`'s axes). The whole-body QP keeps
 /// `dᵀ(J_a − J_b) q̈ + dᵀ(J̇_a − J̇_b) q̇ = −k_p dᵀ(p_a − p_b) − k_d dᵀ(ṗ_a − ṗ_b)` with a
 /// constraint force `λ` along each direction.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct LoopClosureSpec {
     /// First frame.
     pub frame_a: String,
@@ -48,7 +48,7 @@ pub struct LoopClosureSpec {
 }
 
 /// How the body moves relative to the world.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub enum BaseSpec {
     /// A free-flyer (`q[0..7]`, `v[0..6]`).
     Floating,
@@ -65,7 +65,7 @@ pub enum BaseSpec {
 }
 
 /// The robot-specific part of the controller configuration.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct RobotSpec {
     /// Base kind.
     pub base: BaseSpec,

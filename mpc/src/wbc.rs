@@ -55,7 +55,7 @@ use crate::qp::{DenseQp, DenseQpData, QpStatus};
 use crate::robot::LeggedRobot;
 
 /// Which solver the whole-body QP uses.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 pub enum QpBackend {
     /// Goldfarb–Idnani dual active set on dense matrices (linear friction only).
     #[default]
@@ -65,7 +65,7 @@ pub enum QpBackend {
 }
 
 /// Whole-body QP settings.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct WbcConfig {
     /// Solver (default: dense).
     pub backend: QpBackend,

@@ -76,6 +76,18 @@ pub enum ExperimentError {
         /// The setup given.
         given: String,
     },
+    /// The run's controller was configured otherwise than the robot's preset is today (a
+    /// preset changed since it trained): its hybrid would be judged on a controller it never
+    /// saw.
+    #[error(
+        "{run}: its hybrid was trained on another controller than today's preset for this robot (the preset changed since): {difference}; rerun it, or evaluate it with the commit it was trained at"
+    )]
+    ControllerChanged {
+        /// The run directory.
+        run: PathBuf,
+        /// The first difference, `field: recorded …, today …`.
+        difference: String,
+    },
     /// Another process is writing an experiment in the directory.
     #[error(
         "another process is writing an experiment in {dir} (it holds {dir}/{lock}); wait for it to end or choose another --out",

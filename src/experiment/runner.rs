@@ -167,6 +167,10 @@ struct ExperimentRecord {
     /// else the drawn motor ([`MotorInverse::legacy`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     controller_motor: Option<MotorInverse>,
+    /// The robot's controller preset the hybrid ran on (`ControllerConfig`, every gain and
+    /// weight), since 2026-11-28; older records lack it and are not checked for it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    controller: Option<serde_json::Value>,
 }
 
 impl ExperimentRecord {
@@ -205,6 +209,7 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<DirLock, ExperimentError>
         env_settings: opts.env_settings.clone(),
         pure_from: opts.pure_from.as_deref().map(crate::rundir::recorded_path),
         controller_motor: controller_motor(&opts.env, &opts.env_settings),
+        controller: controller_config(&opts.env).ok().and_then(|c| serde_json::to_value(c).ok()),
     };
     let path = dir.join("experiment.json");
     let text = serde_json::to_string_pretty(&record).expect("the record serialises") + "\n";
@@ -221,7 +226,8 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<DirLock, ExperimentError>
 /// `[env]` settings is refused unless they only perturbed training
 /// ([`crate::settings::TRAINING_ONLY`]: motor strength drawn at reset, pushes) or set the
 /// motor the controller is told, which is returned ([`TrainedWith`]), since the callers run
-/// the robot's preset environment with it.
+/// the robot's preset environment with it. A run whose record holds the controller's preset
+/// (since 2026-11-28) is refused when today's differs, naming the first difference.
 /// `centaur robustness` and `examples/embed_controller` check with it.
 pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<TrainedWith, ExperimentError> {
     let path = dir.join("experiment.json");
@@ -261,6 +267,12 @@ pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<Train
         ),
     };
     if same {
+        if let (Some(recorded), Ok(today)) = (&record.controller, controller_config(&record.env)) {
+            let today = serde_json::to_string(&today).unwrap_or_default();
+            if let Some(difference) = crate::train::config_difference(&recorded.to_string(), &today) {
+                return Err(ExperimentError::ControllerChanged { run: dir.to_path_buf(), difference });
+            }
+        }
         return Ok(TrainedWith { controller_motor: record.controller_motor() });
     }
     Err(ExperimentError::SetupMismatch { run: dir.to_path_buf(), trained, given: format!("{residual:?}") })
@@ -741,6 +753,7 @@ mod tests {
             env_settings: EnvSettings::default(),
             pure_from: None,
             controller_motor: Some(MotorInverse::Nominal),
+            controller: None,
         }
     }
 
@@ -796,6 +809,31 @@ mod tests {
 
         std::fs::write(dir.join("experiment.json"), "{ not json").unwrap();
         assert!(matches!(check_trained_with(&dir, &trained), Err(ExperimentError::Io { .. })));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A record holding the controller's preset is checked against today's: the same
+    /// passes, a changed gain is refused naming it, and a record without one (written before
+    /// 2026-11-28) is not checked for it.
+    #[test]
+    fn a_run_trained_on_another_controller_preset_is_refused() {
+        let dir = temp_dir("controller-changed");
+        let trained = residual_config("minitaur").unwrap();
+        let today = serde_json::to_value(controller_config("minitaur").unwrap()).unwrap();
+        let with = |controller: Option<serde_json::Value>| ExperimentRecord {
+            controller,
+            ..record(Some(&trained), "(not read)".into())
+        };
+        write_record(&dir, &with(Some(today.clone())));
+        check_trained_with(&dir, &trained).unwrap();
+        let mut older = today.clone();
+        older["wbc"]["w_posture"] = serde_json::json!(0.05);
+        write_record(&dir, &with(Some(older)));
+        let err = check_trained_with(&dir, &trained).unwrap_err();
+        let ExperimentError::ControllerChanged { ref difference, .. } = err else { panic!("{err}") };
+        assert_eq!(difference, "wbc.w_posture: recorded 0.05, today 0.01");
+        write_record(&dir, &with(None));
+        check_trained_with(&dir, &trained).unwrap();
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

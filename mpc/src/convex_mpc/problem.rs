@@ -28,7 +28,7 @@ pub mod state_index {
 /// Optional hard constraints on the predicted motion (none by default). They make the
 /// problem infeasible when forces cannot achieve them — used to detect, rather than hide,
 /// a robot that cannot hold itself up or follow a command.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Default, serde::Serialize)]
 pub struct HardConstraints {
     /// The predicted CoM height must stay above `z₀ − max_height_drop` at every step
     /// (default: none).
@@ -39,7 +39,7 @@ pub struct HardConstraints {
 }
 
 /// The solver of the convex MPC (both solve the same problem to the same tolerance).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 pub enum MpcSolver {
     /// Our interior point with a Riccati recursion as its linear solve (the default): no
     /// allocation per solve, about an order of magnitude faster than Clarabel here.
@@ -51,7 +51,7 @@ pub enum MpcSolver {
 
 /// Convex-MPC settings. [`Default`] is the trot of the MIT Cheetah 3 paper adapted to
 /// small robots.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct MpcConfig {
     /// Number of steps `N` (default: 10).
     pub horizon: usize,
