@@ -552,7 +552,7 @@ impl ControllerConfig {
         // 0–4 unless said): 2.75 m/s on 5 of 5 seeds (3 of 5 before), 3.0 m/s on 8 of seeds
         // 0–9 (none of 0–4 before; 0 and 0.002–0.005 did the same on 0–4, 0.02 held 1 of 5),
         // 0.3–2.5 m/s, the walk, pushes and 10 % action noise as before with less tilt; a
-        // hybrid on it reached 25.26 at 500k samples against 23.0 on the default weight (2
+        // hybrid on it reached 25.26 at 500k samples against 20.23 on the default weight (2
         // seeds each, README). Turning it kept the default: at 0.01 the staggered trot fell
         // on one seed of five turning ±0.5 rad/s at 0.5 m/s, which it holds at 0.05.
         c.wbc.w_posture = 0.01;
