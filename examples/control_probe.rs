@@ -79,6 +79,8 @@ fn main() {
                 "turn_max_speed" => cfg.turn_max_speed = x,
                 "turn_yaw_weight" => cfg.turn_yaw_weight = x,
                 "turn_posture_weight" => cfg.turn_posture_weight = x,
+                "turn_yaw_rate_weight" => cfg.turn_yaw_rate_weight = x,
+                "turn_period" => cfg.turn_period_scale = x,
                 "mpc_period" => cfg.mpc_period = x,
                 "swing_kp" => cfg.swing_gains.0 = x,
                 "swing_kd" => cfg.swing_gains.1 = x,

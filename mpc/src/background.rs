@@ -77,6 +77,7 @@ impl MpcPlan {
 /// Copies MPC inputs between same-sized buffers without allocating.
 fn copy_input(dst: &mut MpcInput, src: &MpcInput) {
     dst.x0 = src.x0;
+    dst.state_weights = src.state_weights;
     dst.x_ref.copy_from_slice(&src.x_ref);
     for (d, s) in dst.contact.iter_mut().zip(&src.contact) {
         d.copy_from_slice(s);

@@ -225,6 +225,8 @@ pub struct GaitScheduler {
     pending: Option<GaitPattern>,
     /// Stagger for turning ([`GaitPattern::staggered`]) the next cycle takes.
     stagger: f64,
+    /// Multiplies the period of a staggered pattern.
+    stagger_period_scale: f64,
     phase: f64,
     last_t: Option<f64>,
 }
@@ -256,7 +258,16 @@ impl GaitScheduler {
             period_scales[stand] = 1.0;
         }
         pattern.period *= period_scales[stand];
-        Self { n_legs, period_scales, pattern, pending: None, stagger: 0.0, phase: 0.0, last_t: None }
+        Self {
+            n_legs,
+            period_scales,
+            pattern,
+            pending: None,
+            stagger: 0.0,
+            stagger_period_scale: 1.0,
+            phase: 0.0,
+            last_t: None,
+        }
     }
 
     /// The pattern in force.
@@ -285,15 +296,31 @@ impl GaitScheduler {
         self.stagger = stagger;
     }
 
+    /// Multiplies the period of staggered patterns by `scale` (1 at construction; a
+    /// non-finite or non-positive scale counts as 1). Like the stagger, it takes effect at
+    /// the next cycle boundary.
+    pub fn set_stagger_period_scale(&mut self, scale: f64) {
+        self.stagger_period_scale = if scale.is_finite() && scale > 0.0 { scale } else { 1.0 };
+    }
+
+    /// `p` with the stagger in force and, if that staggers it, the staggered period.
+    fn turning(&self, p: GaitPattern) -> GaitPattern {
+        let mut q = p.staggered(self.stagger);
+        if q.stagger != 0.0 {
+            q.period *= self.stagger_period_scale;
+        }
+        q
+    }
+
     /// The pattern the next cycle takes if it differs from the one in force: a pending gait,
     /// or the current gait with a new stagger.
     fn upcoming(&self) -> Option<GaitPattern> {
         match self.pending {
-            Some(p) => Some(p.staggered(self.stagger)),
+            Some(p) => Some(self.turning(p)),
             None => {
                 let mut p = GaitPattern::new(self.pattern.gait, self.n_legs)?;
                 p.period *= self.period_scales[self.pattern.gait.index()];
-                let p = p.staggered(self.stagger);
+                let p = self.turning(p);
                 (p != self.pattern).then_some(p)
             }
         }
@@ -329,7 +356,7 @@ impl GaitScheduler {
         if self.pattern.gait == Gait::Stand
             && let Some(p) = self.pending.take()
         {
-            self.pattern = p.staggered(self.stagger);
+            self.pattern = self.turning(p);
             self.phase = 0.0;
             return true;
         }
@@ -366,7 +393,8 @@ impl GaitScheduler {
         let next = self.phase + tau / self.pattern.period;
         match self.pending {
             Some(p) if self.pattern.gait == Gait::Stand => {
-                (p.staggered(self.stagger), wrap01(tau / p.period))
+                let q = self.turning(p);
+                (q, wrap01(tau / q.period))
             }
             _ if next >= 1.0 => match self.upcoming() {
                 Some(p) => (p, wrap01((next - 1.0) * self.pattern.period / p.period)),
@@ -576,5 +604,34 @@ mod tests {
         s.set_stagger(0.0);
         run_to(&mut s, 32, 61);
         assert_eq!(*s.pattern(), trot, "back to the table's trot at the next boundary");
+    }
+
+    #[test]
+    fn a_staggered_period_scale_shortens_only_staggered_cycles() {
+        let mut s = GaitScheduler::new(4, 1.0);
+        s.set_stagger_period_scale(0.8);
+        s.update(0.0, Gait::Trot);
+        let trot = *s.pattern();
+        assert_eq!(trot.period, 0.3, "not staggered: the table's period");
+        s.set_stagger(0.1);
+        let mut turned = trot.staggered(0.1);
+        turned.period *= 0.8;
+        let (ahead, _) = s.predict(0.35);
+        assert_eq!(ahead, turned, "the prediction past the boundary");
+        for k in 1..=31 {
+            s.update(k as f64 * 0.01, Gait::Trot);
+        }
+        assert_eq!(*s.pattern(), turned);
+        // The phase runs at the shorter period: 0.24 s is one staggered cycle.
+        let phase = s.phase();
+        for k in 32..=55 {
+            s.update(k as f64 * 0.01, Gait::Trot);
+        }
+        assert!((s.phase() - phase).abs() < 1e-9, "{} vs {phase}", s.phase());
+        // Not positive or not finite: no scaling.
+        for bad in [0.0, -1.0, f64::NAN] {
+            s.set_stagger_period_scale(bad);
+            assert_eq!(s.stagger_period_scale, 1.0);
+        }
     }
 }

@@ -242,6 +242,7 @@ impl LocomotionController {
             0.0
         };
         self.gait.set_stagger(stagger);
+        self.gait.set_stagger_period_scale(cfg.turn_period_scale);
         let gait_changed = self.gait.update(t, shaped.gait);
         let standing = self.gait.pattern().gait == Gait::Stand;
         self.reference.update_position(cfg, est, dt, &shaped.target_velocity, standing);
@@ -410,21 +411,37 @@ mod tests {
         };
         let stagger_after_2s = |speed: f64, yaw_rate: f64| stagger_after_2s_heading(speed, yaw_rate, 0.0);
         assert_eq!(stagger_after_2s(0.5, 0.0), 0.0, "straight: no stagger");
-        // The whole-body QP's posture weight: the preset's 0.01 on a straight trot, its
-        // turning weight 0.05 while staggered.
-        let posture_after_2s = |yaw_rate: f64| {
+        // The preset's controller after 2 s trotting at 0.5 m/s and `yaw_rate`.
+        let trot_2s = |yaw_rate: f64| {
             let mut c = LocomotionController::new(&model, ControllerConfig::minitaur()).unwrap();
             let s = c.nominal_state();
             let command = Command { yaw_rate, ..Command::forward(0.5, Gait::Trot) };
             for k in 0..200 {
                 c.tick(&s, &command, k as f64 * 0.01);
             }
-            c.torques.wbc.config().w_posture
+            c
         };
+        // The whole-body QP's posture weight: the preset's 0.01 on a straight trot, its
+        // turning weight 0.1 while staggered.
+        let posture_after_2s = |yaw_rate: f64| trot_2s(yaw_rate).torques.wbc.config().w_posture;
         assert_eq!(ControllerConfig::minitaur().wbc.w_posture, 0.01);
         assert_eq!(posture_after_2s(0.0), 0.01);
         assert_eq!(posture_after_2s(0.5), ControllerConfig::minitaur().turn_posture_weight);
-        assert_eq!(ControllerConfig::minitaur().turn_posture_weight, 0.05);
+        assert_eq!(ControllerConfig::minitaur().turn_posture_weight, 0.1);
+        // While staggered the MPC weighs the yaw rate 10 (0.3 straight) and the cycle is
+        // 5 % shorter.
+        let turn_after_2s = |yaw_rate: f64| {
+            let c = trot_2s(yaw_rate);
+            (c.mpc().unwrap().input.state_weights, c.gait.pattern().period)
+        };
+        let cfg = ControllerConfig::minitaur();
+        let (w_straight, period_straight) = turn_after_2s(0.0);
+        assert_eq!(w_straight, cfg.mpc.state_weights);
+        let (w_turn, period_turn) = turn_after_2s(-0.5);
+        assert_eq!(w_turn[8], 10.0);
+        assert_eq!(w_turn[..8], w_straight[..8]);
+        assert_eq!(w_turn[9..], w_straight[9..]);
+        assert!((period_turn - 0.95 * period_straight).abs() < 1e-12, "{period_turn} {period_straight}");
         // 0.6 of the cycle per rad/s, clamped at MAX_STAGGER; the left legs lead a left turn.
         assert!((stagger_after_2s(0.5, 0.2) - 0.12).abs() < 1e-9);
         assert_eq!(stagger_after_2s(0.5, 0.5), crate::MAX_STAGGER);
@@ -446,6 +463,12 @@ mod tests {
         assert!(low.contains("turn_swing_height"), "{low}");
         let neg = bad(ControllerConfig { turn_posture_weight: -0.01, ..ControllerConfig::minitaur() });
         assert!(neg.contains("turn_posture_weight"), "{neg}");
+        let neg = bad(ControllerConfig { turn_yaw_rate_weight: -1.0, ..ControllerConfig::minitaur() });
+        assert!(neg.contains("turn_yaw_rate_weight"), "{neg}");
+        for p in [0.0, -0.5, f64::NAN, f64::INFINITY] {
+            let e = bad(ControllerConfig { turn_period_scale: p, ..ControllerConfig::minitaur() });
+            assert!(e.contains("turn_period_scale"), "{e}");
+        }
     }
 
     #[test]

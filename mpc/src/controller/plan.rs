@@ -130,6 +130,10 @@ impl Planner {
             x0[10] = 0.0;
         }
         inp.x0 = x0;
+        inp.state_weights = cfg.mpc.state_weights;
+        if gait.pattern().stagger != 0.0 && cfg.turn_yaw_rate_weight > 0.0 {
+            inp.state_weights[8] = cfg.turn_yaw_rate_weight;
+        }
         for k in 0..h {
             let tk = (k + 1) as f64 * dt;
             let r = &mut inp.x_ref[k];

@@ -29,6 +29,9 @@ pub(crate) struct ClarabelMpc {
     a_nz: Vec<f64>,
     q: Vec<f64>,
     b: Vec<f64>,
+    /// The diagonal of `P` (its values in CSC order) and the state weights it holds.
+    pd: Vec<f64>,
+    weights: [f64; 12],
 }
 
 impl ClarabelMpc {
@@ -64,7 +67,7 @@ impl ClarabelMpc {
             *v = 2.0 * cfg.force_weight;
         }
         let idx: Vec<usize> = (0..n_var).collect();
-        let p = CscMatrix::new_from_triplets(n_var, n_var, idx.clone(), idx, pd);
+        let p = CscMatrix::new_from_triplets(n_var, n_var, idx.clone(), idx, pd.clone());
         let mut q = vec![0.0; n_var];
         let mut b = vec![0.0; m];
         fill_qb(model, nominal, &mut q, &mut b);
@@ -88,7 +91,7 @@ impl ClarabelMpc {
         let a_nz = a.nzval.clone();
         let solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings)
             .map_err(|source| ConfigError::Solver { problem: "convex MPC", source })?;
-        Ok(ClarabelMpc { solver, a_pos, a_nz, q, b })
+        Ok(ClarabelMpc { solver, a_pos, a_nz, q, b, pd, weights: cfg.state_weights })
     }
 
     /// Updates Clarabel with `input` and solves; on success writes forces and states.
@@ -107,7 +110,19 @@ impl ClarabelMpc {
             t += 1;
         });
         fill_qb(model, input, &mut self.q, &mut self.b);
-        let ok = self.solver.update_A(&self.a_nz).is_ok()
+        // New state weights (a controller's turn): rewrite P's state diagonal.
+        let mut ok = true;
+        if input.state_weights != self.weights {
+            self.weights = input.state_weights;
+            for k in 0..model.cfg.horizon {
+                for (s, w) in self.weights.iter().enumerate() {
+                    self.pd[k * NX + s] = 2.0 * w;
+                }
+            }
+            ok = self.solver.update_P(&self.pd).is_ok();
+        }
+        let ok = ok
+            && self.solver.update_A(&self.a_nz).is_ok()
             && self.solver.update_q(&self.q).is_ok()
             && self.solver.update_b(&self.b).is_ok();
         if !ok {
@@ -240,7 +255,7 @@ fn fill_qb(model: &SrbModel, input: &MpcInput, q: &mut [f64], b: &mut [f64]) {
     let (n, nc) = (cfg.horizon, model.nc);
     for k in 0..n {
         for s in 0..12 {
-            q[k * NX + s] = -2.0 * cfg.state_weights[s] * input.x_ref[k][s];
+            q[k * NX + s] = -2.0 * input.state_weights[s] * input.x_ref[k][s];
         }
         q[k * NX + 12] = 0.0;
     }

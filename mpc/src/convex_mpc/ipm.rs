@@ -683,6 +683,9 @@ impl StructuredMpc {
         gravity[5] = 0.5 * dt * dt * g;
         gravity[11] = dt * g;
         p.n_rows = 0;
+        for (ps, w) in p.p_state.iter_mut().zip(&input.state_weights) {
+            *ps = 2.0 * w;
+        }
         let mut blocks = 0;
         let fmax = cfg.max_normal_force_ratio * model.mass * g.abs() / fs;
         let (force_p, force_v) = (0.5 * dt * dt * fs / model.mass, dt * fs / model.mass);
@@ -715,7 +718,7 @@ impl StructuredMpc {
             blocks += feet;
             // q on x_{k+1}: −2 Q x_ref.
             for s in 0..NS {
-                p.q[k][s] = -2.0 * cfg.state_weights[s] * input.x_ref[k][s];
+                p.q[k][s] = -2.0 * input.state_weights[s] * input.x_ref[k][s];
             }
             p.c[k] = gravity;
             if let Some(dz) = cfg.hard.max_height_drop {
@@ -1129,7 +1132,8 @@ mod tests {
         }
         let contact = (0..n).map(|k| (0..4).map(|i| (k < n / 2) == (i == 0 || i == 3)).collect()).collect();
         let foot = vec![feet.to_vec(); n];
-        (model, MpcInput { x0, x_ref, contact, foot })
+        let state_weights = model.cfg.state_weights;
+        (model, MpcInput { x0, x_ref, contact, foot, state_weights })
     }
 
     /// Flattens the `x, u, y, z` parts of a point.

@@ -124,6 +124,7 @@ impl ConvexMpc {
             x_ref: vec![[0.0; NX]; n],
             contact: vec![vec![true; nc]; n],
             foot: vec![vec![Vector3::zeros(); nc]; n],
+            state_weights: cfg.state_weights,
         };
         // Nominal data: every foot in contact (the sparse pattern is then complete).
         input.x0[state_index::GRAVITY] = -9.81;
@@ -149,7 +150,8 @@ impl ConvexMpc {
     /// solver, tolerance or iteration limit — for cross-checks, e.g. solving a controller's
     /// last problem ([`crate::LocomotionController::mpc`]) with Clarabel:
     /// `mpc.twin(|c| c.solver = MpcSolver::Clarabel)`. Changes of the horizon or of the
-    /// planar flag are refused (the input would not fit).
+    /// planar flag are refused (the input would not fit); changed state weights replace
+    /// the input's.
     pub fn twin(&self, change: impl FnOnce(&mut MpcConfig)) -> Result<Self, ConfigError> {
         let mut cfg = self.model.cfg.clone();
         change(&mut cfg);
@@ -162,6 +164,9 @@ impl ConvexMpc {
         }
         let mut twin = ConvexMpc::new(&cfg, self.model.nc, self.model.mass, self.model.inertia_body)?;
         twin.input = self.input.clone();
+        if cfg.state_weights != self.model.cfg.state_weights {
+            twin.input.state_weights = cfg.state_weights;
+        }
         Ok(twin)
     }
 
@@ -193,12 +198,14 @@ impl ConvexMpc {
 
     /// Solves the problem of `self.input`. Returns the status; forces and predicted states
     /// are available through [`ConvexMpc::force`] and [`ConvexMpc::predicted_state`] when
-    /// it is OK. Non-finite inputs give [`QpStatus::NumericalError`] without a solve.
+    /// it is OK. Non-finite inputs and negative state weights give
+    /// [`QpStatus::NumericalError`] without a solve.
     pub fn solve(&mut self) -> QpStatus {
         let inp = &self.input;
         let finite = inp.x0.iter().all(|v| v.is_finite())
             && inp.x_ref.iter().all(|x| x.iter().all(|v| v.is_finite()))
-            && inp.foot.iter().all(|f| f.iter().all(|p| p.iter().all(|v| v.is_finite())));
+            && inp.foot.iter().all(|f| f.iter().all(|p| p.iter().all(|v| v.is_finite())))
+            && inp.state_weights.iter().all(|w| w.is_finite() && *w >= 0.0);
         self.iterations = 0;
         self.objective = f64::NAN;
         if !finite {
@@ -291,6 +298,42 @@ mod tests {
     fn make(cfg: &MpcConfig) -> ConvexMpc {
         // 10 kg body, inertia diag(0.1, 0.3, 0.35).
         ConvexMpc::new(cfg, 4, 10.0, Matrix3::from_diagonal(&Vector3::new(0.1, 0.3, 0.35))).unwrap()
+    }
+
+    #[test]
+    fn state_weights_set_per_solve_match_a_problem_built_with_them() {
+        // Standing, asked to turn at 0.5 rad/s: the yaw-rate weight shapes the forces.
+        let setup = |mpc: &mut ConvexMpc| {
+            standing(mpc, 0.2, 0.1, 0.3, 0.0);
+            for r in mpc.input.x_ref.iter_mut() {
+                r[8] = 0.5;
+            }
+        };
+        let forces = |mpc: &ConvexMpc| (0..4).map(|i| mpc.force(0, i)).collect::<Vec<_>>();
+        let mut heavy = MpcConfig::default();
+        heavy.state_weights[8] = 10.0;
+        let mut built = make(&heavy);
+        setup(&mut built);
+        assert!(built.solve().is_ok());
+        let want = forces(&built);
+        for solver in [MpcSolver::Structured, MpcSolver::Clarabel] {
+            let mut mpc = make(&MpcConfig { solver, ..MpcConfig::default() });
+            setup(&mut mpc);
+            assert!(mpc.solve().is_ok());
+            let light = forces(&mpc);
+            mpc.input.state_weights[8] = 10.0;
+            assert!(mpc.solve().is_ok());
+            let got = forces(&mpc);
+            let tol = if solver == MpcSolver::Structured { 1e-9 } else { 1e-4 };
+            for i in 0..4 {
+                assert!((got[i] - want[i]).norm() < tol, "{solver:?} foot {i}: {} vs {}", got[i], want[i]);
+            }
+            let moved: f64 = (0..4).map(|i| (light[i] - want[i]).norm()).sum();
+            assert!(moved > 1e-3, "{solver:?}: the weight changed nothing ({moved})");
+            // A negative weight is refused without a solve.
+            mpc.input.state_weights[3] = -1.0;
+            assert_eq!(mpc.solve(), QpStatus::NumericalError);
+        }
     }
 
     #[test]

@@ -182,6 +182,10 @@ pub struct MpcInput {
     pub contact: Vec<Vec<bool>>,
     /// Foot positions (world) for `k = 0..N`, per contact.
     pub foot: Vec<Vec<Vector3<f64>>>,
+    /// State weights `Q` of this solve ([`ConvexMpc::new`](super::ConvexMpc::new) sets
+    /// them to [`MpcConfig::state_weights`]; a controller may change them between solves,
+    /// e.g. while turning). Finite and non-negative, or the solve is refused.
+    pub state_weights: [f64; 12],
 }
 
 /// The single rigid body the MPC plans for.
