@@ -579,7 +579,7 @@ impl ControllerConfig {
         // hybrid on it reached 25.26 at 500k samples against 20.23 on the default weight (2
         // seeds each, README). Turning it kept the default: at 0.01 the staggered trot fell
         // on one seed of five turning ±0.5 rad/s at 0.5 m/s, which it held at 0.05 (0.1 since
-        // 2026-11-29, above).
+        // later that day, above).
         c.wbc.w_posture = 0.01;
         c.turn_posture_weight = 0.1;
         // Only the gaits measured to work on the Minitaur are offered (`tools/closed_loop_table.py`):

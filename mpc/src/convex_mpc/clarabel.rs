@@ -113,13 +113,15 @@ impl ClarabelMpc {
         // New state weights (a controller's turn): rewrite P's state diagonal.
         let mut ok = true;
         if input.state_weights != self.weights {
-            self.weights = input.state_weights;
             for k in 0..model.cfg.horizon {
-                for (s, w) in self.weights.iter().enumerate() {
+                for (s, w) in input.state_weights.iter().enumerate() {
                     self.pd[k * NX + s] = 2.0 * w;
                 }
             }
             ok = self.solver.update_P(&self.pd).is_ok();
+            if ok {
+                self.weights = input.state_weights;
+            }
         }
         let ok = ok
             && self.solver.update_A(&self.a_nz).is_ok()
