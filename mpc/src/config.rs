@@ -561,9 +561,9 @@ impl ControllerConfig {
         // seeds 0–9 every ±0.5 rad/s row at 0.3, 0.5 and 0.6 m/s then turns within 15 %
         // (0.426–0.496 rad/s) without a fall; over seeds 10–19, −0.5 rad/s reaches
         // 0.405–0.486 and +0.5 at 0.6 m/s falls on 3 of 10 (before: 0.32–0.46, and 4 of 10
-        // fell each way at 0.6 m/s). Less did less (seeds 0–9): without the shorter cycle
-        // and the posture weight, −0.5 made 0.420–0.460 and +0.5 at 0.6 m/s fell once; the
-        // yaw-rate weight alone gave 0.38–0.44; a 7 % shorter cycle fell at 0.6 m/s on 2.
+        // fell each way at 0.6 m/s). Less did less: without the shorter cycle and the
+        // posture weight −0.5 made 0.420–0.460 (seeds 0–9), the yaw-rate weight alone
+        // 0.38–0.44 (seeds 0–4); a 7 % shorter cycle fell at 0.6 m/s on 2 of seeds 0–9.
         c.turn_stagger = 0.6;
         c.turn_swing_height = 0.05;
         c.turn_yaw_weight = 40.0;
