@@ -204,6 +204,13 @@ pub struct ControllerConfig {
 /// either weight. The Minitaur's trot needs the weaker weight (at 1e-4 it falls after 1.4 s).
 const FIRM_FORCE_WEIGHT: f64 = 1e-4;
 
+/// What a `turn_*` setting of [`ControllerConfig`] gives: `turn` while the trot is staggered
+/// for turning and the setting is on (> 0), else `otherwise` (the straight trot's value).
+#[inline]
+pub(crate) fn while_turning(staggered: bool, turn: f64, otherwise: f64) -> f64 {
+    if staggered && turn > 0.0 { turn } else { otherwise }
+}
+
 impl ControllerConfig {
     fn with_robot(robot: RobotSpec) -> Self {
         let n_legs = robot.n_legs;

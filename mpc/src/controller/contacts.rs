@@ -13,6 +13,7 @@ use centaur_dynamics::nalgebra::{Matrix3, Rotation3, Vector3};
 
 use super::estimate::Estimate;
 use super::targets::{LocomotionTargets, TickContext};
+use crate::config::while_turning;
 use crate::swing::{PointTarget, raibert_foothold, swing_curve};
 
 /// Height (m) below which an unmeasured contact point counts as touching the ground plane
@@ -203,11 +204,7 @@ impl Contacts {
             } else {
                 let sp = swing_progress.unwrap_or(1.0);
                 let t_sw = pat.swing_duration(leg);
-                let height = if pat.stagger != 0.0 && cfg.turn_swing_height > 0.0 {
-                    cfg.turn_swing_height
-                } else {
-                    cfg.swing_height
-                };
+                let height = while_turning(pat.stagger != 0.0, cfg.turn_swing_height, cfg.swing_height);
                 let mut tg = swing_curve(&self.liftoff[ci], &fh, height, sp, t_sw);
                 if dt > 0.0 {
                     let ahead = swing_curve(&self.liftoff[ci], &fh, height, sp + dt / t_sw, t_sw);

@@ -8,7 +8,7 @@ use super::reference::wrap_pi;
 use super::status::{ControllerStatus, Fallback};
 use super::targets::{LocomotionTargets, TickContext};
 use crate::background::{BackgroundMpc, MpcPlan, Poll};
-use crate::config::{ControllerConfig, MpcExecution};
+use crate::config::{ControllerConfig, MpcExecution, while_turning};
 use crate::convex_mpc::{ConvexMpc, NX};
 use crate::error::ConfigError;
 use crate::gait::MAX_LEGS;
@@ -131,9 +131,8 @@ impl Planner {
         }
         inp.x0 = x0;
         inp.state_weights = cfg.mpc.state_weights;
-        if gait.pattern().stagger != 0.0 && cfg.turn_yaw_rate_weight > 0.0 {
-            inp.state_weights[8] = cfg.turn_yaw_rate_weight;
-        }
+        inp.state_weights[8] =
+            while_turning(gait.pattern().stagger != 0.0, cfg.turn_yaw_rate_weight, cfg.mpc.state_weights[8]);
         for k in 0..h {
             let tk = (k + 1) as f64 * dt;
             let r = &mut inp.x_ref[k];

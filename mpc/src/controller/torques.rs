@@ -8,7 +8,7 @@ use centaur_dynamics::nalgebra::{Matrix3, Matrix3xX, Rotation3, Vector3};
 
 use super::status::{ControllerStatus, Fallback, JointCommand};
 use super::targets::{LocomotionTargets, TickContext};
-use crate::config::{ControlMode, ControllerConfig};
+use crate::config::{ControlMode, ControllerConfig, while_turning};
 use crate::error::ConfigError;
 use crate::gait::Gait;
 use crate::qp::{cholesky_in_place, cholesky_solve};
@@ -76,15 +76,11 @@ impl Torques {
     ) -> bool {
         let (cfg, robot, est, reference, height) = (cx.cfg, cx.robot, cx.est, cx.reference, cx.height);
         let staggered = cx.gait.pattern().stagger != 0.0;
-        let turning = staggered && cfg.turn_yaw_weight > 0.0;
-        let yaw_weight = if turning { cfg.turn_yaw_weight } else { cfg.wbc.body_axis_weights[5] };
-        self.wbc.set_body_axis_weight(5, yaw_weight);
-        let posture = if staggered && cfg.turn_posture_weight > 0.0 {
-            cfg.turn_posture_weight
-        } else {
-            cfg.wbc.w_posture
-        };
-        self.wbc.set_posture_weight(posture);
+        self.wbc.set_body_axis_weight(
+            5,
+            while_turning(staggered, cfg.turn_yaw_weight, cfg.wbc.body_axis_weights[5]),
+        );
+        self.wbc.set_posture_weight(while_turning(staggered, cfg.turn_posture_weight, cfg.wbc.w_posture));
         let nc = robot.n_contacts();
         let m = robot.mass;
         let gvec = robot.model.gravity;
