@@ -591,9 +591,14 @@ impl ControllerConfig {
         c.turn_posture_weight = 0.1;
         // Only the gaits measured to work on the Minitaur are offered (`tools/closed_loop_table.py`):
         // the static walk needs a 0.6 s cycle (at the table's 0.8 s it fell on every seed);
-        // pace, bound, pronk and gallop fell within 0.2–4 s at 0.3–1 m/s on seeds 0–2 with
+        // bound, pronk and gallop fell within 0.2–4 s at 0.3–1 m/s on seeds 0–2 with
         // periods 0.7–1 × the table's, so they are refused: without abduction the
-        // Minitaur balances sideways only through a diagonal support.
+        // Minitaur balances sideways only through a diagonal support. The pace is refused
+        // for another reason: it holds straight runs (on the controller of 2026-11-28, seeds
+        // 0–4: 0.3–1.0 m/s, and at 0.3 and 0.6 m/s under 10 % action noise and 2 N·s
+        // pushes), but a ±0.5 rad/s yaw-rate command topples it within 11 s on seeds 0–2
+        // at 0.3 m/s (a lateral pair in contact cannot yaw, and only the trot is staggered
+        // for turning), and at 1.0 m/s 10 % action noise fells it on 4 of 5 seeds.
         // The trot's cycle is 0.7 × the table's: at the table's period it fell at 2.5 m/s on
         // 2 of 3 seeds; at 0.7 × it trots 2.5 m/s (2.39 measured) on 5 of 5 and 2.75 m/s on
         // 3 of 5, and 0.3–2.0 m/s as before (`control_probe --set period=…`, 2026-11-25).
