@@ -197,11 +197,12 @@ impl ResidualConfig {
         if let Some(e) = self.exploration {
             for (part, value) in [("exploration.residual", e.residual), ("exploration.steering", e.steering)]
             {
-                if !value.is_finite() || value <= 0.0 {
-                    return Err(HybridError::BadSetting { part, value, expected: "a finite σ > 0" });
+                if !(value > 0.0 && value <= MAX_EXPLORATION) {
+                    return Err(HybridError::BadSetting { part, value, expected: "a σ in (0, 10]" });
                 }
             }
         }
+        self.check_command_values()?;
         if !self.joint_residual && self.steering.dim() == 0 {
             return Err(HybridError::NothingToLearn);
         }
@@ -213,8 +214,43 @@ impl ResidualConfig {
 
     /// `config` with [`ResidualConfig::rated_speed`], if set, as the rating of the
     /// command's gait: the controller the hybrid (and the controller-alone baseline beside
-    /// it) runs. The gait must be offered and not the stand, which has no speed rating.
+    /// it) runs. The gait must be offered and not the stand, which has no speed rating. The
+    /// command (at zero steering) must then be within the rating, as `centaur control`
+    /// requires: the controller would clamp a faster one, and the run would not be the one
+    /// asked for. Steering may go beyond; the controller clamps it (see `rated_speed`).
     pub fn rate_controller(&self, config: &mut ControllerConfig) -> Result<(), HybridError> {
+        self.apply_rating(config)?;
+        self.check_command_values()?;
+        let c = &self.command;
+        config.check_command(c.gait, c.forward_velocity.hypot(c.lateral_velocity))?;
+        Ok(())
+    }
+
+    /// The command's numbers: finite, and a positive body height if one is set.
+    fn check_command_values(&self) -> Result<(), HybridError> {
+        let c = &self.command;
+        for (part, value) in [
+            ("command.forward_velocity", c.forward_velocity),
+            ("command.lateral_velocity", c.lateral_velocity),
+            ("command.yaw_rate", c.yaw_rate),
+        ] {
+            if !value.is_finite() {
+                return Err(HybridError::BadSetting { part, value, expected: "a finite number" });
+            }
+        }
+        if let Some(value) = c.body_height
+            && !(value.is_finite() && value > 0.0)
+        {
+            return Err(HybridError::BadSetting {
+                part: "command.body_height",
+                value,
+                expected: "a height > 0 m",
+            });
+        }
+        Ok(())
+    }
+
+    fn apply_rating(&self, config: &mut ControllerConfig) -> Result<(), HybridError> {
         let Some(value) = self.rated_speed else { return Ok(()) };
         check_rated_speed(value)?;
         let gait = self.command.gait;
@@ -235,6 +271,11 @@ impl ResidualConfig {
 
 /// The largest [`ResidualConfig::rated_speed`] accepted (m/s): far above any robot here.
 pub const MAX_RATED_SPEED: f64 = 20.0;
+
+/// The largest initial exploration σ accepted ([`Exploration`]), in the policy's [−1, 1]
+/// units: at σ 10 nearly every sample already lands outside [−1, 1] and is clipped, and far
+/// larger ones (1e308) make the learner's first loss infinite.
+pub const MAX_EXPLORATION: f64 = 10.0;
 
 fn check_rated_speed(value: f64) -> Result<(), HybridError> {
     if value.is_finite() && value > 0.0 && value <= MAX_RATED_SPEED {
@@ -724,5 +765,52 @@ mod tests {
         // A gait the robot does not offer: the controller's error, naming those it does.
         let err = rated(Some(1.0), Gait::Bound).rate_controller(&mut preset.clone()).unwrap_err().to_string();
         assert!(err.contains("bound") && err.contains("trot (0–2.5 m/s)"), "{err}");
+    }
+
+    /// The command the controller follows is checked like `centaur control`'s: finite, and
+    /// (at zero steering) within the gait's rating, the hybrid's own if it sets one. A
+    /// faster one used to run silently at the rating (`centaur compare --speed 100`), a NaN
+    /// one stopped the first step with the env's "action[0] is NaN".
+    #[test]
+    fn the_command_and_the_exploration_are_checked() {
+        let preset = ControllerConfig::minitaur();
+        let with = |v: f64, rated: Option<f64>| ResidualConfig {
+            rated_speed: rated,
+            ..ResidualConfig::new(0.25, Command::forward(v, Gait::Trot))
+        };
+        assert!(with(2.5, None).rate_controller(&mut preset.clone()).is_ok());
+        assert!(with(-3.5, Some(3.5)).rate_controller(&mut preset.clone()).is_ok());
+        for (v, rated, needle) in [(2.6, None, "2.5"), (100.0, Some(3.5), "3.5"), (2.0, Some(1.0), "1")] {
+            let err = with(v, rated).rate_controller(&mut preset.clone()).unwrap_err();
+            let text = err.to_string();
+            assert!(
+                matches!(err, HybridError::Controller(ConfigError::SpeedAboveRating { .. }))
+                    && text.contains(needle),
+                "{v} {rated:?}: {text}"
+            );
+        }
+        let err = with(f64::NAN, None).rate_controller(&mut preset.clone()).unwrap_err().to_string();
+        assert!(err.contains("command.forward_velocity = NaN"), "{err}");
+        let bad = |c: Command| ResidualConfig { command: c, ..ResidualConfig::default() }.validate(8);
+        let fwd = Command::forward(1.0, Gait::Trot);
+        for (c, part) in [
+            (Command::forward(f64::NAN, Gait::Trot), "command.forward_velocity"),
+            (Command { lateral_velocity: f64::INFINITY, ..fwd }, "command.lateral_velocity"),
+            (Command { yaw_rate: f64::NAN, ..fwd }, "command.yaw_rate"),
+            (Command { body_height: Some(0.0), ..fwd }, "command.body_height"),
+            (Command { body_height: Some(f64::NAN), ..fwd }, "command.body_height"),
+        ] {
+            assert!(matches!(bad(c), Err(HybridError::BadSetting { part: p, .. }) if p == part), "{part}");
+        }
+        assert!(bad(Command { body_height: Some(0.2), ..fwd }).is_ok());
+        let explore = |residual: f64| ResidualConfig {
+            exploration: Some(Exploration { residual, steering: 0.5 }),
+            ..ResidualConfig::default()
+        };
+        assert!(explore(10.0).validate(8).is_ok());
+        for sigma in [0.0, -1.0, 10.5, 1e308, f64::NAN, f64::INFINITY] {
+            let err = explore(sigma).validate(8).unwrap_err().to_string();
+            assert!(err.contains("exploration.residual") && err.contains("(0, 10]"), "{sigma}: {err}");
+        }
     }
 }

@@ -907,6 +907,11 @@ fn numeric_options_are_refused_not_bent() {
         (&compare, &["--envs", "0"], "--envs"),
         (&compare, &["--eval-episodes", "0"], "--eval-episodes"),
         (&compare, &["--residual-scale", "1e300"], "residual scale = 1e300"),
+        // The controller's command is checked like `centaur control`'s: it ran silently at
+        // the rating, and a NaN stopped the first step with the env's "action[0] is NaN".
+        (&compare, &["--speed", "100"], "rated 3.5 m/s"),
+        (&compare, &["--speed", "nan"], "command.forward_velocity = NaN"),
+        (&compare, &["--explore-residual", "1e308"], "exploration.residual = 1e308"),
         (&train, &["--steps", "64", "--envs", "0"], "--envs 0"),
         (&train, &["--steps", "64", "--seed", "-1"], "'-1' for '--seed"),
         (&train, &["--steps", "-5"], "'-5' for '--steps"),
