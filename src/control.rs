@@ -10,7 +10,7 @@ use centaur_envs::RobotEnv;
 use centaur_gym::{BoxSpace, EnvError, Rng};
 use centaur_mpc::{Command, ConfigError, Gait, LocomotionController, MpcExecution, MpcSolver};
 
-use crate::hybrid::{ActionMapping, HybridError};
+use crate::hybrid::{ActionMapping, HybridError, MAX_YAW_RATE};
 use crate::registry::{
     RegistryError, controller_config, controller_motor, make_robot_env, make_robot_env_with,
 };
@@ -304,8 +304,11 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
             )));
         }
     }
-    if !opts.yaw_rate.is_finite() {
-        return Err(ControlError::Invalid("the yaw rate must be finite".into()));
+    if !(opts.yaw_rate.is_finite() && opts.yaw_rate.abs() <= MAX_YAW_RATE) {
+        return Err(ControlError::Invalid(format!(
+            "yaw rate {} rad/s: expected a finite rate of at most 2π rad/s (one turn a second)",
+            opts.yaw_rate
+        )));
     }
     if !(opts.action_noise.is_finite() && opts.action_noise >= 0.0) {
         return Err(ControlError::Invalid("the action noise must be finite and >= 0".into()));

@@ -194,6 +194,14 @@ impl ResidualConfig {
                 return Err(HybridError::BadSetting { part, value, expected: "a finite span ≥ 0" });
             }
         }
+        if self.steering.yaw_rate > MAX_YAW_RATE {
+            let value = self.steering.yaw_rate;
+            return Err(HybridError::BadSetting {
+                part: "steering.yaw_rate",
+                value,
+                expected: "a span ≤ 2π rad/s",
+            });
+        }
         if let Some(e) = self.exploration {
             for (part, value) in [("exploration.residual", e.residual), ("exploration.steering", e.steering)]
             {
@@ -238,6 +246,14 @@ impl ResidualConfig {
                 return Err(HybridError::BadSetting { part, value, expected: "a finite number" });
             }
         }
+        if c.yaw_rate.abs() > MAX_YAW_RATE {
+            let value = c.yaw_rate;
+            return Err(HybridError::BadSetting {
+                part: "command.yaw_rate",
+                value,
+                expected: "at most 2π rad/s",
+            });
+        }
         if let Some(value) = c.body_height
             && !(value.is_finite() && value > 0.0)
         {
@@ -271,6 +287,11 @@ impl ResidualConfig {
 
 /// The largest [`ResidualConfig::rated_speed`] accepted (m/s): far above any robot here.
 pub const MAX_RATED_SPEED: f64 = 20.0;
+
+/// The largest yaw rate (rad/s) a command or a yaw-rate steering span may ask for, here and
+/// in `centaur control`: one turn a second, far beyond every robot here (the presets turn
+/// at up to 0.5 rad/s). A larger one only ramps the yaw reference without end.
+pub const MAX_YAW_RATE: f64 = 2.0 * std::f64::consts::PI;
 
 /// The largest initial exploration σ accepted ([`Exploration`]), in the policy's [−1, 1]
 /// units: at σ 10 nearly every sample already lands outside [−1, 1] and is clipped, and far
@@ -797,12 +818,20 @@ mod tests {
             (Command::forward(f64::NAN, Gait::Trot), "command.forward_velocity"),
             (Command { lateral_velocity: f64::INFINITY, ..fwd }, "command.lateral_velocity"),
             (Command { yaw_rate: f64::NAN, ..fwd }, "command.yaw_rate"),
+            (Command { yaw_rate: -7.0, ..fwd }, "command.yaw_rate"),
             (Command { body_height: Some(0.0), ..fwd }, "command.body_height"),
             (Command { body_height: Some(f64::NAN), ..fwd }, "command.body_height"),
         ] {
             assert!(matches!(bad(c), Err(HybridError::BadSetting { part: p, .. }) if p == part), "{part}");
         }
-        assert!(bad(Command { body_height: Some(0.2), ..fwd }).is_ok());
+        assert!(bad(Command { body_height: Some(0.2), yaw_rate: -6.0, ..fwd }).is_ok());
+        let steer_yaw = |yaw_rate: f64| ResidualConfig {
+            steering: Steering { speed: 0.0, yaw_rate },
+            ..ResidualConfig::default()
+        };
+        assert!(steer_yaw(6.0).validate(8).is_ok());
+        let err = steer_yaw(1e9).validate(8).unwrap_err().to_string();
+        assert!(err.contains("steering.yaw_rate = 1000000000.0") && err.contains("2π"), "{err}");
         let explore = |residual: f64| ResidualConfig {
             exploration: Some(Exploration { residual, steering: 0.5 }),
             ..ResidualConfig::default()

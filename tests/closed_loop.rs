@@ -451,6 +451,9 @@ fn control_refuses_options_it_would_ignore_or_that_break_the_run() {
         (ControlOptions { measure_from: 5.0, ..base.clone() }, "measure from"),
         (ControlOptions { seconds: 0.001, ..base.clone() }, "shorter than one control step"),
         (ControlOptions { seconds: 1e9, ..base.clone() }, "at most 3600 s"),
+        // A yaw rate of 1e9 rad/s ran, reporting a yaw drift of 5e8 rad.
+        (ControlOptions { yaw_rate: 1e9, ..base.clone() }, "at most 2π rad/s"),
+        (ControlOptions { yaw_rate: f64::NAN, ..base.clone() }, "yaw rate NaN"),
         (
             ControlOptions { speed_schedule: vec![(0.0, 0.3), (2.0, 1.0)], ..base.clone() },
             "after the run's end",
