@@ -7,7 +7,7 @@ use centaur::registry::{
 };
 use centaur::residual::RESIDUAL_TERM;
 use centaur_gym::{Env, EnvError, Rng};
-use centaur_mpc::{Command, Gait, LocomotionController};
+use centaur_mpc::{Command, ConfigError, Gait, LocomotionController};
 
 /// Observations and rewards (as bits) of the controller alone for `steps` steps.
 fn controller_alone(env_name: &str, command: Command, steps: usize) -> Vec<u64> {
@@ -77,12 +77,17 @@ fn a_zero_residual_acts_exactly_like_the_controller() {
     }
 }
 
+/// The default residual setup, commanding the walk Walker2d offers (the default trot it does
+/// not offer is refused, below).
+fn walker_walk() -> ResidualConfig {
+    ResidualConfig { command: Command::forward(0.3, Gait::Walk), ..ResidualConfig::default() }
+}
+
 #[test]
 fn the_residual_is_bounded_by_its_scale_and_the_action_space() {
     let scale = 0.2;
     let mut env =
-        make_residual_env("walker2d", ResidualConfig { scale: vec![scale], ..ResidualConfig::default() })
-            .unwrap();
+        make_residual_env("walker2d", ResidualConfig { scale: vec![scale], ..walker_walk() }).unwrap();
     let mut obs = vec![0.0f32; env.observation_space().dim()];
     env.reset(Some(0), &mut obs).unwrap();
     let m = env.action_space().dim();
@@ -106,8 +111,7 @@ fn the_residual_is_bounded_by_its_scale_and_the_action_space() {
     }
     // Regression (reliability probe): `--residual-scale 1e300` was accepted as infinity.
     for bad in [1e300, 1e3] {
-        match make_residual_env("walker2d", ResidualConfig { scale: vec![bad], ..ResidualConfig::default() })
-        {
+        match make_residual_env("walker2d", ResidualConfig { scale: vec![bad], ..walker_walk() }) {
             Err(RegistryError::Hybrid(HybridError::BadSetting { part: "residual scale", .. })) => {}
             Err(other) => panic!("{bad}: {other}"),
             Ok(_) => panic!("residual scale {bad} accepted"),
@@ -143,7 +147,7 @@ fn the_observation_carries_phase_command_and_reference() {
 
 #[test]
 fn bad_residuals_and_configs_are_refused() {
-    let mut env = make_residual_env("walker2d", ResidualConfig::default()).unwrap();
+    let mut env = make_residual_env("walker2d", walker_walk()).unwrap();
     let mut obs = vec![0.0f32; env.observation_space().dim()];
     env.reset(Some(0), &mut obs).unwrap();
     let m = env.action_space().dim();
@@ -152,14 +156,19 @@ fn bad_residuals_and_configs_are_refused() {
     assert!(matches!(env.step(&bad, &mut obs), Err(EnvError::NonFiniteAction { index: 2, .. })));
     assert!(matches!(env.step(&vec![0.0; m + 1], &mut obs), Err(EnvError::ActionLength { .. })));
     assert!(
-        make_residual_env("walker2d", ResidualConfig { scale: vec![0.1, 0.2], ..ResidualConfig::default() })
-            .is_err()
+        make_residual_env("walker2d", ResidualConfig { scale: vec![0.1, 0.2], ..walker_walk() }).is_err()
     );
-    assert!(
-        make_residual_env("walker2d", ResidualConfig { scale: vec![-1.0], ..ResidualConfig::default() })
-            .is_err()
-    );
+    assert!(make_residual_env("walker2d", ResidualConfig { scale: vec![-1.0], ..walker_walk() }).is_err());
     assert!(make_residual_env("hopper", ResidualConfig::default()).is_err(), "no controller for the Hopper");
+    // A gait the robot does not offer: refused, naming those it does (until 2026-11-28 the
+    // controller stood instead, without a word).
+    match make_residual_env("walker2d", ResidualConfig::default()) {
+        Err(e @ RegistryError::Hybrid(HybridError::Controller(ConfigError::GaitNotOffered { .. }))) => {
+            assert!(e.to_string().contains("walk (0–0.5 m/s)"), "{e}")
+        }
+        Err(other) => panic!("{other}"),
+        Ok(_) => panic!("a trot accepted on Walker2d"),
+    }
     // Regression (reliability probe): a comparison with a learner setting out of range is
     // refused by the field's name before it writes anything (it left empty seed folders).
     let out = std::env::temp_dir().join(format!("centaur-bad-compare-{}", std::process::id()));
