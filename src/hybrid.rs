@@ -234,33 +234,15 @@ impl ResidualConfig {
         Ok(())
     }
 
-    /// The command's numbers: finite, and a positive body height if one is set.
+    /// The command's numbers ([`Command::check`]) and a yaw rate within [`MAX_YAW_RATE`].
     fn check_command_values(&self) -> Result<(), HybridError> {
-        let c = &self.command;
-        for (part, value) in [
-            ("command.forward_velocity", c.forward_velocity),
-            ("command.lateral_velocity", c.lateral_velocity),
-            ("command.yaw_rate", c.yaw_rate),
-        ] {
-            if !value.is_finite() {
-                return Err(HybridError::BadSetting { part, value, expected: "a finite number" });
-            }
-        }
-        if c.yaw_rate.abs() > MAX_YAW_RATE {
-            let value = c.yaw_rate;
+        self.command.check()?;
+        let value = self.command.yaw_rate;
+        if value.abs() > MAX_YAW_RATE {
             return Err(HybridError::BadSetting {
                 part: "command.yaw_rate",
                 value,
                 expected: "at most 2π rad/s",
-            });
-        }
-        if let Some(value) = c.body_height
-            && !(value.is_finite() && value > 0.0)
-        {
-            return Err(HybridError::BadSetting {
-                part: "command.body_height",
-                value,
-                expected: "a height > 0 m",
             });
         }
         Ok(())
@@ -811,19 +793,24 @@ mod tests {
             );
         }
         let err = with(f64::NAN, None).rate_controller(&mut preset.clone()).unwrap_err().to_string();
-        assert!(err.contains("command.forward_velocity = NaN"), "{err}");
+        assert!(err.contains("command.forward_velocity = NaN is out of range (finite)"), "{err}");
         let bad = |c: Command| ResidualConfig { command: c, ..ResidualConfig::default() }.validate(8);
         let fwd = Command::forward(1.0, Gait::Trot);
         for (c, part) in [
             (Command::forward(f64::NAN, Gait::Trot), "command.forward_velocity"),
             (Command { lateral_velocity: f64::INFINITY, ..fwd }, "command.lateral_velocity"),
             (Command { yaw_rate: f64::NAN, ..fwd }, "command.yaw_rate"),
-            (Command { yaw_rate: -7.0, ..fwd }, "command.yaw_rate"),
             (Command { body_height: Some(0.0), ..fwd }, "command.body_height"),
             (Command { body_height: Some(f64::NAN), ..fwd }, "command.body_height"),
         ] {
-            assert!(matches!(bad(c), Err(HybridError::BadSetting { part: p, .. }) if p == part), "{part}");
+            let refused = matches!(
+                bad(c),
+                Err(HybridError::Controller(ConfigError::OutOfRange { field, .. })) if field == part
+            );
+            assert!(refused, "{part}");
         }
+        let too_fast = bad(Command { yaw_rate: -7.0, ..fwd });
+        assert!(matches!(too_fast, Err(HybridError::BadSetting { part: "command.yaw_rate", .. })));
         assert!(bad(Command { body_height: Some(0.2), yaw_rate: -6.0, ..fwd }).is_ok());
         let steer_yaw = |yaw_rate: f64| ResidualConfig {
             steering: Steering { speed: 0.0, yaw_rate },

@@ -861,4 +861,25 @@ impl Command {
     pub fn forward(speed: f64, gait: Gait) -> Self {
         Self { forward_velocity: speed, gait, ..Self::default() }
     }
+
+    /// Checks the numbers: finite velocities and yaw rate, and a finite positive body
+    /// height if one is set. The controller answers a command that fails it with its
+    /// posture fallback; the hybrid and `centaur control` refuse it when they are built.
+    pub fn check(&self) -> Result<(), ConfigError> {
+        for (field, value) in [
+            ("command.forward_velocity", self.forward_velocity),
+            ("command.lateral_velocity", self.lateral_velocity),
+            ("command.yaw_rate", self.yaw_rate),
+        ] {
+            if !value.is_finite() {
+                return Err(ConfigError::OutOfRange { field, value, range: "finite" });
+            }
+        }
+        match self.body_height {
+            Some(value) if !(value.is_finite() && value > 0.0) => {
+                Err(ConfigError::OutOfRange { field: "command.body_height", value, range: "> 0 m" })
+            }
+            _ => Ok(()),
+        }
+    }
 }

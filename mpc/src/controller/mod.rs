@@ -201,13 +201,9 @@ impl LocomotionController {
             state.v.len()
         );
         self.status.begin(t);
-        let cmd_ok = command.forward_velocity.is_finite()
-            && command.lateral_velocity.is_finite()
-            && command.yaw_rate.is_finite()
-            && command.body_height.is_none_or(|h| h.is_finite() && h > 0.0);
         if !state.is_finite()
             || !t.is_finite()
-            || !cmd_ok
+            || command.check().is_err()
             || !self.estimate.set_state(&self.robot, &state.q, &state.v)
         {
             self.posture_fallback();
