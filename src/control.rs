@@ -360,9 +360,10 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     if opts.unrated {
         config.offer_every_gait();
     }
-    // Refuse a gait the robot does not offer, or a speed above its rating, naming what works.
+    // Refuse a gait the robot does not offer, or a speed or yaw rate above its rating, naming
+    // what works.
     for v in std::iter::once(opts.speed).chain(opts.speed_schedule.iter().map(|p| p.1)) {
-        config.check_command(opts.gait, v)?;
+        config.check_command(opts.gait, v, opts.yaw_rate)?;
     }
     let mut ctrl = LocomotionController::new(env.model(), config)?;
     let mut mapping = ActionMapping::new(env.as_ref(), &ctrl)?;

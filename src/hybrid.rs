@@ -223,14 +223,14 @@ impl ResidualConfig {
     /// `config` with [`ResidualConfig::rated_speed`], if set, as the rating of the
     /// command's gait: the controller the hybrid (and the controller-alone baseline beside
     /// it) runs. The gait must be offered and not the stand, which has no speed rating. The
-    /// command (at zero steering) must then be within the rating, as `centaur control`
-    /// requires: the controller would clamp a faster one, and the run would not be the one
+    /// command (at zero steering) must then be within the rating, speed and turning, as
+    /// `centaur control` requires: the controller would clamp a faster one, and the run would not be the one
     /// asked for. Steering may go beyond; the controller clamps it (see `rated_speed`).
     pub fn rate_controller(&self, config: &mut ControllerConfig) -> Result<(), HybridError> {
         self.apply_rating(config)?;
         self.check_command_values()?;
         let c = &self.command;
-        config.check_command(c.gait, c.forward_velocity.hypot(c.lateral_velocity))?;
+        config.check_command(c.gait, c.forward_velocity.hypot(c.lateral_velocity), c.yaw_rate)?;
         Ok(())
     }
 
@@ -753,7 +753,10 @@ mod tests {
         rated(Some(3.0), Gait::Trot).rate_controller(&mut c).unwrap();
         assert_eq!(trot(&c), 3.0);
         assert_eq!(c.offer(Gait::Walk).unwrap().max_speed, preset.offer(Gait::Walk).unwrap().max_speed);
-        assert!(c.check_command(Gait::Trot, 2.9).is_ok() && preset.check_command(Gait::Trot, 2.9).is_err());
+        assert!(
+            c.check_command(Gait::Trot, 2.9, 0.0).is_ok()
+                && preset.check_command(Gait::Trot, 2.9, 0.0).is_err()
+        );
         // Refused by name, and the config left as it was.
         for v in [f64::NAN, f64::INFINITY, 0.0, -1.0, 25.0] {
             let r = rated(Some(v), Gait::Trot);
@@ -767,7 +770,7 @@ mod tests {
         assert!(err.contains("stand"), "{err}");
         // A gait the robot does not offer: the controller's error, naming those it does.
         let err = rated(Some(1.0), Gait::Bound).rate_controller(&mut preset.clone()).unwrap_err().to_string();
-        assert!(err.contains("bound") && err.contains("trot (0–2.5 m/s)"), "{err}");
+        assert!(err.contains("bound") && err.contains("trot (0–2.5 m/s;"), "{err}");
     }
 
     /// The command the controller follows is checked like `centaur control`'s: finite, and

@@ -415,8 +415,19 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
         (vec!["--env", "minitaur", "--gait", "moonwalk"], "moonwalk"),
         (vec!["--env", "walker2d", "--gait", "gallop"], "gallop"),
         // Not offered on the Minitaur: the error names the gaits that work.
-        (vec!["--env", "minitaur", "--gait", "bound"], "trot (0–2.5 m/s)"),
+        (vec!["--env", "minitaur", "--gait", "bound"], "trot (0–2.5 m/s;"),
         (vec!["--env", "minitaur", "--gait", "trot", "--speed", "3"], "rated 2.5 m/s"),
+        // Turning outside the rating: the unstaggered trot above 0.6 m/s turned at 0.02 rad/s
+        // commanded 0.5 without a word, and the walk fell turning on one seed of five.
+        (
+            vec!["--env", "minitaur", "--speed", "1", "--yaw-rate", "0.5"],
+            "turns at up to 0.5 rad/s to 0.6 m/s",
+        ),
+        (
+            vec!["--env", "minitaur", "--speed", "0.3", "--speed-schedule", "0.05:1", "--yaw-rate", "-0.5"],
+            "at 1 m/s",
+        ),
+        (vec!["--env", "minitaur", "--gait", "walk", "--speed", "0.3", "--yaw-rate", "0.3"], "straight only"),
         (vec!["--env", "minitaur", "--speed-schedule", "0:0,1:x"], "x"),
         (vec!["--env", "minitaur", "--action-noise", "nan"], "noise"),
         (vec!["--env", "minitaur", "--push-at", "1"], "--push-force"),

@@ -62,17 +62,70 @@ pub struct GaitOffer {
     /// refuses them. Ignored for [`Gait::Stand`], whose speed command only shifts the body
     /// over its planted feet (within `position_leash`).
     pub max_speed: f64,
+    /// Largest commanded yaw rate (rad/s, either way) the gait is rated to turn at, up to
+    /// [`GaitOffer::max_turning_speed`]; 0: the gait runs straight only; `f64::INFINITY`:
+    /// not rated (default). The controller clamps larger yaw-rate commands to it (to 0 above
+    /// `max_turning_speed`) and counts them in [`crate::ControllerStatus::clamped_commands`];
+    /// `centaur control` refuses them. Ignored for [`Gait::Stand`] (it twists the body over
+    /// its planted feet within the yaw reference's 0.3 rad reach).
+    pub max_yaw_rate: f64,
+    /// Largest commanded planar speed (m/s) at which [`GaitOffer::max_yaw_rate`] holds;
+    /// faster, the gait is rated straight only (default: `f64::INFINITY`).
+    pub max_turning_speed: f64,
 }
 
 impl GaitOffer {
-    /// `gait` at its table period, rated to `max_speed`.
+    /// `gait` at its table period, rated to `max_speed`, turning not rated.
     pub fn new(gait: Gait, max_speed: f64) -> Self {
-        GaitOffer { gait, period_scale: 1.0, max_speed }
+        GaitOffer {
+            gait,
+            period_scale: 1.0,
+            max_speed,
+            max_yaw_rate: f64::INFINITY,
+            max_turning_speed: f64::INFINITY,
+        }
     }
 
     /// The same offer at `scale` times its table period.
     pub fn period(self, scale: f64) -> Self {
         GaitOffer { period_scale: scale, ..self }
+    }
+
+    /// The same offer rated to turn at up to `max_yaw_rate` (rad/s) while commanded at most
+    /// `max_speed` (m/s), and straight only above it.
+    pub fn turning(self, max_yaw_rate: f64, max_speed: f64) -> Self {
+        GaitOffer { max_yaw_rate, max_turning_speed: max_speed, ..self }
+    }
+
+    /// The same offer rated straight only: a yaw-rate command is not tracked.
+    pub fn straight_only(self) -> Self {
+        self.turning(0.0, 0.0)
+    }
+
+    /// The turning rating in words, for messages: `"straight only"`, `"turns at up to 0.5
+    /// rad/s"`, `"turns at up to 0.5 rad/s to 0.6 m/s"`, `"turning unrated"`.
+    pub fn turning_text(&self) -> String {
+        let (w, v) = (self.max_yaw_rate, self.max_turning_speed);
+        if w.is_infinite() {
+            "turning unrated".into()
+        } else if w == 0.0 {
+            "straight only".into()
+        } else if v >= self.max_speed {
+            format!("turns at up to {w} rad/s")
+        } else {
+            format!("turns at up to {w} rad/s to {v} m/s")
+        }
+    }
+
+    /// The largest yaw rate (rad/s) rated at a commanded planar `speed` (m/s).
+    pub fn yaw_rate_rating(&self, speed: f64) -> f64 {
+        if self.gait == Gait::Stand {
+            f64::INFINITY
+        } else if speed.abs() <= self.max_turning_speed + 1e-9 {
+            self.max_yaw_rate
+        } else {
+            0.0
+        }
     }
 }
 
@@ -362,11 +415,14 @@ impl ControllerConfig {
         // Rated to the speeds tracked within 15 % on seeds 0–4: the trot to 1.2 m/s
         // (1.03–1.17 m/s at 1.2), the static walk to 0.3 (0.294–0.298; at 0.4 one seed made
         // 0.32). Pace, bound and gallop stay up at 0.3 m/s but fall short or turn up to 1 rad,
-        // so they are not offered.
+        // so they are not offered. Turning (`centaur control --yaw-rate ±0.3, ±0.5
+        // --measure-from 1`, seeds 0–4, 2026-11-28): the trot at 0.3, 0.6 and 1.0 m/s and the
+        // walk at 0.3 m/s turn within 0.01 rad/s of the command on every seed; at 1.2 m/s the
+        // trot lagged on one seed (−0.37 for −0.5, −0.11 for −0.3), so it turns to 1.0 m/s.
         c.gaits = vec![
             GaitOffer::new(Gait::Stand, 0.0),
-            GaitOffer::new(Gait::Walk, 0.3),
-            GaitOffer::new(Gait::Trot, 1.2),
+            GaitOffer::new(Gait::Walk, 0.3).turning(0.5, 0.3),
+            GaitOffer::new(Gait::Trot, 1.2).turning(0.5, 1.0),
         ];
         c
     }
@@ -402,7 +458,8 @@ impl ControllerConfig {
         // third (0.35 m/s for 0.5); at 80 it makes 0.42 (0.45 after the first second).
         c.body_kd_vel = [80.0; 3];
         // Rated to 0.5 m/s (0.45–0.46 over seeds 0–4); commanded 1.0 it stays up at 0.67–0.73.
-        c.gaits = vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Walk, 0.5)];
+        // Planar: it cannot turn.
+        c.gaits = vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Walk, 0.5).straight_only()];
         c
     }
 
@@ -471,7 +528,11 @@ impl ControllerConfig {
         // Rated 0.5 m/s: 0.6 m/s meets the issue's target unperturbed (above), but 4 N·s
         // pushed from its right it fell on 4 of seeds 0–4 (at 0.5 m/s, on 1 of 5 from either
         // side; 37 of 40 over seeds 0–9 from the four sides). A stand command steps in place.
-        c.gaits = vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Walk, 0.5)];
+        // Turning (`centaur control --yaw-rate … --measure-from 1`, 2026-11-28): ±0.5 rad/s
+        // at 0.3 and 0.4 m/s within 0.02 rad/s on every seed (0–4; 0–9 at 0.4 m/s); at
+        // 0.5 m/s +0.5 rad/s fell on seed 1 of 0–4 (±0.3 rad/s held on seeds 0–9), so it
+        // turns at up to 0.5 rad/s to 0.4 m/s.
+        c.gaits = vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Walk, 0.5).turning(0.5, 0.4)];
         c
     }
 
@@ -602,10 +663,15 @@ impl ControllerConfig {
         // The trot's cycle is 0.7 × the table's: at the table's period it fell at 2.5 m/s on
         // 2 of 3 seeds; at 0.7 × it trots 2.5 m/s (2.39 measured) on 5 of 5 and 2.75 m/s on
         // 3 of 5, and 0.3–2.0 m/s as before (`control_probe --set period=…`, 2026-11-25).
+        // Turning: the staggered trot turns within 15 % of ±0.5 rad/s to `turn_max_speed`
+        // (above); faster, unstaggered, it turned at 0.00–0.03 rad/s commanded ±0.3 or ±0.5
+        // at 0.8–2.5 m/s (seeds 0–4, 2026-11-28), so it is rated straight there. The walk
+        // turned at 0.06–0.13 rad/s commanded ±0.3 or ±0.5 at 0.3 and 0.5 m/s and fell on
+        // seed 3 of 0–4 in three of the eight rows: straight only.
         c.gaits = vec![
             GaitOffer::new(Gait::Stand, 0.0),
-            GaitOffer::new(Gait::Trot, 2.5).period(0.7),
-            GaitOffer::new(Gait::Walk, 0.5).period(0.75),
+            GaitOffer::new(Gait::Trot, 2.5).period(0.7).turning(0.5, c.turn_max_speed),
+            GaitOffer::new(Gait::Walk, 0.5).period(0.75).straight_only(),
         ];
         c
     }
@@ -644,33 +710,48 @@ impl ControllerConfig {
             .filter(|g| g.supported(n_legs))
             .map(|&g| {
                 let scale = offered.iter().find(|o| o.gait == g).map_or(1.0, |o| o.period_scale);
-                GaitOffer { gait: g, period_scale: scale, max_speed: f64::INFINITY }
+                GaitOffer::new(g, f64::INFINITY).period(scale)
             })
             .collect();
     }
 
-    /// Checks that `gait` is offered and `speed` (m/s, planar) within its rating.
-    pub fn check_command(&self, gait: Gait, speed: f64) -> Result<(), ConfigError> {
+    /// Checks that `gait` is offered, `speed` (m/s, planar) within its rating and
+    /// `yaw_rate` (rad/s) within its turning rating at that speed.
+    pub fn check_command(&self, gait: Gait, speed: f64, yaw_rate: f64) -> Result<(), ConfigError> {
         let offer = self.offer(gait)?;
-        if gait != Gait::Stand && speed.abs() > offer.max_speed + 1e-12 {
+        if gait == Gait::Stand {
+            return Ok(());
+        }
+        if speed.abs() > offer.max_speed + 1e-12 {
             return Err(ConfigError::SpeedAboveRating {
                 gait: gait.name(),
                 speed,
                 max_speed: offer.max_speed,
             });
         }
+        if yaw_rate.abs() > offer.yaw_rate_rating(speed) + 1e-12 {
+            return Err(ConfigError::YawRateAboveRating {
+                gait: gait.name(),
+                yaw_rate,
+                speed,
+                rating: offer.turning_text(),
+            });
+        }
         Ok(())
     }
 
-    /// The offered gaits with their speed ranges, for messages: `"stand, trot (0–2.5 m/s)"`.
+    /// The offered gaits with their speed and turning ranges, for messages: `"stand, trot
+    /// (0–2.5 m/s; turns at up to 0.5 rad/s to 0.6 m/s)"`.
     pub fn offered_gaits(&self) -> String {
         let list: Vec<String> = self
             .gaits
             .iter()
             .map(|o| match o.max_speed {
                 _ if o.gait == Gait::Stand => o.gait.name().to_string(),
-                m if m.is_infinite() => format!("{} (unrated)", o.gait.name()),
-                m => format!("{} (0–{m} m/s)", o.gait.name()),
+                m if m.is_infinite() && o.max_yaw_rate.is_infinite() => {
+                    format!("{} (unrated)", o.gait.name())
+                }
+                m => format!("{} (0–{m} m/s; {})", o.gait.name(), o.turning_text()),
             })
             .collect();
         list.join(", ")
@@ -804,12 +885,14 @@ impl ControllerConfig {
                     range: "> 0",
                 });
             }
-            if o.max_speed.is_nan() || o.max_speed < 0.0 {
-                return Err(ConfigError::OutOfRange {
-                    field: "gaits.max_speed",
-                    value: o.max_speed,
-                    range: ">= 0",
-                });
+            for (field, value) in [
+                ("gaits.max_speed", o.max_speed),
+                ("gaits.max_yaw_rate", o.max_yaw_rate),
+                ("gaits.max_turning_speed", o.max_turning_speed),
+            ] {
+                if value.is_nan() || value < 0.0 {
+                    return Err(ConfigError::OutOfRange { field, value, range: ">= 0" });
+                }
             }
         }
         if self.robot.n_legs != 2 && self.robot.n_legs != 4 {

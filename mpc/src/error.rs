@@ -27,7 +27,7 @@ pub enum ConfigError {
     GaitNotOffered {
         /// The gait asked for.
         gait: &'static str,
-        /// The gaits it offers, with their speed ranges (`"stand, trot (0–2.5 m/s)"`).
+        /// The gaits it offers, with their speed ranges and turning (`"stand, trot (0–2.5 m/s; straight only)"`).
         offered: String,
     },
     /// A speed above the gait's rated maximum ([`crate::GaitOffer::max_speed`]).
@@ -39,6 +39,21 @@ pub enum ConfigError {
         speed: f64,
         /// The gait's rated speed (m/s).
         max_speed: f64,
+    },
+    /// A yaw rate above the gait's turning rating at the commanded speed
+    /// ([`crate::GaitOffer::max_yaw_rate`], [`crate::GaitOffer::max_turning_speed`]).
+    #[error(
+        "{gait} turning at {yaw_rate} rad/s at {speed} m/s is outside this robot's rating for that gait: {rating}"
+    )]
+    YawRateAboveRating {
+        /// The gait.
+        gait: &'static str,
+        /// The yaw rate asked for (rad/s).
+        yaw_rate: f64,
+        /// The planar speed asked for (m/s).
+        speed: f64,
+        /// The gait's turning rating in words (`"turns at up to 0.5 rad/s to 0.6 m/s"`).
+        rating: String,
     },
     /// Fields that do not fit together.
     #[error("inconsistent configuration: {0}")]

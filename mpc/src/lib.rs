@@ -52,6 +52,12 @@
 //!   torso's heading. It walks (the same gait, moving) at 0.5 and 0.6 m/s on every seed
 //!   tried and is rated 0.5 m/s (the preset's docs).
 //!
+//! Each preset offers only the gaits measured to work on its robot, each rated to a speed
+//! and a turning range ([`GaitOffer`]: the largest yaw rate, up to a speed; straight
+//! above it). [`ControllerConfig::check_command`] refuses a command outside them before a
+//! run, naming the rating; inside `tick` a gait not offered stands, and a faster speed or
+//! yaw rate is clamped to the rating and counted in [`ControllerStatus::clamped_commands`].
+//!
 //! ## Failures and fallbacks
 //!
 //! Solver outcomes are [`QpStatus`] values in [`ControllerStatus`]. The MPC falls back to

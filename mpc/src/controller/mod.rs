@@ -330,10 +330,30 @@ mod tests {
         let e = cfg.offer(Gait::Bound).unwrap_err();
         assert!(matches!(e, ConfigError::GaitNotOffered { gait: "bound", .. }));
         let msg = e.to_string();
-        assert!(msg.contains("stand") && msg.contains("trot (0–2.5 m/s)") && msg.contains("walk"), "{msg}");
-        assert!(cfg.check_command(Gait::Trot, 2.5).is_ok());
-        assert!(matches!(cfg.check_command(Gait::Trot, -2.6), Err(ConfigError::SpeedAboveRating { .. })));
-        assert!(cfg.check_command(Gait::Stand, 1.0).is_ok(), "a stand's speed shifts the body, unrated");
+        assert!(msg.contains("stand") && msg.contains("trot (0–2.5 m/s;") && msg.contains("walk"), "{msg}");
+        assert!(cfg.check_command(Gait::Trot, 2.5, 0.0).is_ok());
+        assert!(matches!(
+            cfg.check_command(Gait::Trot, -2.6, 0.0),
+            Err(ConfigError::SpeedAboveRating { .. })
+        ));
+        assert!(
+            cfg.check_command(Gait::Stand, 1.0, 1.0).is_ok(),
+            "a stand's command shifts the body, unrated"
+        );
+        // Turning: the trot ±0.5 rad/s to 0.6 m/s, straight above; the walk straight only.
+        assert!(
+            cfg.check_command(Gait::Trot, 0.6, -0.5).is_ok()
+                && cfg.check_command(Gait::Trot, 2.5, 0.0).is_ok()
+        );
+        let turn_err = |v: f64, w: f64, gait: Gait| match cfg.check_command(gait, v, w) {
+            Err(e @ ConfigError::YawRateAboveRating { .. }) => e.to_string(),
+            other => panic!("{gait:?} at {v} m/s, {w} rad/s: {other:?}"),
+        };
+        assert!(turn_err(0.6, 0.51, Gait::Trot).contains("turns at up to 0.5 rad/s to 0.6 m/s"));
+        assert!(turn_err(1.0, 0.1, Gait::Trot).contains("trot turning at 0.1 rad/s at 1 m/s"));
+        assert!(turn_err(0.3, -0.05, Gait::Walk).contains("straight only"));
+        assert!(msg.contains("trot (0–2.5 m/s; turns at up to 0.5 rad/s to 0.6 m/s)"), "{msg}");
+        assert!(msg.contains("walk (0–0.5 m/s; straight only)"), "{msg}");
         // The walk runs at 0.75 of its table period, the trot at 0.7; bound is not run.
         let scales = cfg.period_scales();
         assert_eq!(scales[Gait::Walk.index()], 0.75);
@@ -344,13 +364,24 @@ mod tests {
         all.offer_every_gait();
         assert!(all.validate().is_ok());
         assert_eq!(all.gaits.len(), Gait::ALL.len());
-        assert!(all.check_command(Gait::Bound, 5.0).is_ok() && all.check_command(Gait::Trot, 5.0).is_ok());
+        assert!(
+            all.check_command(Gait::Bound, 5.0, 0.0).is_ok()
+                && all.check_command(Gait::Trot, 5.0, 3.0).is_ok()
+        );
         assert_eq!(all.period_scales()[Gait::Walk.index()], 0.75);
         assert_eq!(all.period_scales()[Gait::Bound.index()], 1.0);
         // The Humanoid offers its walk to 0.5 m/s; lifted, a biped gets stand and walk only.
         let humanoid = ControllerConfig::humanoid();
-        assert!(humanoid.check_command(Gait::Walk, 0.5).is_ok());
-        assert!(matches!(humanoid.check_command(Gait::Walk, 0.6), Err(ConfigError::SpeedAboveRating { .. })));
+        assert!(humanoid.check_command(Gait::Walk, 0.5, 0.0).is_ok());
+        assert!(humanoid.check_command(Gait::Walk, 0.4, -0.5).is_ok());
+        assert!(matches!(
+            humanoid.check_command(Gait::Walk, 0.6, 0.0),
+            Err(ConfigError::SpeedAboveRating { .. })
+        ));
+        assert!(matches!(
+            humanoid.check_command(Gait::Walk, 0.5, 0.5),
+            Err(ConfigError::YawRateAboveRating { .. })
+        ));
         let mut biped = humanoid.clone();
         biped.offer_every_gait();
         assert_eq!(biped.gaits.iter().map(|o| o.gait).collect::<Vec<_>>(), [Gait::Stand, Gait::Walk]);
@@ -363,6 +394,9 @@ mod tests {
             bad(vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Trot, 1.0).period(0.0)]).is_err()
         );
         assert!(bad(vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Trot, f64::NAN)]).is_err());
+        let trot = GaitOffer::new(Gait::Trot, 1.0);
+        assert!(bad(vec![GaitOffer::new(Gait::Stand, 0.0), trot.turning(-0.1, 1.0)]).is_err());
+        assert!(bad(vec![GaitOffer::new(Gait::Stand, 0.0), trot.turning(0.5, f64::NAN)]).is_err());
         let biped = ControllerConfig {
             gaits: vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Trot, 1.0)],
             ..ControllerConfig::humanoid()
@@ -387,6 +421,26 @@ mod tests {
             c.tick(&s, &Command::forward(1.0, Gait::Walk), k as f64 * 0.015);
         }
         assert!((c.reference.v_cmd.norm() - 0.3).abs() < 1e-9, "{}", c.reference.v_cmd.norm());
+
+        // A yaw rate beyond the turning rating is clamped to it, and counted: the preset
+        // Humanoid turns at up to 0.5 rad/s to 0.4 m/s, straight above.
+        let mut c = LocomotionController::new(&model, ControllerConfig::humanoid()).unwrap();
+        let turn = |v: f64, w: f64| Command { yaw_rate: w, ..Command::forward(v, Gait::Walk) };
+        for k in 0..100 {
+            c.tick(&s, &turn(0.3, -0.8), k as f64 * 0.015);
+        }
+        assert_eq!(c.status().clamped_commands, 100);
+        assert!((c.reference.yaw_rate_cmd + 0.5).abs() < 1e-12, "{}", c.reference.yaw_rate_cmd);
+        for k in 100..200 {
+            c.tick(&s, &turn(0.5, 0.3), k as f64 * 0.015);
+        }
+        assert_eq!(c.status().clamped_commands, 200);
+        assert!(c.reference.yaw_rate_cmd.abs() < 1e-12, "{}", c.reference.yaw_rate_cmd);
+        for k in 200..300 {
+            c.tick(&s, &turn(0.4, 0.3), k as f64 * 0.015);
+        }
+        assert_eq!(c.status().clamped_commands, 200, "within the rating: not clamped");
+        assert!((c.reference.yaw_rate_cmd - 0.3).abs() < 1e-12, "{}", c.reference.yaw_rate_cmd);
     }
 
     #[test]

@@ -32,7 +32,7 @@ pub(crate) struct Shaped {
     pub height: f64,
     /// The commanded gait is not offered: the robot stands instead.
     pub refused: bool,
-    /// The commanded speed was above the gait's rating and was clamped to it.
+    /// The commanded speed or yaw rate was above the gait's rating and was clamped to it.
     pub clamped: bool,
 }
 
@@ -56,7 +56,8 @@ impl Reference {
     /// Rate-limits the command over `dt` and integrates the yaw reference. `airborne`: the
     /// robot has not landed yet, it is held standing. A gait the configuration does not offer
     /// is answered by standing; a planar speed above the gait's rated maximum is scaled down
-    /// to it (the yaw rate is not limited).
+    /// to it, and a yaw rate above the gait's turning rating at that speed is clamped to it
+    /// ([`crate::GaitOffer::yaw_rate_rating`]).
     pub(crate) fn shape(
         &mut self,
         cfg: &ControllerConfig,
@@ -70,7 +71,8 @@ impl Reference {
         // A gait that is not offered: stand still. A speed above the gait's rating: clamped
         // (a stand command's speed only shifts the body over its planted feet, within
         // `position_leash`, and is not rated).
-        let (command_gait, max_speed, refused) = match cfg.find_offer(command.gait) {
+        let offer = cfg.find_offer(command.gait);
+        let (command_gait, max_speed, refused) = match offer {
             Some(o) if o.gait == Gait::Stand => (o.gait, f64::INFINITY, false),
             Some(o) => (o.gait, o.max_speed, false),
             None => (Gait::Stand, 0.0, true),
@@ -81,17 +83,24 @@ impl Reference {
         let lat = if planar { 0.0 } else { command.lateral_velocity };
         let (mut fwd, mut lat) = (command.forward_velocity, lat);
         let speed = fwd.hypot(lat);
-        let clamped = speed > max_speed && !refused;
+        let mut clamped = speed > max_speed && !refused;
         if speed > max_speed {
             let k = if speed > 0.0 { max_speed / speed } else { 0.0 };
             fwd *= k;
             lat *= k;
         }
+        let mut yr = if planar { 0.0 } else { command.yaw_rate };
+        if let Some(o) = offer {
+            let max_yaw_rate = o.yaw_rate_rating(speed.min(max_speed));
+            if yr.abs() > max_yaw_rate {
+                yr = yr.clamp(-max_yaw_rate, max_yaw_rate);
+                clamped = true;
+            }
+        }
         let target = Vector3::new(c * fwd - s * lat, s * fwd + c * lat, 0.0);
         let step = cfg.max_acceleration * dt;
         self.v_cmd.x = ramp(self.v_cmd.x, target.x, step);
         self.v_cmd.y = ramp(self.v_cmd.y, target.y, step);
-        let yr = if planar { 0.0 } else { command.yaw_rate };
         self.yaw_rate_cmd = ramp(self.yaw_rate_cmd, yr, cfg.max_yaw_acceleration * dt);
         self.yaw_ref += self.yaw_rate_cmd * dt;
         // Keep the yaw reference within reach of the measured yaw (after a push or a spin).

@@ -125,8 +125,8 @@ pub struct ControllerStatus {
     /// Ticks whose commanded gait the configuration does not offer (the robot stood
     /// instead), since construction.
     pub refused_gaits: u64,
-    /// Ticks whose commanded speed was above the gait's rating and was clamped to it, since
-    /// construction.
+    /// Ticks whose commanded speed or yaw rate was above the gait's rating (speed, turning)
+    /// and was clamped to it, since construction.
     pub clamped_commands: u64,
     /// Planned CoM positions over the horizon (world).
     pub planned_com: Vec<[f64; 3]>,
