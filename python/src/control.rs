@@ -117,8 +117,10 @@ impl Controller {
     }
 
     /// One control step at time `t` (s) from state `(q, v)`, following the command (speeds in
-    /// m/s and rad/s in the heading frame; `gait` one of `gaits`); `contacts`: measured foot
-    /// contacts, one per contact frame, or `None` to trust the schedule.
+    /// m/s and rad/s in the heading frame; `gait` one of `gaits`; a speed or yaw rate outside
+    /// the gait's rating is clamped to it and counted in the status's `clamped_commands`);
+    /// `contacts`: measured foot contacts, one per contact frame, or `None` to trust the
+    /// schedule.
     #[pyo3(signature = (q, v, t, forward_velocity=0.0, lateral_velocity=0.0, yaw_rate=0.0, gait="trot", body_height=None, contacts=None))]
     fn tick<'py>(
         &self,
