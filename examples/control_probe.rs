@@ -76,7 +76,11 @@ fn main() {
                 "period" => cfg.gait_period_scale = x,
                 "stagger" => cfg.turn_stagger = x,
                 "turn_swing_height" => cfg.turn_swing_height = x,
-                "turn_max_speed" => cfg.turn_max_speed = x,
+                "turn_max_speed" => {
+                    // The turning rating follows (the controller clamps yaw rates outside it).
+                    cfg.turn_max_speed = x;
+                    cfg.gaits.iter_mut().for_each(|o| o.max_turning_speed = o.max_turning_speed.max(x));
+                }
                 "turn_yaw_weight" => cfg.turn_yaw_weight = x,
                 "turn_posture_weight" => cfg.turn_posture_weight = x,
                 "turn_yaw_rate_weight" => cfg.turn_yaw_rate_weight = x,
@@ -392,4 +396,10 @@ fn main() {
         ctrl.status().mpc_failures + ctrl.status().wbc_failures,
         heading / (t - t_start).max(1e-9)
     );
+    if ctrl.status().clamped_commands > 0 {
+        println!(
+            "NOTE {} ticks clamped to the gait's speed or turning rating (--set unrated=1 lifts it)",
+            ctrl.status().clamped_commands
+        );
+    }
 }
