@@ -529,7 +529,7 @@ impl ControllerConfig {
         // pushed from its right it fell on 4 of seeds 0–4 (at 0.5 m/s, on 1 of 5 from either
         // side; 37 of 40 over seeds 0–9 from the four sides). A stand command steps in place.
         // Turning (`centaur control --yaw-rate … --measure-from 1`, 2026-11-28): ±0.5 rad/s
-        // at 0.3 and 0.4 m/s within 0.02 rad/s on every seed (0–4; 0–9 at 0.4 m/s); at
+        // at 0.3 and 0.4 m/s within 0.04 rad/s on every seed (0–4; 0–9 at 0.4 m/s); at
         // 0.5 m/s +0.5 rad/s fell on seed 1 of 0–4 (±0.3 rad/s held on seeds 0–9), so it
         // turns at up to 0.5 rad/s to 0.4 m/s.
         c.gaits = vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Walk, 0.5).turning(0.5, 0.4)];
@@ -666,8 +666,8 @@ impl ControllerConfig {
         // Turning: the staggered trot turns within 15 % of ±0.5 rad/s to `turn_max_speed`
         // (above); faster, unstaggered, it turned at 0.00–0.03 rad/s commanded ±0.3 or ±0.5
         // at 0.8–2.5 m/s (seeds 0–4, 2026-11-28), so it is rated straight there. The walk
-        // turned at 0.06–0.13 rad/s commanded ±0.3 or ±0.5 at 0.3 and 0.5 m/s and fell on
-        // seed 3 of 0–4 in three of the eight rows: straight only.
+        // turned at 0.06–0.13 rad/s commanded ±0.3 or ±0.5 at 0.3 and 0.5 m/s and fell in
+        // three of the eight rows (on seed 3 twice, seed 0 once, of 0–4): straight only.
         c.gaits = vec![
             GaitOffer::new(Gait::Stand, 0.0),
             GaitOffer::new(Gait::Trot, 2.5).period(0.7).turning(0.5, c.turn_max_speed),
