@@ -224,8 +224,9 @@ impl ResidualConfig {
     /// command's gait: the controller the hybrid (and the controller-alone baseline beside
     /// it) runs. The gait must be offered and not the stand, which has no speed rating. The
     /// command (at zero steering) must then be within the rating, speed and turning, as
-    /// `centaur control` requires: the controller would clamp a faster one, and the run would not be the one
-    /// asked for. Steering may go beyond; the controller clamps it (see `rated_speed`).
+    /// `centaur control` requires: the controller would clamp one outside it, and the run
+    /// would not be the one asked for. Steering may go beyond; the controller clamps it (see
+    /// `rated_speed`).
     pub fn rate_controller(&self, config: &mut ControllerConfig) -> Result<(), HybridError> {
         self.apply_rating(config)?;
         self.check_command_values()?;

@@ -27,7 +27,8 @@ pub enum ConfigError {
     GaitNotOffered {
         /// The gait asked for.
         gait: &'static str,
-        /// The gaits it offers, with their speed ranges and turning (`"stand, trot (0–2.5 m/s; straight only)"`).
+        /// The gaits it offers, with their speed ranges and turning (`"stand, trot (0–2.5
+        /// m/s; straight only)"`).
         offered: String,
     },
     /// A speed above the gait's rated maximum ([`crate::GaitOffer::max_speed`]).
