@@ -79,7 +79,10 @@ fn main() {
                 "turn_max_speed" => {
                     // The turning rating follows (the controller clamps yaw rates outside it).
                     cfg.turn_max_speed = x;
-                    cfg.gaits.iter_mut().for_each(|o| o.max_turning_speed = o.max_turning_speed.max(x));
+                    for o in cfg.gaits.iter_mut() {
+                        o.max_turning_speed = o.max_turning_speed.max(x);
+                        o.faster_turning = o.faster_turning.filter(|t| t.max_speed > o.max_turning_speed);
+                    }
                 }
                 "turn_yaw_weight" => cfg.turn_yaw_weight = x,
                 "turn_posture_weight" => cfg.turn_posture_weight = x,

@@ -428,6 +428,11 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
             "at 1 m/s",
         ),
         (vec!["--env", "minitaur", "--gait", "walk", "--speed", "0.3", "--yaw-rate", "0.3"], "straight only"),
+        // Two ratings: the Humanoid's walk turns ±0.5 rad/s to 0.4 m/s, ±0.3 to 0.5 m/s.
+        (
+            vec!["--env", "humanoid", "--gait", "walk", "--speed", "0.5", "--yaw-rate", "-0.4"],
+            "turns at up to 0.5 rad/s to 0.4 m/s and 0.3 rad/s",
+        ),
         (vec!["--env", "minitaur", "--speed-schedule", "0:0,1:x"], "x"),
         (vec!["--env", "minitaur", "--action-noise", "nan"], "noise"),
         (vec!["--env", "minitaur", "--push-at", "1"], "--push-force"),

@@ -103,13 +103,13 @@ TURN_ROWS = [
     ("humanoid", "walk", 0.3, 0.3), ("humanoid", "walk", 0.3, -0.3),
     ("humanoid", "walk", 0.3, 0.5), ("humanoid", "walk", 0.3, -0.5),
     ("humanoid", "walk", 0.4, 0.5), ("humanoid", "walk", 0.4, -0.5),
+    ("humanoid", "walk", 0.5, 0.3), ("humanoid", "walk", 0.5, -0.3),
 ]
 # Turning the presets do not rate (run with --unrated; `GaitOffer::turning`): why.
 UNRATED_TURN_ROWS = [
     ("minitaur", "trot", 1.0, 0.5), ("minitaur", "trot", 1.0, -0.5),
     ("minitaur", "walk", 0.3, 0.3), ("minitaur", "walk", 0.3, -0.3),
     ("ant", "trot", 1.2, 0.5), ("ant", "trot", 1.2, -0.5),
-    ("humanoid", "walk", 0.5, 0.3), ("humanoid", "walk", 0.5, -0.3),
     ("humanoid", "walk", 0.5, 0.5), ("humanoid", "walk", 0.5, -0.5),
 ]
 # Push rows above the preset's rating.

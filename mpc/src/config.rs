@@ -70,8 +70,24 @@ pub struct GaitOffer {
     /// its planted feet within the yaw reference's 0.3 rad reach).
     pub max_yaw_rate: f64,
     /// Largest commanded planar speed (m/s) at which [`GaitOffer::max_yaw_rate`] holds;
-    /// faster, the gait is rated straight only (default: `f64::INFINITY`).
+    /// faster, the gait is rated straight only (default: `f64::INFINITY`), or as
+    /// [`GaitOffer::faster_turning`] says.
     pub max_turning_speed: f64,
+    /// A second turning rating above [`GaitOffer::max_turning_speed`]: a smaller yaw rate up
+    /// to a higher speed, for a gait whose turning degrades with speed (default: none,
+    /// straight only above `max_turning_speed`). Set with [`GaitOffer::then_turning`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub faster_turning: Option<TurnRating>,
+}
+
+/// A turning rating: up to `max_yaw_rate` (rad/s, either way) while commanded at most
+/// `max_speed` (m/s) ([`GaitOffer::faster_turning`]).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct TurnRating {
+    /// Largest rated yaw rate (rad/s).
+    pub max_yaw_rate: f64,
+    /// Largest commanded planar speed (m/s) at which it holds.
+    pub max_speed: f64,
 }
 
 impl GaitOffer {
@@ -83,6 +99,7 @@ impl GaitOffer {
             max_speed,
             max_yaw_rate: f64::INFINITY,
             max_turning_speed: f64::INFINITY,
+            faster_turning: None,
         }
     }
 
@@ -97,34 +114,49 @@ impl GaitOffer {
         GaitOffer { max_yaw_rate, max_turning_speed: max_speed, ..self }
     }
 
+    /// The same offer rated, above its [`GaitOffer::turning`] speed, to turn at up to
+    /// `max_yaw_rate` (rad/s, smaller than the first) while commanded at most `max_speed`
+    /// (m/s), and straight only above that ([`GaitOffer::faster_turning`]).
+    pub fn then_turning(self, max_yaw_rate: f64, max_speed: f64) -> Self {
+        GaitOffer { faster_turning: Some(TurnRating { max_yaw_rate, max_speed }), ..self }
+    }
+
     /// The same offer rated straight only: a yaw-rate command is not tracked.
     pub fn straight_only(self) -> Self {
-        self.turning(0.0, 0.0)
+        GaitOffer { faster_turning: None, ..self.turning(0.0, 0.0) }
     }
 
     /// The turning rating in words, for messages: `"straight only"`, `"turns at up to 0.5
-    /// rad/s"`, `"turns at up to 0.5 rad/s to 0.6 m/s"`, `"turning unrated"`.
+    /// rad/s"`, `"turns at up to 0.5 rad/s to 0.6 m/s"`, `"turns at up to 0.5 rad/s to 0.4
+    /// m/s and 0.3 rad/s to 0.5 m/s"`, `"turning unrated"`.
     pub fn turning_text(&self) -> String {
         let (w, v) = (self.max_yaw_rate, self.max_turning_speed);
+        let up_to = |w: f64, v: f64| {
+            if v >= self.max_speed { format!("{w} rad/s") } else { format!("{w} rad/s to {v} m/s") }
+        };
         if w.is_infinite() {
             "turning unrated".into()
         } else if w == 0.0 {
             "straight only".into()
-        } else if v >= self.max_speed {
-            format!("turns at up to {w} rad/s")
+        } else if let Some(t) = self.faster_turning {
+            format!("turns at up to {} and {}", up_to(w, v), up_to(t.max_yaw_rate, t.max_speed))
         } else {
-            format!("turns at up to {w} rad/s to {v} m/s")
+            format!("turns at up to {}", up_to(w, v))
         }
     }
 
     /// The largest yaw rate (rad/s) rated at a commanded planar `speed` (m/s).
     pub fn yaw_rate_rating(&self, speed: f64) -> f64 {
+        let within = |limit: f64| speed.abs() <= limit + 1e-9;
         if self.gait == Gait::Stand {
             f64::INFINITY
-        } else if speed.abs() <= self.max_turning_speed + 1e-9 {
+        } else if within(self.max_turning_speed) {
             self.max_yaw_rate
         } else {
-            0.0
+            match self.faster_turning {
+                Some(t) if within(t.max_speed) => t.max_yaw_rate,
+                _ => 0.0,
+            }
         }
     }
 }
@@ -530,9 +562,14 @@ impl ControllerConfig {
         // side; 37 of 40 over seeds 0–9 from the four sides). A stand command steps in place.
         // Turning (`centaur control --yaw-rate … --measure-from 1`, 2026-11-28): ±0.5 rad/s
         // at 0.3 and 0.4 m/s within 0.04 rad/s on every seed (0–4; 0–9 at 0.4 m/s); at
-        // 0.5 m/s +0.5 rad/s fell on seed 1 of 0–4 (±0.3 rad/s held on seeds 0–9), so it
-        // turns at up to 0.5 rad/s to 0.4 m/s.
-        c.gaits = vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Walk, 0.5).turning(0.5, 0.4)];
+        // 0.5 m/s +0.5 rad/s fell on seed 1 of 0–4, so it turns at up to 0.5 rad/s to
+        // 0.4 m/s and, slower, at up to 0.3 rad/s to 0.5 m/s: ±0.3 rad/s at 0.45 and 0.5 m/s
+        // held on seeds 0–9 (40 of 40 up, 0.280–0.313 rad/s, 0.49–0.55 m/s along the heading;
+        // same probe, 2026-11-28, late evening).
+        c.gaits = vec![
+            GaitOffer::new(Gait::Stand, 0.0),
+            GaitOffer::new(Gait::Walk, 0.5).turning(0.5, 0.4).then_turning(0.3, 0.5),
+        ];
         c
     }
 
@@ -892,6 +929,23 @@ impl ControllerConfig {
             ] {
                 if value.is_nan() || value < 0.0 {
                     return Err(ConfigError::OutOfRange { field, value, range: ">= 0" });
+                }
+            }
+            if let Some(t) = o.faster_turning {
+                // Faster and slower than the first rating, or it says nothing new.
+                if !(t.max_yaw_rate > 0.0 && t.max_yaw_rate < o.max_yaw_rate) {
+                    return Err(ConfigError::OutOfRange {
+                        field: "gaits.faster_turning.max_yaw_rate",
+                        value: t.max_yaw_rate,
+                        range: "> 0 and below gaits.max_yaw_rate",
+                    });
+                }
+                if !(t.max_speed > o.max_turning_speed && t.max_speed.is_finite()) {
+                    return Err(ConfigError::OutOfRange {
+                        field: "gaits.faster_turning.max_speed",
+                        value: t.max_speed,
+                        range: "finite and above gaits.max_turning_speed",
+                    });
                 }
             }
         }

@@ -53,8 +53,8 @@
 //!   tried and is rated 0.5 m/s (the preset's docs).
 //!
 //! Each preset offers only the gaits measured to work on its robot, each rated to a speed
-//! and a turning range ([`GaitOffer`]: the largest yaw rate, up to a speed; straight
-//! above it). [`ControllerConfig::check_command`] refuses a command outside them before a
+//! and a turning range ([`GaitOffer`]: the largest yaw rate, up to a speed, and
+//! optionally a smaller one up to a higher speed; straight above it). [`ControllerConfig::check_command`] refuses a command outside them before a
 //! run, naming the rating; inside `tick` a gait not offered stands, and a faster speed or
 //! yaw rate is clamped to the rating and counted in [`ControllerStatus::clamped_commands`].
 //!
@@ -112,7 +112,7 @@ mod robot;
 mod swing;
 mod wbc;
 
-pub use config::{Command, ControlMode, ControllerConfig, GaitOffer, MpcExecution};
+pub use config::{Command, ControlMode, ControllerConfig, GaitOffer, MpcExecution, TurnRating};
 pub use controller::{
     ControllerStatus, Fallback, JointCommand, LANDING_HEIGHT, LocomotionController, wrap_pi,
 };

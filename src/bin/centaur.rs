@@ -389,7 +389,8 @@ struct ControlArgs {
     mpc_solver: MpcSolver,
     /// Commanded yaw rate (rad/s, positive turns left); each gait is rated to turn up to a
     /// yaw rate and speed (minitaur: trot ±0.5 rad/s to 0.6 m/s, the walk straight; ant: trot
-    /// ±0.5 to 1.0 m/s, walk ±0.5; humanoid: walk ±0.5 to 0.4 m/s; walker2d: planar, straight)
+    /// ±0.5 to 1.0 m/s, walk ±0.5; humanoid: walk ±0.5 to 0.4 m/s and ±0.3 to 0.5 m/s;
+    /// walker2d: planar, straight)
     /// and refuses more with an error saying its rating.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     yaw_rate: f64,

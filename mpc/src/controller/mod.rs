@@ -378,10 +378,18 @@ mod tests {
             humanoid.check_command(Gait::Walk, 0.6, 0.0),
             Err(ConfigError::SpeedAboveRating { .. })
         ));
-        assert!(matches!(
-            humanoid.check_command(Gait::Walk, 0.5, 0.5),
-            Err(ConfigError::YawRateAboveRating { .. })
-        ));
+        // Its turning in two ratings: ±0.5 rad/s to 0.4 m/s, ±0.3 rad/s to 0.5 m/s.
+        assert!(humanoid.check_command(Gait::Walk, 0.5, -0.3).is_ok());
+        let e = humanoid.check_command(Gait::Walk, 0.5, 0.5).unwrap_err();
+        assert!(matches!(e, ConfigError::YawRateAboveRating { .. }));
+        assert!(e.to_string().ends_with("turns at up to 0.5 rad/s to 0.4 m/s and 0.3 rad/s"), "{e}");
+        let walk = humanoid.offer(Gait::Walk).unwrap();
+        assert_eq!([0.0, 0.4, 0.45, 0.5, -0.5].map(|v| walk.yaw_rate_rating(v)), [0.5, 0.5, 0.3, 0.3, 0.3]);
+        assert!(
+            humanoid
+                .offered_gaits()
+                .contains("walk (0–0.5 m/s; turns at up to 0.5 rad/s to 0.4 m/s and 0.3 rad/s)")
+        );
         let mut biped = humanoid.clone();
         biped.offer_every_gait();
         assert_eq!(biped.gaits.iter().map(|o| o.gait).collect::<Vec<_>>(), [Gait::Stand, Gait::Walk]);
@@ -397,6 +405,19 @@ mod tests {
         let trot = GaitOffer::new(Gait::Trot, 1.0);
         assert!(bad(vec![GaitOffer::new(Gait::Stand, 0.0), trot.turning(-0.1, 1.0)]).is_err());
         assert!(bad(vec![GaitOffer::new(Gait::Stand, 0.0), trot.turning(0.5, f64::NAN)]).is_err());
+        // Unrated above both, and the second rating must turn slower to a higher speed.
+        let two = GaitOffer::new(Gait::Trot, 2.0).turning(0.5, 0.6).then_turning(0.3, 1.0);
+        assert_eq!([1.0, 1.01, 2.0].map(|v| two.yaw_rate_rating(v)), [0.3, 0.0, 0.0]);
+        assert!(two.turning_text().ends_with("0.5 rad/s to 0.6 m/s and 0.3 rad/s to 1 m/s"));
+        assert!(bad(vec![GaitOffer::new(Gait::Stand, 0.0), two]).is_ok());
+        for wrong in [two.then_turning(0.5, 1.0), two.then_turning(0.0, 1.0), two.then_turning(0.3, 0.6)]
+            .into_iter()
+            .chain([two.then_turning(f64::NAN, 1.0), two.then_turning(0.3, f64::INFINITY)])
+        {
+            let e = bad(vec![GaitOffer::new(Gait::Stand, 0.0), wrong]).unwrap_err().to_string();
+            assert!(e.contains("gaits.faster_turning"), "{e}");
+        }
+        assert_eq!(two.straight_only().yaw_rate_rating(0.8), 0.0);
         let biped = ControllerConfig {
             gaits: vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Trot, 1.0)],
             ..ControllerConfig::humanoid()
@@ -423,7 +444,8 @@ mod tests {
         assert!((c.reference.v_cmd.norm() - 0.3).abs() < 1e-9, "{}", c.reference.v_cmd.norm());
 
         // A yaw rate beyond the turning rating is clamped to it, and counted: the preset
-        // Humanoid turns at up to 0.5 rad/s to 0.4 m/s, straight above.
+        // Humanoid turns at up to 0.5 rad/s to 0.4 m/s and 0.3 rad/s to 0.5 m/s (its walk's
+        // top speed); the rating's straight-only reach is checked with a cut-down offer below.
         let mut c = LocomotionController::new(&model, ControllerConfig::humanoid()).unwrap();
         let turn = |v: f64, w: f64| Command { yaw_rate: w, ..Command::forward(v, Gait::Walk) };
         for k in 0..100 {
@@ -431,6 +453,19 @@ mod tests {
         }
         assert_eq!(c.status().clamped_commands, 100);
         assert!((c.reference.yaw_rate_cmd + 0.5).abs() < 1e-12, "{}", c.reference.yaw_rate_cmd);
+        for k in 100..200 {
+            c.tick(&s, &turn(0.5, 0.4), k as f64 * 0.015);
+        }
+        assert_eq!(c.status().clamped_commands, 200);
+        assert!((c.reference.yaw_rate_cmd - 0.3).abs() < 1e-12, "{}", c.reference.yaw_rate_cmd);
+        let straight_above = ControllerConfig {
+            gaits: vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Walk, 0.5).turning(0.5, 0.4)],
+            ..ControllerConfig::humanoid()
+        };
+        let mut c = LocomotionController::new(&model, straight_above).unwrap();
+        for k in 0..100 {
+            c.tick(&s, &turn(0.3, -0.8), k as f64 * 0.015);
+        }
         for k in 100..200 {
             c.tick(&s, &turn(0.5, 0.3), k as f64 * 0.015);
         }
