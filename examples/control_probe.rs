@@ -188,6 +188,7 @@ fn main() {
     };
     let mut yaw0 = if env.model().has_floating_base() { yaw_of(env.robot_state().q.as_slice()) } else { 0.0 };
     let (mut heading, mut yaw_prev) = (0.0f64, yaw0);
+    let (mut forward_path, mut x_prev, mut y_prev) = (0.0f64, x0, y0);
     let mut fell = false;
     let mut max_tilt = 0.0f64;
     for k in 0..steps {
@@ -308,6 +309,10 @@ fn main() {
         let qdd_plan = ctrl.planned_accelerations().clone();
         let step = env.step(&action, &mut obs).expect("step");
         if env.model().has_floating_base() {
+            // The displacement along the heading at the step's start, summed.
+            let q = env.robot_state().q.as_slice();
+            forward_path += (q[0] - x_prev) * yaw_prev.cos() + (q[1] - y_prev) * yaw_prev.sin();
+            (x_prev, y_prev) = (q[0], q[1]);
             // The unwrapped heading change since the measurement started.
             let yaw = yaw_of(env.robot_state().q.as_slice());
             let d = yaw - yaw_prev;
@@ -323,6 +328,7 @@ fn main() {
             yaw0 = if env.model().has_floating_base() { yaw_of(env.robot_state().q.as_slice()) } else { 0.0 };
             t_start = t;
             heading = 0.0;
+            forward_path = 0.0;
         }
         if every > 0 && k % every == 0 && flag("--qdd").is_some() {
             let v_after = &env.robot_state().v;
@@ -390,14 +396,15 @@ fn main() {
     let y1 = env.robot_state().q[1];
     let yaw1 = if env.model().has_floating_base() { yaw_of(env.robot_state().q.as_slice()) } else { 0.0 };
     println!(
-        "RESULT fell {fell} t {t:.2} dist {:.3} speed {:.3} lat {:.3} yaw {:.3} tilt {:.3} fails {} heading {heading:.3} yaw_rate {:.3}",
+        "RESULT fell {fell} t {t:.2} dist {:.3} speed {:.3} lat {:.3} yaw {:.3} tilt {:.3} fails {} heading {heading:.3} yaw_rate {:.3} fwd {:.3}",
         (x1 - x0) * yaw0.cos() + (y1 - y0) * yaw0.sin(),
         ((x1 - x0) * yaw0.cos() + (y1 - y0) * yaw0.sin()) / (t - t_start).max(1e-9),
         -(x1 - x0) * yaw0.sin() + (y1 - y0) * yaw0.cos(),
         yaw1 - yaw0,
         max_tilt,
         ctrl.status().mpc_failures + ctrl.status().wbc_failures,
-        heading / (t - t_start).max(1e-9)
+        heading / (t - t_start).max(1e-9),
+        forward_path / (t - t_start).max(1e-9)
     );
     if ctrl.status().clamped_commands > 0 {
         println!(
