@@ -314,7 +314,7 @@ fn main() {
             forward_path += (q[0] - x_prev) * yaw_prev.cos() + (q[1] - y_prev) * yaw_prev.sin();
             (x_prev, y_prev) = (q[0], q[1]);
             // The unwrapped heading change since the measurement started.
-            let yaw = yaw_of(env.robot_state().q.as_slice());
+            let yaw = yaw_of(q);
             let d = yaw - yaw_prev;
             heading += (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
             yaw_prev = yaw;

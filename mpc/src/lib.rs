@@ -54,9 +54,10 @@
 //!
 //! Each preset offers only the gaits measured to work on its robot, each rated to a speed
 //! and a turning range ([`GaitOffer`]: the largest yaw rate, up to a speed, and
-//! optionally a smaller one up to a higher speed; straight above it). [`ControllerConfig::check_command`] refuses a command outside them before a
-//! run, naming the rating; inside `tick` a gait not offered stands, and a faster speed or
-//! yaw rate is clamped to the rating and counted in [`ControllerStatus::clamped_commands`].
+//! optionally a smaller one up to a higher speed; straight above it).
+//! [`ControllerConfig::check_command`] refuses a command outside them before a run, naming
+//! the rating; inside `tick` a gait not offered stands, and a faster speed or yaw rate is
+//! clamped to the rating and counted in [`ControllerStatus::clamped_commands`].
 //!
 //! ## Failures and fallbacks
 //!
