@@ -11,7 +11,7 @@ use crate::experiment::{
     EXPERIMENT_FILES, ExperimentError, ExperimentOptions, ExperimentResult, Phase, run_experiment,
     tuned_config,
 };
-use crate::hybrid::{Exploration, ResidualConfig, Steering};
+use crate::hybrid::{Exploration, Fade, ResidualConfig, Steering};
 use crate::registry::residual_config;
 use crate::settings::EnvSettings;
 use crate::train::{parse_run_config, read_config_file};
@@ -129,6 +129,13 @@ pub struct HybridArgs {
     /// 3.5 (its trot's own is 2.5), the controller's own elsewhere]
     #[arg(long)]
     pub rated_speed: Option<f64>,
+    /// A safety fade as the body sinks: the policy's steering fades from full at a sag of
+    /// START to none halfway to END, then its joint residual to none at END, the sag being
+    /// the CoM's drop below the controller's height reference as a fraction of it (e.g.
+    /// `--fade 0.12 0.24`); a filter on a trained policy, so a run may be evaluated with or
+    /// without it [default: none]
+    #[arg(long, num_args = 2, value_names = ["START", "END"], allow_negative_numbers = true)]
+    pub fade: Option<Vec<f64>>,
 }
 
 impl HybridArgs {
@@ -162,6 +169,9 @@ impl HybridArgs {
         preset.warmup_with_policy |= self.warmup_with_policy;
         if self.rated_speed.is_some() {
             preset.rated_speed = self.rated_speed;
+        }
+        if let Some([start, end]) = self.fade.as_deref() {
+            preset.fade = Some(Fade { start: *start, end: *end });
         }
         preset
     }

@@ -194,14 +194,16 @@ impl HybridStack {
                 );
                 policy.act(&self.obs, &mut self.residual_out);
                 let space = robot.command_space();
+                let g = self.residual.authority(&self.controller, &self.steered);
                 self.residual.apply(
                     &self.reference,
                     &self.residual_out,
+                    g.residual,
                     &space.low,
                     &space.high,
                     &mut self.command,
                 );
-                self.steered = self.residual.steer(&self.config.command, &self.residual_out);
+                self.steered = self.residual.steer(&self.config.command, &self.residual_out, g.steering);
             }
         }
         &self.command

@@ -110,12 +110,85 @@ pub struct Exploration {
     pub steering: f64,
 }
 
+/// A safety fade: the policy's authority shrinks as the body sinks below the controller's
+/// height reference, handing the robot back to the controller alone in two stages. The sag
+/// is `(h_ref − z_com) / h_ref`, the CoM's drop below the height the controller holds it at
+/// ([`LocomotionController::height_reference`]) as a fraction of that height. Up to a sag of
+/// `start` the policy acts in full. Between `start` and the midpoint `m = (start + end) / 2`
+/// its steering fades linearly to none (the command returns to the unsteered one, at the
+/// controller's acceleration limit); between `m` and `end` its joint residual fades linearly
+/// to none; from `end` on the controller acts alone. A state whose CoM height is not finite
+/// gets no authority.
+///
+/// Why the height: a Minitaur hybrid trained near the actuators' limit falls on weak motors
+/// by sinking (its body drops below the 0.13 m fall height with the motors saturated),
+/// which the policy cannot observe coming. Why two stages: slowing down is the gentle
+/// remedy; taking the residual away at once from a gait only the residual holds (a hybrid at
+/// 3 m/s, above the controller's own 2.5 m/s trot) felled it more often than it saved it
+/// (README, "Robustness": the measured alternatives). The fade is a filter on top of a
+/// trained policy: a run may be evaluated with or without it
+/// ([`crate::experiment::check_trained_with`] ignores it).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Fade {
+    /// Sag (fraction of the height reference) up to which the policy has full authority.
+    pub start: f64,
+    /// Sag from which it has none.
+    pub end: f64,
+}
+
+/// The policy's authority over each part of its action, in [0, 1].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Authority {
+    /// Over the joint residual.
+    pub residual: f32,
+    /// Over the steering.
+    pub steering: f32,
+}
+
+impl Authority {
+    /// Full authority (no fade, or a body that has not sunk).
+    pub const FULL: Authority = Authority { residual: 1.0, steering: 1.0 };
+}
+
+impl Fade {
+    /// The policy's authority at sag `sag` (none for a sag that is not finite).
+    pub fn authority(&self, sag: f64) -> Authority {
+        if !sag.is_finite() {
+            return Authority { residual: 0.0, steering: 0.0 };
+        }
+        let mid = 0.5 * (self.start + self.end);
+        let ramp = |from: f64, to: f64| ((to - sag) / (to - from)).clamp(0.0, 1.0) as f32;
+        Authority { residual: ramp(mid, self.end), steering: ramp(self.start, mid) }
+    }
+
+    fn validate(&self) -> Result<(), HybridError> {
+        for (part, value) in [("fade.start", self.start), ("fade.end", self.end)] {
+            if !(value.is_finite() && (0.0..=1.0).contains(&value)) {
+                return Err(HybridError::BadSetting {
+                    part,
+                    value,
+                    expected: "a fraction of the height in [0, 1]",
+                });
+            }
+        }
+        if self.end <= self.start {
+            return Err(HybridError::BadSetting {
+                part: "fade.end",
+                value: self.end,
+                expected: "a sag above fade.start",
+            });
+        }
+        Ok(())
+    }
+}
+
 /// The residual setup of a hybrid: how large the correction may be, how the policy may
 /// steer the command, what the policy sees, and what the controller is commanded.
 ///
 /// Runs record it as data (`experiment.json`); a field missing from a record takes its
 /// default here, so a record written before a field existed reads as the setup it ran.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ResidualConfig {
     /// Residual scale per action entry (one value: the same for every entry), in the
@@ -147,6 +220,43 @@ pub struct ResidualConfig {
     /// controller alone is not measured to hold on every body, and the learner has to find
     /// where it does.
     pub rated_speed: Option<f64>,
+    /// The safety fade (`None`, the default: the policy acts in full everywhere; recorded
+    /// only where set, so the records of runs without it read as before).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fade: Option<Fade>,
+}
+
+/// Every field as `derive(Debug)` writes it, but `fade` only where set: runs record this
+/// text in their fingerprint ([`crate::experiment::ExperimentOptions::fingerprint`]), and a
+/// run without a fade keeps the fingerprint it had before the fade existed (so `centaur
+/// compare --resume` still keeps it).
+impl std::fmt::Debug for ResidualConfig {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let ResidualConfig {
+            scale,
+            joint_residual,
+            steering,
+            exploration,
+            warmup_with_policy,
+            include_reference,
+            command,
+            rated_speed,
+            fade,
+        } = self;
+        let mut s = f.debug_struct("ResidualConfig");
+        s.field("scale", scale)
+            .field("joint_residual", joint_residual)
+            .field("steering", steering)
+            .field("exploration", exploration)
+            .field("warmup_with_policy", warmup_with_policy)
+            .field("include_reference", include_reference)
+            .field("command", command)
+            .field("rated_speed", rated_speed);
+        if let Some(fade) = fade {
+            s.field("fade", fade);
+        }
+        s.finish()
+    }
 }
 
 impl Default for ResidualConfig {
@@ -160,6 +270,7 @@ impl Default for ResidualConfig {
             include_reference: true,
             command: Command::forward(0.3, Gait::Trot),
             rated_speed: None,
+            fade: None,
         }
     }
 }
@@ -216,6 +327,9 @@ impl ResidualConfig {
         }
         if let Some(value) = self.rated_speed {
             check_rated_speed(value)?;
+        }
+        if let Some(f) = &self.fade {
+            f.validate()?;
         }
         Ok(())
     }
@@ -300,6 +414,7 @@ pub struct Residual {
     joint: bool,
     steering: Steering,
     include_reference: bool,
+    fade: Option<Fade>,
 }
 
 impl Residual {
@@ -313,7 +428,17 @@ impl Residual {
             joint: config.joint_residual,
             steering: config.steering,
             include_reference: config.include_reference,
+            fade: config.fade,
         })
+    }
+
+    /// The policy's authority now ([`Fade`]): full without a fade, else from the CoM height
+    /// the `controller` measured at its last tick against its height reference under
+    /// `command`.
+    pub fn authority(&self, controller: &LocomotionController, command: &Command) -> Authority {
+        let Some(fade) = &self.fade else { return Authority::FULL };
+        let h = controller.height_reference(command);
+        fade.authority((h - controller.status().com[2]) / h)
     }
 
     /// Number of the robot's actions.
@@ -340,15 +465,17 @@ impl Residual {
         self.include_reference
     }
 
-    /// `applied = clip(reference + scale ⊙ clip(r, −1, 1), low, high)`, per entry, with
-    /// `r` the joint-residual part of the policy's `output` (without a joint residual,
-    /// `applied = reference`); returns `Σ (scale ⊙ clip(r))²`, the squared size of the
+    /// `applied = clip(reference + g · scale ⊙ clip(r, −1, 1), low, high)`, per entry, with
+    /// `r` the joint-residual part of the policy's `output` and `g` the policy's
+    /// `authority` over it ([`Residual::authority`]; 1 without a fade); without a joint residual,
+    /// `applied = reference`. Returns `Σ (g · scale ⊙ clip(r))²`, the squared size of the
     /// correction.
     #[track_caller]
     pub fn apply(
         &self,
         reference: &[f32],
         output: &[f32],
+        authority: f32,
         low: &[f32],
         high: &[f32],
         applied: &mut [f32],
@@ -369,19 +496,20 @@ impl Residual {
         }
         let mut sq = 0.0f64;
         for k in 0..m {
-            let r = self.scale[k] * output[k].clamp(-1.0, 1.0);
+            let r = self.scale[k] * (authority * output[k].clamp(-1.0, 1.0));
             sq += (r as f64) * (r as f64);
             applied[k] = (reference[k] + r).clamp(low[k], high[k]);
         }
         sq
     }
 
-    /// The command the policy's `output` steers `base` to (`base` itself without
-    /// steering, or for a zero output).
-    pub fn steer(&self, base: &Command, output: &[f32]) -> Command {
+    /// The command the policy's `output` steers `base` to, each steering entry scaled by
+    /// the policy's `authority` over the steering ([`Residual::authority`]; 1 without a
+    /// fade), `base` itself without steering, for a zero output or at no authority.
+    pub fn steer(&self, base: &Command, output: &[f32], authority: f32) -> Command {
         let mut k = self.joint_dim();
         let mut next = || {
-            let c = output.get(k).copied().unwrap_or(0.0).clamp(-1.0, 1.0) as f64;
+            let c = (authority * output.get(k).copied().unwrap_or(0.0).clamp(-1.0, 1.0)) as f64;
             k += 1;
             c
         };
@@ -625,7 +753,7 @@ mod tests {
         let config = ResidualConfig::new(0.25, Command::stand());
         let r = Residual::new(&config, 3).unwrap();
         let mut applied = [0.0f32; 3];
-        let sq = r.apply(&[0.9, 0.0, -0.5], &[2.0, -0.4, 0.0], &[-1.0; 3], &[1.0; 3], &mut applied);
+        let sq = r.apply(&[0.9, 0.0, -0.5], &[2.0, -0.4, 0.0], 1.0, &[-1.0; 3], &[1.0; 3], &mut applied);
         assert_eq!(applied, [1.0, -0.1, -0.5]);
         // (0.25)² + (0.1)² in f32 products summed in f64.
         let want = (0.25f32 as f64).powi(2) + ((0.25f32 * -0.4) as f64).powi(2);
@@ -668,15 +796,78 @@ mod tests {
         let r = Residual::new(&config, 3).unwrap();
         assert_eq!(r.policy_action_dim(), 5);
         // [r₀ r₁ r₂ | c_speed c_yaw]
-        assert_eq!(r.steer(&base, &[0.0; 5]), base);
-        let c = r.steer(&base, &[9.0, 9.0, 9.0, 1.0, -0.5]);
+        assert_eq!(r.steer(&base, &[0.0; 5], 1.0), base);
+        let c = r.steer(&base, &[9.0, 9.0, 9.0, 1.0, -0.5], 1.0);
         assert_eq!((c.forward_velocity, c.yaw_rate, c.gait), (2.5, -0.1, Gait::Trot));
         // Outputs beyond ±1 are clipped like the residual's.
-        assert_eq!(r.steer(&base, &[0.0, 0.0, 0.0, -3.0, 0.0]).forward_velocity, 1.5);
+        assert_eq!(r.steer(&base, &[0.0, 0.0, 0.0, -3.0, 0.0], 1.0).forward_velocity, 1.5);
         // The joint residual reads only its own entries.
         let mut applied = [0.0f32; 3];
-        r.apply(&[0.1, 0.2, 0.3], &[0.0, 0.0, 0.0, 1.0, 1.0], &[-1.0; 3], &[1.0; 3], &mut applied);
+        r.apply(&[0.1, 0.2, 0.3], &[0.0, 0.0, 0.0, 1.0, 1.0], 1.0, &[-1.0; 3], &[1.0; 3], &mut applied);
         assert_eq!(applied, [0.1, 0.2, 0.3]);
+    }
+
+    #[test]
+    fn the_fade_hands_the_robot_back_to_the_controller_as_the_body_sinks() {
+        // Steering fades over [0.1, 0.15], then the residual over [0.15, 0.2].
+        let fade = Fade { start: 0.1, end: 0.2 };
+        let a = |sag: f64| {
+            let a = fade.authority(sag);
+            (a.steering, a.residual)
+        };
+        assert_eq!(a(-0.5), (1.0, 1.0));
+        assert_eq!(a(0.1), (1.0, 1.0));
+        let (steer, residual) = a(0.125);
+        assert!((steer - 0.5).abs() < 1e-6 && residual == 1.0, "{steer} {residual}");
+        let (steer, residual) = a(0.16);
+        assert!(steer == 0.0 && (residual - 0.8).abs() < 1e-6, "{steer} {residual}");
+        let (steer, residual) = a(0.175);
+        assert!(steer == 0.0 && (residual - 0.5).abs() < 1e-6, "{steer} {residual}");
+        assert_eq!(a(0.2), (0.0, 0.0));
+        assert_eq!(a(3.0), (0.0, 0.0));
+        assert_eq!(a(f64::NAN), (0.0, 0.0));
+        // At authority g the residual and the steering are g times the policy's.
+        let base = Command::forward(2.0, Gait::Trot);
+        let config = ResidualConfig {
+            steering: Steering { speed: 1.0, yaw_rate: 0.0 },
+            fade: Some(fade),
+            ..ResidualConfig::new(0.25, base)
+        };
+        let r = Residual::new(&config, 2).unwrap();
+        let mut applied = [0.0f32; 2];
+        let out = [1.0, -1.0, 1.0];
+        r.apply(&[0.1, 0.2], &out, 0.5, &[-1.0; 2], &[1.0; 2], &mut applied);
+        assert_eq!(applied, [0.1 + 0.125, 0.2 - 0.125]);
+        assert_eq!(r.steer(&base, &out, 0.5).forward_velocity, 2.5);
+        assert_eq!(r.apply(&[0.1, 0.2], &out, 0.0, &[-1.0; 2], &[1.0; 2], &mut applied), 0.0);
+        assert_eq!((applied, r.steer(&base, &out, 0.0)), ([0.1, 0.2], base));
+        // Settings outside [0, 1] or with end ≤ start are refused, naming the field.
+        for (start, end, part) in [
+            (0.2, 0.1, "fade.end"),
+            (0.1, 0.1, "fade.end"),
+            (-0.1, 0.2, "fade.start"),
+            (0.1, f64::NAN, "fade.end"),
+        ] {
+            let bad = ResidualConfig { fade: Some(Fade { start, end }), ..config.clone() };
+            match Residual::new(&bad, 2) {
+                Err(HybridError::BadSetting { part: p, .. }) => assert_eq!(p, part),
+                other => panic!("{start}, {end}: {other:?}"),
+            }
+        }
+        // Without a fade the record holds no `fade` key and the fingerprint's text is the one
+        // runs recorded before the fade existed (records from before read the same).
+        let text = serde_json::to_string(&ResidualConfig::default()).unwrap();
+        assert!(!text.contains("fade"), "{text}");
+        assert_eq!(
+            format!("{:?}", ResidualConfig::default()),
+            "ResidualConfig { scale: [0.3], joint_residual: true, steering: Steering { speed: 0.0, \
+             yaw_rate: 0.0 }, exploration: None, warmup_with_policy: false, include_reference: true, \
+             command: Command { forward_velocity: 0.3, lateral_velocity: 0.0, yaw_rate: 0.0, \
+             body_height: None, gait: Trot }, rated_speed: None }"
+        );
+        assert!(format!("{config:?}").ends_with("fade: Fade { start: 0.1, end: 0.2 } }"));
+        let with: ResidualConfig = serde_json::from_str(&serde_json::to_string(&config).unwrap()).unwrap();
+        assert_eq!(with.fade, Some(fade));
     }
 
     #[test]
@@ -690,9 +881,9 @@ mod tests {
         let r = Residual::new(&config, 3).unwrap();
         assert_eq!(r.policy_action_dim(), 1);
         let mut applied = [0.0f32; 3];
-        assert_eq!(r.apply(&[0.1, 0.2, 0.3], &[1.0], &[-1.0; 3], &[1.0; 3], &mut applied), 0.0);
+        assert_eq!(r.apply(&[0.1, 0.2, 0.3], &[1.0], 1.0, &[-1.0; 3], &[1.0; 3], &mut applied), 0.0);
         assert_eq!(applied, [0.1, 0.2, 0.3]);
-        assert_eq!(r.steer(&base, &[-1.0]).forward_velocity, 0.5);
+        assert_eq!(r.steer(&base, &[-1.0], 1.0).forward_velocity, 0.5);
     }
 
     #[test]

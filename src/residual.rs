@@ -16,7 +16,9 @@
 //! With a policy whose mean output is zero the hybrid acts exactly like the controller
 //! (the experiment runner zeroes the policy head before training); the residual is bounded
 //! by `scale`, so learning starts at the controller's gait and cannot leave its
-//! neighbourhood faster than the scale allows.
+//! neighbourhood faster than the scale allows. An optional safety fade
+//! ([`crate::hybrid::Fade`]) takes the policy's steering, then its residual, away as the
+//! body sinks below the controller's height reference.
 //!
 //! The step reports the residual's root-mean-square (in action units, after scaling) as the
 //! last reward term ([`centaur_gym::StepInfo::reward_terms`]`[7]`, named `residual_rms`; it is not part
@@ -244,10 +246,19 @@ impl Env for ResidualEnv {
         check_action(&self.act_space, action)?;
         check_observation(&self.obs_space, obs)?;
         let space = self.env.action_space();
-        let sq = self.residual.apply(&self.reference, action, &space.low, &space.high, &mut self.applied);
+        // The controller ticked on this state (`update_reference`): its CoM height is now's.
+        let g = self.residual.authority(&self.controller, &self.command);
+        let sq = self.residual.apply(
+            &self.reference,
+            action,
+            g.residual,
+            &space.low,
+            &space.high,
+            &mut self.applied,
+        );
         let mut step = self.env.step(&self.applied, &mut self.env_obs)?;
         step.info.reward_terms[RESIDUAL_TERM] = (sq / self.applied.len().max(1) as f64).sqrt();
-        self.command = self.residual.steer(&self.config.command, action);
+        self.command = self.residual.steer(&self.config.command, action, g.steering);
         if !step.done() {
             self.update_reference();
         }

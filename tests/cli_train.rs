@@ -761,6 +761,18 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     assert_eq!(nominal.as_array().unwrap().len(), 10);
     assert_eq!(std::fs::read_to_string(seed_0.join("robustness.json")).unwrap(), before);
     assert_eq!(nominal_text, before);
+    // Behind a safety fade the run was not trained with (a filter on the trained policy,
+    // accepted): its own file, robustness.json kept; a fade that ends before it starts is
+    // refused, naming the field.
+    let o = robustness(&seed_0, &["--fade", "0.12", "0.24"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let faded: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(seed_0.join("robustness_fade.json")).unwrap()).unwrap();
+    assert_eq!(faded.as_array().unwrap().len(), 10);
+    assert_eq!(std::fs::read_to_string(seed_0.join("robustness.json")).unwrap(), before);
+    let o = robustness(&seed_0, &["--fade", "0.2", "0.1"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("fade.end"), "{o:?}");
     // A record from before the switch (no `controller_motor`) was trained with the drawn
     // motor, which the study then follows: another table.
     let record_path = seed_0.join("experiment.json");

@@ -1,6 +1,6 @@
 //! The residual (hybrid) environment and the MCAP recordings.
 
-use centaur::hybrid::{ActionMapping, HybridError, ResidualConfig};
+use centaur::hybrid::{ActionMapping, Authority, Fade, HybridError, ResidualConfig};
 use centaur::recording::{Frame, Recorder, TOPICS};
 use centaur::registry::{
     RegistryError, controller_config, make_residual_env, make_robot_env, residual_config,
@@ -289,49 +289,64 @@ fn the_deployed_stack_acts_exactly_like_the_residual_env_it_was_trained_in() {
     use centaur::deploy::{HybridStack, Simulated};
     use centaur_gym::VecEnv;
     use centaur_rl::{Algorithm, Ppo, PpoConfig};
-    // An untrained PPO policy: non-zero, deterministic outputs.
     let config = residual_config("minitaur").unwrap();
-    let venv = VecEnv::new(
-        vec![Box::new(make_residual_env("minitaur", config.clone()).unwrap()) as Box<dyn Env>],
-        1,
-    )
-    .unwrap();
-    let ppo = Ppo::for_env(PpoConfig { seed: 5, ..PpoConfig::default() }, &venv).unwrap();
-    let mut policy = ppo.policy();
+    // The robot observations, as bits, of 60 steps of the residual env and of the plain env
+    // driven by the embedded stack, both under the same untrained PPO policy (non-zero,
+    // deterministic outputs).
+    let both = |config: &ResidualConfig| {
+        let venv = VecEnv::new(
+            vec![Box::new(make_residual_env("minitaur", config.clone()).unwrap()) as Box<dyn Env>],
+            1,
+        )
+        .unwrap();
+        let ppo = Ppo::for_env(PpoConfig { seed: 5, ..PpoConfig::default() }, &venv).unwrap();
+        let mut policy = ppo.policy();
 
-    // Training-side: the residual environment with the policy's actions.
-    let mut renv = make_residual_env("minitaur", config.clone()).unwrap();
-    let mut robs = vec![0.0f32; renv.observation_space().dim()];
-    let mut act = vec![0.0f32; renv.action_space().dim()];
-    renv.reset(Some(9), &mut robs).unwrap();
-    let n_env = renv.inner().observation_space().dim();
-    let mut a: Vec<u32> = robs[..n_env].iter().map(|x| x.to_bits()).collect();
-    for _ in 0..60 {
-        policy.act(&robs, &mut act);
-        renv.step(&act, &mut robs).unwrap();
-        a.extend(robs[..n_env].iter().map(|x| x.to_bits()));
-    }
+        // Training-side: the residual environment with the policy's actions.
+        let mut renv = make_residual_env("minitaur", config.clone()).unwrap();
+        let mut robs = vec![0.0f32; renv.observation_space().dim()];
+        let mut act = vec![0.0f32; renv.action_space().dim()];
+        renv.reset(Some(9), &mut robs).unwrap();
+        let n_env = renv.inner().observation_space().dim();
+        let mut a: Vec<u32> = robs[..n_env].iter().map(|x| x.to_bits()).collect();
+        for _ in 0..60 {
+            policy.act(&robs, &mut act);
+            renv.step(&act, &mut robs).unwrap();
+            a.extend(robs[..n_env].iter().map(|x| x.to_bits()));
+        }
 
-    // Deployment-side: the plain environment driven by the embedded stack.
+        // Deployment-side: the plain environment driven by the embedded stack.
+        let mut env = make_robot_env("minitaur", None).unwrap();
+        let mut obs = vec![0.0f32; env.observation_space().dim()];
+        env.reset(Some(9), &mut obs).unwrap();
+        let ctrl = controller_config("minitaur").unwrap();
+        let mut stack = HybridStack::new(
+            &Simulated { env: env.as_ref(), obs: &obs },
+            ctrl,
+            Some(ppo.policy()),
+            config.clone(),
+        )
+        .unwrap();
+        let mut b: Vec<u32> = obs.iter().map(|x| x.to_bits()).collect();
+        let mut command = vec![0.0f32; env.action_space().dim()];
+        for _ in 0..60 {
+            command.copy_from_slice(stack.tick(&Simulated { env: env.as_ref(), obs: &obs }));
+            env.step(&command, &mut obs).unwrap();
+            b.extend(obs.iter().map(|x| x.to_bits()));
+        }
+        (a, b)
+    };
+    let (a, b) = both(&config);
+    assert!(a == b, "the deployed stack diverged from the training environment");
+    // With a safety fade that acts here (the trotting body rides 3–9 % below its height
+    // reference), the stack fades the policy exactly as the env does.
+    let faded = ResidualConfig { fade: Some(Fade { start: 0.03, end: 0.09 }), ..config.clone() };
+    let (fa, fb) = both(&faded);
+    assert!(fa == fb, "with a fade, the deployed stack diverged from the training environment");
+    assert!(fa != a, "the fade changed nothing");
     let mut env = make_robot_env("minitaur", None).unwrap();
     let mut obs = vec![0.0f32; env.observation_space().dim()];
     env.reset(Some(9), &mut obs).unwrap();
-    let ctrl = controller_config("minitaur").unwrap();
-    let mut stack = HybridStack::new(
-        &Simulated { env: env.as_ref(), obs: &obs },
-        ctrl,
-        Some(ppo.policy()),
-        config.clone(),
-    )
-    .unwrap();
-    let mut b: Vec<u32> = obs.iter().map(|x| x.to_bits()).collect();
-    let mut command = vec![0.0f32; env.action_space().dim()];
-    for _ in 0..60 {
-        command.copy_from_slice(stack.tick(&Simulated { env: env.as_ref(), obs: &obs }));
-        env.step(&command, &mut obs).unwrap();
-        b.extend(obs.iter().map(|x| x.to_bits()));
-    }
-    assert!(a == b, "the deployed stack diverged from the training environment");
 
     // The rating a hybrid was trained with reaches the embedded controller too.
     let rated = ResidualConfig { rated_speed: Some(3.0), ..config };
@@ -380,6 +395,56 @@ fn the_trots_own_rating_reproduces_the_old_preset_bit_for_bit() {
     let lifted = full_steer_trace(preset, steps);
     assert_eq!(unrated, same, "rated 2.5 differs from the trot's own rating");
     assert_ne!(unrated, lifted, "the preset's 3.5 rating changed nothing");
+}
+
+/// The safety fade scales the policy's steering, then its residual, by its authority, from
+/// the CoM height the controller measured before the step: none where the body has sunk
+/// past the fade's end (the applied action is the controller's, the command the unsteered
+/// one), all of it above its start; a fade the robot never reaches changes nothing, to the
+/// bit.
+#[test]
+fn the_fade_hands_a_sinking_robot_back_to_the_controller() {
+    let preset = residual_config("minitaur").unwrap();
+    // The trotting Minitaur's CoM rides a few per cent below the height reference (0.165 m)
+    // and starts above it: this fade spans both ends.
+    let fade = Fade { start: 0.05, end: 0.08 };
+    let mut env =
+        make_residual_env("minitaur", ResidualConfig { fade: Some(fade), ..preset.clone() }).unwrap();
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    let action = vec![0.7f32; env.action_space().dim()];
+    let full_rms = 0.25f32 * 0.7;
+    env.reset(Some(3), &mut obs).unwrap();
+    let (mut none, mut all, mut some) = (0, 0, 0);
+    for _ in 0..300 {
+        let h = env.controller().height_reference(env.command());
+        let sag = (h - env.controller().status().com[2]) / h;
+        let a = fade.authority(sag);
+        let reference = env.reference().to_vec();
+        let s = env.step(&action, &mut obs).unwrap();
+        let rms = s.info.reward_terms[RESIDUAL_TERM];
+        assert!((rms - f64::from(a.residual * full_rms)).abs() < 1e-6, "sag {sag}, {a:?}: rms {rms}");
+        let steered = preset.command.forward_velocity + preset.steering.speed * f64::from(a.steering * 0.7);
+        assert_eq!(env.command().forward_velocity, steered, "sag {sag}, {a:?}");
+        if a.residual == 0.0 {
+            none += 1;
+            assert_eq!(env.applied(), &reference[..], "sag {sag}");
+        } else if a == Authority::FULL {
+            all += 1;
+        } else {
+            some += 1;
+        }
+        if s.done() {
+            break;
+        }
+    }
+    assert!(
+        none > 0 && all > 0 && some > 0,
+        "steps without / with full / with some authority: {none} / {all} / {some}"
+    );
+    // Out of reach (the robot falls long before sinking half its height): bit for bit the
+    // hybrid without a fade.
+    let far = ResidualConfig { fade: Some(Fade { start: 0.5, end: 1.0 }), ..preset.clone() };
+    assert_eq!(full_steer_trace(far, 150), full_steer_trace(preset, 150));
 }
 
 #[test]

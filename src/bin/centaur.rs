@@ -300,7 +300,9 @@ struct RobustnessArgs {
     #[arg(long)]
     nominal_motor: bool,
     /// The hybrid's setup the run was trained with (the robot's preset by default; a run
-    /// whose `experiment.json` records another is refused, naming both).
+    /// whose `experiment.json` records another is refused, naming both). `--fade START END`
+    /// evaluates the hybrid behind a safety fade whatever it was trained with, writing
+    /// robustness_fade.json (robustness_nominal_motor_fade.json with --nominal-motor).
     #[command(flatten)]
     hybrid: HybridArgs,
 }
@@ -326,10 +328,14 @@ fn robustness(args: RobustnessArgs) -> ExitCode {
     match run_robustness(&opts) {
         Ok(rows) => {
             print!("{}", robustness_table(&rows));
-            let name = if args.nominal_motor { "robustness_nominal_motor.json" } else { "robustness.json" };
+            let name = format!(
+                "robustness{}{}.json",
+                if args.nominal_motor { "_nominal_motor" } else { "" },
+                if opts.residual.fade.is_some() { "_fade" } else { "" }
+            );
             let path = args.run.join(name);
             let text = serde_json::to_string_pretty(&rows).expect("rows serialise");
-            if let Err(e) = std::fs::write(&path, text + "\n") {
+            if let Err(e) = centaur::rundir::write_atomic(&path, &(text + "\n")) {
                 eprintln!("error: {}: {e}", path.display());
                 return ExitCode::FAILURE;
             }

@@ -227,8 +227,9 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<DirLock, ExperimentError>
 /// ([`crate::settings::TRAINING_ONLY`]: motor strength drawn at reset, pushes) or set the
 /// motor the controller is told, which is returned ([`TrainedWith`]), since the callers run
 /// the robot's preset environment with it. A run whose record holds the controller's preset
-/// (since 2026-11-28) is refused when today's differs, naming the first difference.
-/// `centaur robustness` and `examples/embed_controller` check with it.
+/// (since 2026-11-28) is refused when today's differs, naming the first difference. The
+/// safety fade ([`crate::hybrid::Fade`]) is not compared: a run may be evaluated with or
+/// without it. `centaur robustness` and `examples/embed_controller` check with it.
 pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<TrainedWith, ExperimentError> {
     let path = dir.join("experiment.json");
     let text = std::fs::read_to_string(&path).map_err(|source| match source.kind() {
@@ -254,10 +255,11 @@ pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<Train
     let own_rating = controller_config(&record.env)
         .ok()
         .and_then(|c| c.offer(residual.command.gait).ok().map(|o| o.max_speed));
-    // The rating as the controller sees it: its own rating is no rating.
+    // The rating as the controller sees it: its own rating is no rating. The safety fade
+    // is a filter on the trained policy, not part of what it was trained for.
     let unrated_if_own = |r: &ResidualConfig| match r.rated_speed {
-        Some(v) if Some(v) == own_rating => ResidualConfig { rated_speed: None, ..r.clone() },
-        _ => r.clone(),
+        Some(v) if Some(v) == own_rating => ResidualConfig { rated_speed: None, fade: None, ..r.clone() },
+        _ => ResidualConfig { fade: None, ..r.clone() },
     };
     let (same, trained) = match &record.residual {
         Some(trained) => (unrated_if_own(trained) == unrated_if_own(residual), format!("{trained:?}")),
@@ -329,6 +331,8 @@ mod legacy {
                 include_reference,
                 command,
                 rated_speed,
+                // Records of this form predate the fade: it can only be `None` here.
+                fade: _,
             } = self.r;
             let mut s = f.debug_struct("ResidualConfig");
             s.field("scale", scale)

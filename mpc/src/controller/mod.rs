@@ -112,6 +112,12 @@ impl LocomotionController {
         &self.cfg
     }
 
+    /// The CoM height (m above the ground) the controller holds the body at under
+    /// `command`: the command's `body_height`, or the robot's nominal standing CoM height.
+    pub fn height_reference(&self, command: &Command) -> f64 {
+        command.body_height.unwrap_or(self.robot.nominal_com_height)
+    }
+
     /// The status of the last tick.
     pub fn status(&self) -> &ControllerStatus {
         &self.status
