@@ -113,12 +113,12 @@ pub struct Exploration {
 /// A safety fade: the policy's authority shrinks as the body sinks below the controller's
 /// height reference, handing the robot back to the controller alone in two stages. The sag
 /// is `(h_ref − z_com) / h_ref`, the CoM's drop below the height the controller holds it at
-/// ([`LocomotionController::height_reference`]) as a fraction of that height. Up to a sag of
-/// `start` the policy acts in full. Between `start` and the midpoint `m = (start + end) / 2`
-/// its steering fades linearly to none (the command returns to the unsteered one, at the
-/// controller's acceleration limit); between `m` and `end` its joint residual fades linearly
-/// to none; from `end` on the controller acts alone. A state whose CoM height is not finite
-/// gets no authority.
+/// ([`LocomotionController::height_reference`]) as a fraction of that height. Up to a sag
+/// of `start` the policy acts in full. Between `start` and the midpoint
+/// `m = (start + end) / 2` its steering fades linearly to none (the command returns to the
+/// unsteered one, at the controller's acceleration limit); between `m` and `end` its joint
+/// residual fades linearly to none; from `end` on the controller acts alone. A state whose
+/// CoM height is not finite gets no authority.
 ///
 /// Why the height: a Minitaur hybrid trained near the actuators' limit falls on weak motors
 /// by sinking (its body drops below the 0.13 m fall height with the motors saturated),
@@ -467,9 +467,9 @@ impl Residual {
 
     /// `applied = clip(reference + g · scale ⊙ clip(r, −1, 1), low, high)`, per entry, with
     /// `r` the joint-residual part of the policy's `output` and `g` the policy's
-    /// `authority` over it ([`Residual::authority`]; 1 without a fade); without a joint residual,
-    /// `applied = reference`. Returns `Σ (g · scale ⊙ clip(r))²`, the squared size of the
-    /// correction.
+    /// `authority` over it ([`Residual::authority`]; 1 without a fade); without a joint
+    /// residual, `applied = reference`. Returns `Σ (g · scale ⊙ clip(r))²`, the squared
+    /// size of the correction.
     #[track_caller]
     pub fn apply(
         &self,
