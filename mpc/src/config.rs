@@ -994,6 +994,12 @@ impl Command {
         Self::default()
     }
 
+    /// The CoM height (m above the ground) this command holds the body at: its
+    /// `body_height`, or `nominal` (the robot's standing CoM height) without one.
+    pub fn com_height(&self, nominal: f64) -> f64 {
+        self.body_height.unwrap_or(nominal)
+    }
+
     /// Move forward at `speed` with `gait`.
     pub fn forward(speed: f64, gait: Gait) -> Self {
         Self { forward_velocity: speed, gait, ..Self::default() }

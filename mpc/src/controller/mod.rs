@@ -113,9 +113,9 @@ impl LocomotionController {
     }
 
     /// The CoM height (m above the ground) the controller holds the body at under
-    /// `command`: the command's `body_height`, or the robot's nominal standing CoM height.
+    /// `command` ([`Command::com_height`] over the robot's nominal standing CoM height).
     pub fn height_reference(&self, command: &Command) -> f64 {
-        command.body_height.unwrap_or(self.robot.nominal_com_height)
+        command.com_height(self.robot.nominal_com_height)
     }
 
     /// The status of the last tick.
