@@ -12,6 +12,7 @@ use crate::experiment::{
     tuned_config,
 };
 use crate::hybrid::{Exploration, Fade, ResidualConfig, Steering};
+use crate::mpc::Gait;
 use crate::registry::residual_config;
 use crate::settings::EnvSettings;
 use crate::train::{parse_run_config, read_config_file};
@@ -103,6 +104,10 @@ pub struct HybridArgs {
     /// Forward speed the controller is commanded at zero steering, m/s [default: the robot's]
     #[arg(long, allow_negative_numbers = true)]
     pub speed: Option<f64>,
+    /// The controller's gait under the hybrid, one the robot offers (e.g. `bound` on the
+    /// Minitaur) [default: the robot's: trot on the Minitaur and the Ant, walk on the bipeds]
+    #[arg(long, value_parser = gait_name)]
+    pub gait: Option<Gait>,
     /// Span of the policy's forward-speed steering, m/s (0: off) [default: the robot's]
     #[arg(long)]
     pub steer_speed: Option<f64>,
@@ -138,6 +143,11 @@ pub struct HybridArgs {
     pub fade: Option<Vec<f64>>,
 }
 
+/// A gait by name (`--gait`), for clap.
+fn gait_name(name: &str) -> Result<Gait, String> {
+    crate::control::parse_gait(name).map_err(|e| e.to_string())
+}
+
 impl HybridArgs {
     /// `preset` with what the command line changes; checked against nothing yet (the
     /// environment checks it with the robot's action dimension).
@@ -147,6 +157,9 @@ impl HybridArgs {
         }
         if let Some(v) = self.speed {
             preset.command.forward_velocity = v;
+        }
+        if let Some(g) = self.gait {
+            preset.command.gait = g;
         }
         if let Some(s) = self.steer_speed {
             preset.steering.speed = s;
@@ -361,5 +374,29 @@ mod tests {
         std::fs::write(base.join(EXPERIMENT_FILES[0]), "{}").unwrap();
         assert_eq!(free_run_dir(&base), second, "a directory holding a run is not free");
         std::fs::remove_dir_all(&root).unwrap();
+    }
+
+    #[test]
+    fn the_hybrids_gait_is_the_presets_unless_given() {
+        use clap::Parser;
+        #[derive(clap::Parser)]
+        struct Line {
+            #[command(flatten)]
+            hybrid: HybridArgs,
+        }
+        let preset = residual_config("minitaur").unwrap();
+        let parse = |args: &[&str]| {
+            Line::try_parse_from([&["x"][..], args].concat()).map(|l| l.hybrid.apply(preset.clone()))
+        };
+        assert_eq!(parse(&[]).unwrap(), preset);
+        let bound = parse(&["--gait", "bound", "--speed", "1.5"]).unwrap();
+        assert_eq!((bound.command.gait, bound.command.forward_velocity), (Gait::Bound, 1.5));
+        assert_eq!(
+            ResidualConfig { command: preset.command, ..bound.clone() },
+            preset,
+            "nothing else changes"
+        );
+        let e = parse(&["--gait", "moonwalk"]).err().unwrap().to_string();
+        assert!(e.contains("moonwalk"), "{e}");
     }
 }

@@ -961,8 +961,14 @@ mod tests {
         let err = rated(Some(1.0), Gait::Stand).rate_controller(&mut preset.clone()).unwrap_err().to_string();
         assert!(err.contains("stand"), "{err}");
         // A gait the robot does not offer: the controller's error, naming those it does.
-        let err = rated(Some(1.0), Gait::Bound).rate_controller(&mut preset.clone()).unwrap_err().to_string();
-        assert!(err.contains("bound") && err.contains("trot (0–2.5 m/s;"), "{err}");
+        let err =
+            rated(Some(1.0), Gait::Gallop).rate_controller(&mut preset.clone()).unwrap_err().to_string();
+        assert!(err.contains("gallop") && err.contains("trot (0–2.5 m/s;"), "{err}");
+        // An offered gait other than the preset's: its own rating is replaced.
+        let mut bound = preset.clone();
+        rated(Some(3.0), Gait::Bound).rate_controller(&mut bound).unwrap();
+        assert_eq!(bound.offer(Gait::Bound).unwrap().max_speed, 3.0);
+        assert_eq!(bound.offer(Gait::Trot).unwrap().max_speed, 2.5);
     }
 
     /// The command the controller follows is checked like `centaur control`'s: finite, and

@@ -146,7 +146,10 @@ pub struct RunRecord {
 /// since) are no difference, but for a hybrid's Minitaur (`robot.motor_inverse`): a record
 /// without it was written before it existed, with the controller told the drawn motor
 /// ([`centaur_envs::minitaur::MotorInverse::legacy`]), and today's default is the nominal one.
-/// A record that is not JSON (written before 2026-11-27) is not compared.
+/// Lists of gait offers (objects with a `gait` key, `ControllerConfig::gaits`) are compared
+/// by gait: an offer added since (the Minitaur's bound and pronk, 2026-11-29) is no
+/// difference to a run that never commanded it, while an offer the record holds must be
+/// today's. A record that is not JSON (written before 2026-11-27) is not compared.
 pub fn config_difference(recorded: &str, today: &str) -> Option<String> {
     fn first(path: &str, r: &serde_json::Value, t: Option<&serde_json::Value>) -> Option<String> {
         match (r, t) {
@@ -164,6 +167,15 @@ pub fn config_difference(recorded: &str, today: &str) -> Option<String> {
                     })
                 })
             }
+            (serde_json::Value::Array(r), Some(serde_json::Value::Array(t)))
+                if is_offers(r) && is_offers(t) =>
+            {
+                r.iter().find_map(|offer| {
+                    let gait = &offer["gait"];
+                    let sub = format!("{path}[gait {gait}]");
+                    first(&sub, offer, t.iter().find(|o| o["gait"] == *gait))
+                })
+            }
             (serde_json::Value::Array(r), Some(serde_json::Value::Array(t))) if r.len() == t.len() => {
                 r.iter().zip(t).enumerate().find_map(|(i, (r, t))| first(&format!("{path}[{i}]"), r, Some(t)))
             }
@@ -171,6 +183,9 @@ pub fn config_difference(recorded: &str, today: &str) -> Option<String> {
             (r, Some(t)) => Some(format!("{path}: recorded {r}, today {t}")),
             (r, None) => Some(format!("{path}: recorded {r}, today absent")),
         }
+    }
+    fn is_offers(list: &[serde_json::Value]) -> bool {
+        !list.is_empty() && list.iter().all(|o| o.get("gait").is_some_and(|g| g.is_string()))
     }
     let recorded: serde_json::Value = serde_json::from_str(recorded).ok()?;
     let today: serde_json::Value = serde_json::from_str(today).ok()?;
@@ -938,5 +953,27 @@ mod tests {
         assert_eq!(config_difference(&legacy, &drawn), None);
         assert_eq!(config_difference(&nominal, &nominal), None);
         assert!(config_difference(&drawn, &nominal).unwrap().contains("recorded \"drawn\""));
+    }
+
+    #[test]
+    fn gait_offers_are_compared_by_gait_and_an_offer_added_since_is_no_difference() {
+        let offers = |list: &str| format!(r#"{{"controller": {{"gaits": [{list}], "k": 1}}}}"#);
+        let (stand, trot) =
+            (r#"{"gait": "Stand", "max_speed": 0.0}"#, r#"{"gait": "Trot", "max_speed": 2.5}"#);
+        let bound = r#"{"gait": "Bound", "max_speed": 2.0, "com_height": 0.19}"#;
+        let old = offers(&format!("{stand}, {trot}"));
+        assert_eq!(config_difference(&old, &offers(&format!("{stand}, {trot}, {bound}"))), None);
+        assert_eq!(config_difference(&old, &offers(&format!("{bound}, {trot}, {stand}"))), None, "order");
+        // An offer the run had must still be there, and the same.
+        let d = config_difference(&old, &offers(stand)).unwrap();
+        assert_eq!(
+            d,
+            r#"controller.gaits[gait "Trot"]: recorded {"gait":"Trot","max_speed":2.5}, today absent"#
+        );
+        let faster = r#"{"gait": "Trot", "max_speed": 3.0}"#;
+        let d = config_difference(&old, &offers(&format!("{stand}, {faster}"))).unwrap();
+        assert_eq!(d, r#"controller.gaits[gait "Trot"].max_speed: recorded 2.5, today 3.0"#);
+        // Other lists are compared element by element, their lengths included.
+        assert!(config_difference(r#"{"w": [1, 2]}"#, r#"{"w": [1, 2, 3]}"#).is_some());
     }
 }

@@ -787,7 +787,7 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     std::fs::write(&record_path, record).unwrap();
     // A hybrid evaluated with another setup than it was trained with (without its steering,
     // or at another rating): refused, naming both setups.
-    for other in [&["--parts", "residual"][..], &["--rated-speed", "2.5"]] {
+    for other in [&["--parts", "residual"][..], &["--rated-speed", "2.5"], &["--gait", "bound"]] {
         let o = robustness(&seed_0, other);
         assert!(!o.status.success(), "{other:?}");
         let err = String::from_utf8_lossy(&o.stderr);

@@ -101,6 +101,16 @@ fn the_minitaur_trots_at_two_metres_per_second() {
     assert_meets_target(&run("minitaur", Gait::Trot, 2.0, 2.0, None), 2.0);
 }
 
+/// The Minitaur's bound, at its own 0.19 m CoM height and half the table's cycle, at
+/// 1.5 m/s (seed 0 in CI; the table tool runs 0.3–2.0 m/s over seeds 0–4): the target's
+/// speed and yaw drift, and a 4 N·s side push at 3 s.
+#[test]
+fn the_minitaur_bounds_at_one_and_a_half_metres_per_second() {
+    assert_meets_target(&run("minitaur", Gait::Bound, 1.5, 1.0, None), 1.5);
+    let s = run("minitaur", Gait::Bound, 1.5, 1.0, lateral(-40.0, 0.1));
+    assert!(!s.fell, "bounding, pushed with -40 N for 0.1 s: fell at {:.2} s", s.seconds);
+}
+
 /// A learner's exploration perturbs the controller's actions: Gaussian noise of 10 % of the
 /// action range every step (seed 0 here; the table tool runs seeds 0–4 at 0.3 and 1.0 m/s).
 #[test]
@@ -211,6 +221,19 @@ fn turning(env: &str, gait: Gait, speed: f64, yaw_rate: f64) -> f64 {
 fn the_minitaur_turns_both_ways_while_trotting() {
     for yaw_rate in [0.5, -0.5] {
         let rate = trot_turning("minitaur", 0.5, yaw_rate);
+        assert!((rate - yaw_rate).abs() < 0.075, "yaw rate {rate:.3} for {yaw_rate}");
+    }
+}
+
+/// Above 0.6 m/s the Minitaur turns on its bound: with its two front or two hind feet
+/// planted the body yaws about their midpoint, each foot moving fore and aft in its leg's
+/// plane.
+/// Commanded ±0.5 rad/s at 1.0 m/s it turns within 15 % and keeps its speed along the
+/// heading (seed 0; seeds 0–9 of `control_probe`: 0.472–0.513 rad/s either way).
+#[test]
+fn the_minitaur_turns_both_ways_while_bounding_at_one_metre_per_second() {
+    for yaw_rate in [0.5, -0.5] {
+        let rate = turning("minitaur", Gait::Bound, 1.0, yaw_rate);
         assert!((rate - yaw_rate).abs() < 0.075, "yaw rate {rate:.3} for {yaw_rate}");
     }
 }
@@ -432,7 +455,13 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
         (vec!["--env", "minitaur", "--gait", "moonwalk"], "moonwalk"),
         (vec!["--env", "walker2d", "--gait", "gallop"], "gallop"),
         // Not offered on the Minitaur: the error names the gaits that work.
-        (vec!["--env", "minitaur", "--gait", "bound"], "trot (0–2.5 m/s;"),
+        (vec!["--env", "minitaur", "--gait", "gallop"], "trot (0–2.5 m/s;"),
+        (vec!["--env", "minitaur", "--gait", "gallop"], "bound (0–2 m/s;"),
+        (
+            vec!["--env", "minitaur", "--gait", "bound", "--speed", "1.5", "--yaw-rate", "0.5"],
+            "0.3 rad/s to 1.2 m/s",
+        ),
+        (vec!["--env", "minitaur", "--gait", "pronk", "--speed", "1", "--yaw-rate", "0.1"], "straight only"),
         (vec!["--env", "minitaur", "--gait", "trot", "--speed", "3"], "rated 2.5 m/s"),
         // Turning outside the rating: the unstaggered trot above 0.6 m/s turned at 0.02 rad/s
         // commanded 0.5 without a word, and the walk fell turning on one seed of five.

@@ -34,6 +34,13 @@ SPEED_ROWS = [
     ("minitaur", "trot", 2.5),
     ("minitaur", "walk", 0.3),
     ("minitaur", "walk", 0.5),
+    ("minitaur", "bound", 0.3),
+    ("minitaur", "bound", 1.0),
+    ("minitaur", "bound", 1.5),
+    ("minitaur", "bound", 2.0),
+    ("minitaur", "pronk", 0.3),
+    ("minitaur", "pronk", 1.0),
+    ("minitaur", "pronk", 2.0),
     ("ant", "stand", 0.0),
     ("ant", "trot", 0.3),
     ("ant", "trot", 0.6),
@@ -55,10 +62,11 @@ UNRATED_ROWS = [
     ("humanoid", "walk", 0.6),
     ("humanoid", "walk", 0.7),
     ("minitaur", "trot", 2.75),
-    ("minitaur", "bound", 1.0),
+    ("minitaur", "bound", 2.5),
+    ("minitaur", "bound", 3.0),
+    ("minitaur", "pronk", 2.5),
     ("minitaur", "gallop", 1.0),
     ("minitaur", "pace", 1.0),
-    ("minitaur", "pronk", 1.0),
     ("ant", "pace", 0.3),
     ("ant", "bound", 0.3),
     ("ant", "gallop", 0.3),
@@ -71,6 +79,9 @@ PUSH_ROWS = [
     ("minitaur", "trot", 1.0, 20), ("minitaur", "trot", 1.0, -20),
     ("minitaur", "trot", 2.0, 20), ("minitaur", "trot", 2.0, -20),
     ("minitaur", "stand", 0.0, 20), ("minitaur", "stand", 0.0, -20),
+    ("minitaur", "bound", 0.3, 20), ("minitaur", "bound", 0.3, -20),
+    ("minitaur", "bound", 1.0, 40), ("minitaur", "bound", 1.0, -40),
+    ("minitaur", "bound", 2.0, 40), ("minitaur", "bound", 2.0, -40),
     ("ant", "trot", 0.3, 40), ("ant", "trot", 0.3, -40),
     ("ant", "trot", 1.0, 40), ("ant", "trot", 1.0, -40),
     ("humanoid", "stand", 0.0, 40), ("humanoid", "stand", 0.0, -40),
@@ -84,6 +95,8 @@ NOISE_ROWS = [
     ("minitaur", "trot", 0.3, 0.1),
     ("minitaur", "trot", 1.0, 0.1),
     ("minitaur", "trot", 2.0, 0.1),
+    ("minitaur", "bound", 1.0, 0.1),
+    ("minitaur", "bound", 2.0, 0.1),
     ("ant", "trot", 0.3, 0.1),
     ("ant", "trot", 0.6, 0.1),
     ("ant", "trot", 1.0, 0.1),
@@ -98,6 +111,10 @@ TURN_ROWS = [
     ("minitaur", "trot", 0.5, 0.5), ("minitaur", "trot", 0.5, -0.5),
     ("minitaur", "trot", 0.6, 0.3), ("minitaur", "trot", 0.6, -0.3),
     ("minitaur", "trot", 0.6, 0.5), ("minitaur", "trot", 0.6, -0.5),
+    ("minitaur", "bound", 0.3, 0.5), ("minitaur", "bound", 0.3, -0.5),
+    ("minitaur", "bound", 0.6, 0.5), ("minitaur", "bound", 0.6, -0.5),
+    ("minitaur", "bound", 1.0, 0.5), ("minitaur", "bound", 1.0, -0.5),
+    ("minitaur", "bound", 1.2, 0.3), ("minitaur", "bound", 1.2, -0.3),
     ("ant", "trot", 0.6, 0.5), ("ant", "trot", 0.6, -0.5),
     ("ant", "walk", 0.3, 0.5), ("ant", "walk", 0.3, -0.5),
     ("humanoid", "walk", 0.3, 0.3), ("humanoid", "walk", 0.3, -0.3),
@@ -109,13 +126,15 @@ TURN_ROWS = [
 UNRATED_TURN_ROWS = [
     ("minitaur", "trot", 1.0, 0.5), ("minitaur", "trot", 1.0, -0.5),
     ("minitaur", "walk", 0.3, 0.3), ("minitaur", "walk", 0.3, -0.3),
+    ("minitaur", "bound", 1.5, 0.5), ("minitaur", "bound", 1.5, -0.5),
+    ("minitaur", "pronk", 1.0, 0.5), ("minitaur", "pronk", 1.0, -0.5),
     ("ant", "trot", 1.2, 0.5), ("ant", "trot", 1.2, -0.5),
     ("humanoid", "walk", 0.5, 0.5), ("humanoid", "walk", 0.5, -0.5),
 ]
 # Push rows above the preset's rating.
 UNRATED_PUSH_ROWS = {("humanoid", "walk", 0.6)}
 # (robot, gait, schedule)
-STEP_ROWS = [("minitaur", "trot", "0:0,1:1.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:1.0"), ("minitaur", "trot", "0:0,1:1.0,4:0.3,7:0"), ("humanoid", "walk", "0:0,1:0.5,6:0")]
+STEP_ROWS = [("minitaur", "trot", "0:0,1:1.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:1.0"), ("minitaur", "trot", "0:0,1:1.0,4:0.3,7:0"), ("minitaur", "bound", "0:0,1:2.0,6:0"), ("humanoid", "walk", "0:0,1:0.5,6:0")]
 
 
 class Runner:

@@ -78,6 +78,11 @@ pub struct GaitOffer {
     /// straight only above `max_turning_speed`). Set with [`GaitOffer::then_turning`].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub faster_turning: Option<TurnRating>,
+    /// The CoM height (m above the ground) the gait runs at when the command sets none
+    /// ([`Command::body_height`]); default: none, the robot's nominal standing CoM height.
+    /// Set with [`GaitOffer::com_height`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub com_height: Option<f64>,
 }
 
 /// A turning rating: up to `max_yaw_rate` (rad/s, either way) while commanded at most
@@ -100,12 +105,19 @@ impl GaitOffer {
             max_yaw_rate: f64::INFINITY,
             max_turning_speed: f64::INFINITY,
             faster_turning: None,
+            com_height: None,
         }
     }
 
     /// The same offer at `scale` times its table period.
     pub fn period(self, scale: f64) -> Self {
         GaitOffer { period_scale: scale, ..self }
+    }
+
+    /// The same offer run at a CoM height of `height` (m above the ground) unless the
+    /// command sets one ([`GaitOffer::com_height`]).
+    pub fn com_height(self, height: f64) -> Self {
+        GaitOffer { com_height: Some(height), ..self }
     }
 
     /// The same offer rated to turn at up to `max_yaw_rate` (rad/s) while commanded at most
@@ -688,10 +700,29 @@ impl ControllerConfig {
         c.wbc.w_posture = 0.01;
         c.turn_posture_weight = 0.1;
         // Only the gaits measured to work on the Minitaur are offered (`tools/closed_loop_table.py`):
-        // the static walk needs a 0.6 s cycle (at the table's 0.8 s it fell on every seed);
-        // bound, pronk and gallop fell within 0.2–4 s at 0.3–1 m/s on seeds 0–2 with
-        // periods 0.7–1 × the table's, so they are refused: without abduction the
-        // Minitaur balances sideways only through a diagonal support. The pace is refused
+        // the static walk needs a 0.6 s cycle (at the table's 0.8 s it fell on every seed).
+        // The bound and the pronk need a shorter cycle and a higher body: with the table's
+        // cycle (0.3 s) the bound fell within 0.4 s on every seed at 0.3–1 m/s, at the
+        // standing CoM height (0.165 m) and at 0.19 m alike, by sinking below the env's
+        // 0.13 m fall height as the body pitched ±0.2 rad; with half the cycle at the
+        // standing height it stays up but lags (0.77–0.88 m/s for 1.0, 1.31–1.49 for 2.0,
+        // seeds 0–9). At 0.19 m and half the table's cycle (0.15 s) the bound holds
+        // 0–2.5 m/s on seeds 0–9 (`control_probe minitaur bound V 11 --set unrated=1 --set
+        // period=0.5 --height 0.19 --measure-from 1`, 2026-11-29; at 2.0 m/s 1.79–1.92,
+        // at 2.5 2.12–2.34, so it is rated 2.0), under 10 % action noise at 0.3, 1.0 and
+        // 2.0 m/s and 4 N·s side pushes at 1.0 and 2.0 m/s (seeds 0–4; the trot fell under
+        // −y pushes at 2.0 m/s on 2 of 5). It also turns where the trot cannot: with its two
+        // front or two hind feet planted the body yaws about their midpoint while each foot
+        // moves only fore and aft, in its leg's plane. ±0.5 rad/s at 0.3, 0.6 and 1.0 m/s turned at
+        // 0.472–0.513 rad/s on seeds 0–9 (at 1.5 m/s 0.18–0.47), ±0.3 rad/s at 1.2 m/s at
+        // 0.301–0.315 (at 1.5 m/s 0.17–0.31). Cycles of 0.4–0.45 × with 0.20–0.21 m held
+        // 3.0 m/s straight (2.56–2.76 m/s) but turned left at 0.17–0.38 rad/s on some seeds
+        // at 1.0 m/s; 0.6–0.7 × with 0.20 m turned at 0.15–0.52. The pronk, at the same
+        // cycle and height, holds 0–2.5 m/s straight (seeds 0–9; 2.23–2.31 at 2.5) but
+        // turns at only 0.03–0.17 rad/s for ±0.5 (its four feet land together): rated 2.0,
+        // straight only. The gallop is still refused: higher and faster (0.4–0.6 ×, 0.19–0.20
+        // m) it held 1 m/s on seeds 0–4 but drifted 0.09–0.30 rad in yaw and fell at 2 m/s on
+        // 2–4 of 5 (at 0.4 ×: up, at 1.1–1.6 m/s and 1.6 rad of drift). The pace is refused
         // for another reason: it holds straight runs (on the controller of 2026-11-28, seeds
         // 0–4: 0.3–1.0 m/s, and at 0.3 and 0.6 m/s under 10 % action noise and 2 N·s
         // pushes), but a ±0.5 rad/s yaw-rate command topples it within 11 s on seeds 0–2
@@ -709,6 +740,12 @@ impl ControllerConfig {
             GaitOffer::new(Gait::Stand, 0.0),
             GaitOffer::new(Gait::Trot, 2.5).period(0.7).turning(0.5, c.turn_max_speed),
             GaitOffer::new(Gait::Walk, 0.5).period(0.75).straight_only(),
+            GaitOffer::new(Gait::Bound, 2.0)
+                .period(0.5)
+                .com_height(0.19)
+                .turning(0.5, 1.0)
+                .then_turning(0.3, 1.2),
+            GaitOffer::new(Gait::Pronk, 2.0).period(0.5).com_height(0.19).straight_only(),
         ];
         c
     }
@@ -738,7 +775,8 @@ impl ControllerConfig {
     }
 
     /// Lifts the gait offers, to show why a gait is not offered: every gait defined for the
-    /// robot's leg count, at the period scale of its offer (1 when not offered), unrated.
+    /// robot's leg count, at the period scale and CoM height of its offer (1 and the nominal
+    /// height when not offered), unrated.
     pub fn offer_every_gait(&mut self) {
         let n_legs = self.robot.n_legs;
         let offered = std::mem::take(&mut self.gaits);
@@ -746,10 +784,21 @@ impl ControllerConfig {
             .iter()
             .filter(|g| g.supported(n_legs))
             .map(|&g| {
-                let scale = offered.iter().find(|o| o.gait == g).map_or(1.0, |o| o.period_scale);
-                GaitOffer::new(g, f64::INFINITY).period(scale)
+                let own = offered.iter().find(|o| o.gait == g);
+                GaitOffer {
+                    period_scale: own.map_or(1.0, |o| o.period_scale),
+                    com_height: own.and_then(|o| o.com_height),
+                    ..GaitOffer::new(g, f64::INFINITY)
+                }
             })
             .collect();
+    }
+
+    /// The CoM height (m above the ground) the controller holds the body at under `command`:
+    /// the command's [`Command::body_height`], else the commanded gait's
+    /// [`GaitOffer::com_height`], else `nominal` (the robot's standing CoM height).
+    pub fn com_height(&self, command: &Command, nominal: f64) -> f64 {
+        command.com_height(self.find_offer(command.gait).and_then(|o| o.com_height).unwrap_or(nominal))
     }
 
     /// Checks that `gait` is offered, `speed` (m/s, planar) within its rating and
@@ -930,6 +979,11 @@ impl ControllerConfig {
                 if value.is_nan() || value < 0.0 {
                     return Err(ConfigError::OutOfRange { field, value, range: ">= 0" });
                 }
+            }
+            if let Some(h) = o.com_height
+                && !(h.is_finite() && h > 0.0)
+            {
+                return Err(ConfigError::OutOfRange { field: "gaits.com_height", value: h, range: "> 0 m" });
             }
             if let Some(t) = o.faster_turning {
                 // Faster and slower than the first rating, or it says nothing new.

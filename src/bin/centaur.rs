@@ -357,9 +357,10 @@ struct ControlArgs {
     #[arg(long)]
     env: String,
     /// Gait: stand, walk, trot, pace, bound, pronk or gallop; each robot offers some of them
-    /// up to a rated speed (minitaur: stand, trot to 2.5 m/s, walk to 0.5; ant: stand, trot
-    /// to 1.2, walk to 0.3; walker2d: stand, walk to 0.5; humanoid: stand (by stepping in
-    /// place), walk to 0.5) and refuses the others with an error naming what it offers.
+    /// up to a rated speed (minitaur: stand, trot to 2.5 m/s, walk to 0.5, bound to 2.0,
+    /// pronk to 2.0; ant: stand, trot to 1.2, walk to 0.3; walker2d: stand, walk to 0.5;
+    /// humanoid: stand (by stepping in place), walk to 0.5) and refuses the others with an
+    /// error naming what it offers.
     #[arg(long, value_parser = parse_gait_arg, default_value = "trot")]
     gait: Gait,
     /// Commanded forward speed (m/s).
@@ -394,9 +395,9 @@ struct ControlArgs {
     #[arg(long, value_parser = parse_mpc_solver, default_value = "structured")]
     mpc_solver: MpcSolver,
     /// Commanded yaw rate (rad/s, positive turns left); each gait is rated to turn up to a
-    /// yaw rate and speed (minitaur: trot ±0.5 rad/s to 0.6 m/s, the walk straight; ant: trot
-    /// ±0.5 to 1.0 m/s, walk ±0.5; humanoid: walk ±0.5 to 0.4 m/s and ±0.3 to 0.5 m/s;
-    /// walker2d: planar, straight)
+    /// yaw rate and speed (minitaur: trot ±0.5 rad/s to 0.6 m/s, bound ±0.5 to 1.0 m/s and
+    /// ±0.3 to 1.2 m/s, the walk and the pronk straight; ant: trot ±0.5 to 1.0 m/s, walk
+    /// ±0.5; humanoid: walk ±0.5 to 0.4 m/s and ±0.3 to 0.5 m/s; walker2d: planar, straight)
     /// and refuses more with an error saying its rating.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     yaw_rate: f64,

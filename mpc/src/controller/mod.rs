@@ -113,9 +113,10 @@ impl LocomotionController {
     }
 
     /// The CoM height (m above the ground) the controller holds the body at under
-    /// `command` ([`Command::com_height`] over the robot's nominal standing CoM height).
+    /// `command` ([`ControllerConfig::com_height`] over the robot's nominal standing CoM
+    /// height).
     pub fn height_reference(&self, command: &Command) -> f64 {
-        command.com_height(self.robot.nominal_com_height)
+        self.cfg.com_height(command, self.robot.nominal_com_height)
     }
 
     /// The status of the last tick.
@@ -333,8 +334,8 @@ mod tests {
     #[test]
     fn gaits_not_offered_are_refused_and_speeds_above_the_rating_clamped() {
         let cfg = ControllerConfig::minitaur();
-        let e = cfg.offer(Gait::Bound).unwrap_err();
-        assert!(matches!(e, ConfigError::GaitNotOffered { gait: "bound", .. }));
+        let e = cfg.offer(Gait::Gallop).unwrap_err();
+        assert!(matches!(e, ConfigError::GaitNotOffered { gait: "gallop", .. }));
         let msg = e.to_string();
         assert!(msg.contains("stand") && msg.contains("trot (0–2.5 m/s;") && msg.contains("walk"), "{msg}");
         assert!(cfg.check_command(Gait::Trot, 2.5, 0.0).is_ok());
@@ -360,11 +361,26 @@ mod tests {
         assert!(turn_err(0.3, -0.05, Gait::Walk).contains("straight only"));
         assert!(msg.contains("trot (0–2.5 m/s; turns at up to 0.5 rad/s to 0.6 m/s)"), "{msg}");
         assert!(msg.contains("walk (0–0.5 m/s; straight only)"), "{msg}");
-        // The walk runs at 0.75 of its table period, the trot at 0.7; bound is not run.
+        assert!(
+            msg.contains("bound (0–2 m/s; turns at up to 0.5 rad/s to 1 m/s and 0.3 rad/s to 1.2 m/s)"),
+            "{msg}"
+        );
+        assert!(msg.contains("pronk (0–2 m/s; straight only)"), "{msg}");
+        // The bound turns where the trot cannot: ±0.5 rad/s to 1 m/s, ±0.3 to 1.2 m/s.
+        assert!(
+            cfg.check_command(Gait::Bound, 1.0, -0.5).is_ok()
+                && cfg.check_command(Gait::Bound, 1.2, 0.3).is_ok()
+        );
+        assert!(turn_err(1.2, 0.31, Gait::Bound).contains("0.3 rad/s to 1.2 m/s"));
+        assert!(turn_err(1.5, 0.1, Gait::Bound).contains("bound turning at 0.1 rad/s at 1.5 m/s"));
+        // The walk runs at 0.75 of its table period, the trot at 0.7, the bound and the
+        // pronk at 0.5; the gallop is not run.
         let scales = cfg.period_scales();
         assert_eq!(scales[Gait::Walk.index()], 0.75);
         assert_eq!(scales[Gait::Trot.index()], 0.7);
-        assert_eq!(scales[Gait::Bound.index()], 0.0);
+        assert_eq!(scales[Gait::Bound.index()], 0.5);
+        assert_eq!(scales[Gait::Pronk.index()], 0.5);
+        assert_eq!(scales[Gait::Gallop.index()], 0.0);
         // Lifted (`--unrated`): every quadruped gait, the offered ones at their own scales.
         let mut all = cfg.clone();
         all.offer_every_gait();
@@ -375,7 +391,10 @@ mod tests {
                 && all.check_command(Gait::Trot, 5.0, 3.0).is_ok()
         );
         assert_eq!(all.period_scales()[Gait::Walk.index()], 0.75);
-        assert_eq!(all.period_scales()[Gait::Bound.index()], 1.0);
+        assert_eq!(all.period_scales()[Gait::Bound.index()], 0.5);
+        assert_eq!(all.period_scales()[Gait::Gallop.index()], 1.0);
+        assert_eq!(all.find_offer(Gait::Bound).and_then(|o| o.com_height), Some(0.19), "kept when lifted");
+        assert_eq!(all.find_offer(Gait::Gallop).and_then(|o| o.com_height), None);
         // The Humanoid offers its walk to 0.5 m/s; lifted, a biped gets stand and walk only.
         let humanoid = ControllerConfig::humanoid();
         assert!(humanoid.check_command(Gait::Walk, 0.5, 0.0).is_ok());
@@ -424,6 +443,10 @@ mod tests {
             assert!(e.contains("gaits.faster_turning"), "{e}");
         }
         assert_eq!(two.straight_only().yaw_rate_rating(0.8), 0.0);
+        for h in [0.0, -0.1, f64::NAN, f64::INFINITY] {
+            let e = bad(vec![GaitOffer::new(Gait::Stand, 0.0), trot.com_height(h)]).unwrap_err().to_string();
+            assert!(e.contains("gaits.com_height"), "{e}");
+        }
         let biped = ControllerConfig {
             gaits: vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Trot, 1.0)],
             ..ControllerConfig::humanoid()
@@ -560,6 +583,33 @@ mod tests {
             let e = bad(ControllerConfig { turn_period_scale: p, ..ControllerConfig::minitaur() });
             assert!(e.contains("turn_period_scale"), "{e}");
         }
+    }
+
+    #[test]
+    fn a_gait_runs_at_its_own_com_height_unless_the_command_sets_one() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/minitaur/minitaur.urdf");
+        let model = Model::from_urdf_file(path, BaseKind::Floating).unwrap();
+        let c = LocomotionController::new(&model, ControllerConfig::minitaur()).unwrap();
+        let nominal = c.robot().nominal_com_height;
+        let bound = Command::forward(1.0, Gait::Bound);
+        // The trot at the standing height, the bound at its offer's 0.19 m, a commanded
+        // height above both, and a gait not offered (answered by standing) at the standing one.
+        assert_eq!(c.height_reference(&Command::forward(1.0, Gait::Trot)), nominal);
+        assert_eq!(c.height_reference(&bound), 0.19);
+        assert_eq!(c.height_reference(&Command { body_height: Some(0.2), ..bound }), 0.2);
+        assert_eq!(c.height_reference(&Command::forward(1.0, Gait::Gallop)), nominal);
+        // The MPC is given that height: its reference's z after half a second of each.
+        let z_ref = |command: Command| {
+            let mut c = LocomotionController::new(&model, ControllerConfig::minitaur()).unwrap();
+            let s = c.nominal_state();
+            for k in 0..50 {
+                c.tick(&s, &command, k as f64 * 0.01);
+            }
+            c.mpc().unwrap().input.x_ref[0][5]
+        };
+        let (z_trot, z_bound) =
+            (z_ref(Command::forward(0.5, Gait::Trot)), z_ref(Command::forward(0.5, Gait::Bound)));
+        assert!((z_bound - z_trot - (0.19 - nominal)).abs() < 1e-9, "{z_trot} {z_bound} {nominal}");
     }
 
     #[test]

@@ -106,7 +106,13 @@ impl Reference {
         // Keep the yaw reference within reach of the measured yaw (after a push or a spin).
         let e = wrap_pi(self.yaw_ref - est.rpy.z);
         self.yaw_ref = est.rpy.z + e.clamp(-0.3, 0.3);
-        Shaped { gait, target_velocity: target, height: command.com_height(nominal_height), refused, clamped }
+        Shaped {
+            gait,
+            target_velocity: target,
+            height: cfg.com_height(command, nominal_height),
+            refused,
+            clamped,
+        }
     }
 
     /// The horizontal position reference `p_ref`: the integral of the (rate-limited)
