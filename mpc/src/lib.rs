@@ -39,6 +39,9 @@
 //! * **Minitaur**: the same, with the four 5-bar loops closed in the WBC by constraint
 //!   forces `λ` along the two in-plane directions, passive knees (`τ = 0` rows), toe
 //!   contacts; `centaur_envs::minitaur` maps the command to the env's motor-angle / leg-model actions.
+//!   Without abduction it turns on a staggered trot up to 0.6 m/s and, faster, on its bound,
+//!   which runs at its own CoM height ([`GaitOffer::com_height`]): with its two front or two
+//!   hind feet planted, the body yaws about their midpoint without a foot slipping sideways.
 //! * **Walker2d**: the **planar** MPC variant ([`MpcConfig::biped_planar`]: lateral force
 //!   columns removed, feet projected to the sagittal plane) + WBC on its planar root
 //!   joints, biped walk, heel and toe contacts per foot.
