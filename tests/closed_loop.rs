@@ -456,7 +456,7 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
         (vec!["--env", "walker2d", "--gait", "gallop"], "gallop"),
         // Not offered on the Minitaur: the error names the gaits that work.
         (vec!["--env", "minitaur", "--gait", "gallop"], "trot (0–2.5 m/s;"),
-        (vec!["--env", "minitaur", "--gait", "gallop"], "bound (0–2 m/s;"),
+        (vec!["--env", "minitaur", "--gait", "gallop"], "bound (0–2.5 m/s;"),
         (
             vec!["--env", "minitaur", "--gait", "bound", "--speed", "1.5", "--yaw-rate", "0.5"],
             "0.3 rad/s to 1.2 m/s",

@@ -38,6 +38,7 @@ SPEED_ROWS = [
     ("minitaur", "bound", 1.0),
     ("minitaur", "bound", 1.5),
     ("minitaur", "bound", 2.0),
+    ("minitaur", "bound", 2.5),
     ("minitaur", "pronk", 0.3),
     ("minitaur", "pronk", 1.0),
     ("minitaur", "pronk", 2.0),
@@ -62,8 +63,8 @@ UNRATED_ROWS = [
     ("humanoid", "walk", 0.6),
     ("humanoid", "walk", 0.7),
     ("minitaur", "trot", 2.75),
-    ("minitaur", "bound", 2.5),
     ("minitaur", "bound", 3.0),
+    ("minitaur", "bound", 3.5),
     ("minitaur", "pronk", 2.5),
     ("minitaur", "gallop", 1.0),
     ("minitaur", "pace", 1.0),
@@ -82,6 +83,9 @@ PUSH_ROWS = [
     ("minitaur", "bound", 0.3, 20), ("minitaur", "bound", 0.3, -20),
     ("minitaur", "bound", 1.0, 40), ("minitaur", "bound", 1.0, -40),
     ("minitaur", "bound", 2.0, 40), ("minitaur", "bound", 2.0, -40),
+    ("minitaur", "bound", 2.5, 20), ("minitaur", "bound", 2.5, -20),
+    # Above the bound's 2.5 m/s rating (run with --unrated): why it is rated 2.5.
+    ("minitaur", "bound", 3.0, 20), ("minitaur", "bound", 3.0, -20),
     ("ant", "trot", 0.3, 40), ("ant", "trot", 0.3, -40),
     ("ant", "trot", 1.0, 40), ("ant", "trot", 1.0, -40),
     ("humanoid", "stand", 0.0, 40), ("humanoid", "stand", 0.0, -40),
@@ -97,6 +101,7 @@ NOISE_ROWS = [
     ("minitaur", "trot", 2.0, 0.1),
     ("minitaur", "bound", 1.0, 0.1),
     ("minitaur", "bound", 2.0, 0.1),
+    ("minitaur", "bound", 2.5, 0.1),
     ("ant", "trot", 0.3, 0.1),
     ("ant", "trot", 0.6, 0.1),
     ("ant", "trot", 1.0, 0.1),
@@ -132,9 +137,9 @@ UNRATED_TURN_ROWS = [
     ("humanoid", "walk", 0.5, 0.5), ("humanoid", "walk", 0.5, -0.5),
 ]
 # Push rows above the preset's rating.
-UNRATED_PUSH_ROWS = {("humanoid", "walk", 0.6)}
+UNRATED_PUSH_ROWS = {("humanoid", "walk", 0.6), ("minitaur", "bound", 3.0)}
 # (robot, gait, schedule)
-STEP_ROWS = [("minitaur", "trot", "0:0,1:1.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:1.0"), ("minitaur", "trot", "0:0,1:1.0,4:0.3,7:0"), ("minitaur", "bound", "0:0,1:2.0,6:0"), ("humanoid", "walk", "0:0,1:0.5,6:0")]
+STEP_ROWS = [("minitaur", "trot", "0:0,1:1.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:0"), ("minitaur", "trot", "0:0,1:2.5,6:1.0"), ("minitaur", "trot", "0:0,1:1.0,4:0.3,7:0"), ("minitaur", "bound", "0:0,1:2.5,6:0"), ("humanoid", "walk", "0:0,1:0.5,6:0")]
 
 
 class Runner:

@@ -116,7 +116,7 @@ mod robot;
 mod swing;
 mod wbc;
 
-pub use config::{Command, ControlMode, ControllerConfig, GaitOffer, MpcExecution, TurnRating};
+pub use config::{Command, ControlMode, ControllerConfig, GaitOffer, HeightRise, MpcExecution, TurnRating};
 pub use controller::{
     ControllerStatus, Fallback, JointCommand, LANDING_HEIGHT, LocomotionController, wrap_pi,
 };

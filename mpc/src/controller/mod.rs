@@ -114,9 +114,10 @@ impl LocomotionController {
 
     /// The CoM height (m above the ground) the controller holds the body at under
     /// `command` ([`ControllerConfig::com_height`] over the robot's nominal standing CoM
-    /// height).
+    /// height, at the planar speed of its velocity command after the ramp, as of the last
+    /// tick).
     pub fn height_reference(&self, command: &Command) -> f64 {
-        self.cfg.com_height(command, self.robot.nominal_com_height)
+        self.cfg.com_height(command, self.reference.v_cmd.xy().norm(), self.robot.nominal_com_height)
     }
 
     /// The status of the last tick.
@@ -362,7 +363,7 @@ mod tests {
         assert!(msg.contains("trot (0–2.5 m/s; turns at up to 0.5 rad/s to 0.6 m/s)"), "{msg}");
         assert!(msg.contains("walk (0–0.5 m/s; straight only)"), "{msg}");
         assert!(
-            msg.contains("bound (0–2 m/s; turns at up to 0.5 rad/s to 1 m/s and 0.3 rad/s to 1.2 m/s)"),
+            msg.contains("bound (0–2.5 m/s; turns at up to 0.5 rad/s to 1 m/s and 0.3 rad/s to 1.2 m/s)"),
             "{msg}"
         );
         assert!(msg.contains("pronk (0–2 m/s; straight only)"), "{msg}");
@@ -610,6 +611,33 @@ mod tests {
         let (z_trot, z_bound) =
             (z_ref(Command::forward(0.5, Gait::Trot)), z_ref(Command::forward(0.5, Gait::Bound)));
         assert!((z_bound - z_trot - (0.19 - nominal)).abs() < 1e-9, "{z_trot} {z_bound} {nominal}");
+        // Faster, the bound runs higher: 0.19 m to 1.2 m/s, rising to 0.22 m at 2.5 m/s.
+        let offer = *c.config().offer(Gait::Bound).unwrap();
+        let heights = [0.0, 1.2, 1.85, 2.5, 4.0, -1.85].map(|v| offer.height_at(v).unwrap());
+        for (h, want) in heights.iter().zip([0.19, 0.19, 0.205, 0.22, 0.22, 0.205]) {
+            assert!((h - want).abs() < 1e-12, "{heights:?}");
+        }
+        assert_eq!(ControllerConfig::minitaur().offer(Gait::Trot).unwrap().height_at(2.0), None);
+        // The speed is the command's after the ramp: 1.5 s at 2.5 m/s (3 m/s²) reaches it.
+        let mut c = LocomotionController::new(&model, ControllerConfig::minitaur()).unwrap();
+        let (s, fast) = (c.nominal_state(), Command::forward(2.5, Gait::Bound));
+        c.tick(&s, &fast, 0.0);
+        assert!((c.height_reference(&fast) - 0.19).abs() < 1e-12, "a standing start");
+        for k in 1..150 {
+            c.tick(&s, &fast, k as f64 * 0.01);
+        }
+        assert!((c.height_reference(&fast) - 0.22).abs() < 1e-12, "{}", c.height_reference(&fast));
+        // Validation: a rise needs a base height, a positive height and speeds in order.
+        let bad = |o: GaitOffer| {
+            let gaits = vec![GaitOffer::new(Gait::Stand, 0.0), o];
+            ControllerConfig { gaits, ..ControllerConfig::minitaur() }.validate().unwrap_err().to_string()
+        };
+        let bound = GaitOffer::new(Gait::Bound, 2.5);
+        assert!(bad(bound.rising_to(0.22, 1.2, 2.5)).contains("com_height"));
+        let bound = bound.com_height(0.19);
+        assert!(bad(bound.rising_to(f64::NAN, 1.2, 2.5)).contains("height_rise.height"));
+        assert!(bad(bound.rising_to(0.22, -1.0, 2.5)).contains("height_rise.from_speed"));
+        assert!(bad(bound.rising_to(0.22, 1.2, 1.2)).contains("height_rise.to_speed"));
     }
 
     #[test]

@@ -109,7 +109,7 @@ impl Reference {
         Shaped {
             gait,
             target_velocity: target,
-            height: cfg.com_height(command, nominal_height),
+            height: cfg.com_height(command, self.v_cmd.xy().norm(), nominal_height),
             refused,
             clamped,
         }
