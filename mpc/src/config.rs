@@ -748,7 +748,7 @@ impl ControllerConfig {
         // period=0.5 --height 0.19 --measure-from 1`, 2026-11-29; at 2.0 m/s 1.79–1.92,
         // at 2.5 2.12–2.34, one seed just outside 15 %), under 10 % action noise at 0.3, 1.0 and
         // 2.0 m/s and 4 N·s side pushes at 1.0 and 2.0 m/s (seeds 0–4; the trot fell under
-        // −y pushes at 2.0 m/s on 2 of 5). It also turns where the trot cannot: with its two
+        // −y pushes at 2.0 m/s on 2 of 5; with the rise below, 4 of 5 each way at 2.0 m/s). It also turns where the trot cannot: with its two
         // front or two hind feet planted the body yaws about their midpoint while each foot
         // moves only fore and aft, in its leg's plane. ±0.5 rad/s at 0.3, 0.6 and 1.0 m/s turned at
         // 0.472–0.513 rad/s on seeds 0–9 (at 1.5 m/s 0.18–0.47), ±0.3 rad/s at 1.2 m/s at
