@@ -736,37 +736,36 @@ impl ControllerConfig {
         // later that day, above).
         c.wbc.w_posture = 0.01;
         c.turn_posture_weight = 0.1;
-        // Only the gaits measured to work on the Minitaur are offered (`tools/closed_loop_table.py`):
-        // the static walk needs a 0.6 s cycle (at the table's 0.8 s it fell on every seed).
-        // The bound and the pronk need a shorter cycle and a higher body: with the table's
-        // cycle (0.3 s) the bound fell within 0.4 s on every seed at 0.3–1 m/s, at the
-        // standing CoM height (0.165 m) and at 0.19 m alike, by sinking below the env's
-        // 0.13 m fall height as the body pitched ±0.2 rad; with half the cycle at the
-        // standing height it stays up but lags (0.77–0.88 m/s for 1.0, 1.31–1.49 for 2.0,
-        // seeds 0–9). At 0.19 m and half the table's cycle (0.15 s) the bound holds
-        // 0–2.5 m/s on seeds 0–9 (`control_probe minitaur bound V 11 --set unrated=1 --set
-        // period=0.5 --height 0.19 --measure-from 1`, 2026-11-29; at 2.0 m/s 1.79–1.92,
-        // at 2.5 2.12–2.34, one seed just outside 15 %), under 10 % action noise at 0.3, 1.0 and
-        // 2.0 m/s and 4 N·s side pushes at 1.0 and 2.0 m/s (seeds 0–4; the trot fell under
-        // −y pushes at 2.0 m/s on 2 of 5; with the rise below, 4 of 5 each way at 2.0 m/s). It also turns where the trot cannot: with its two
-        // front or two hind feet planted the body yaws about their midpoint while each foot
-        // moves only fore and aft, in its leg's plane. ±0.5 rad/s at 0.3, 0.6 and 1.0 m/s turned at
-        // 0.472–0.513 rad/s on seeds 0–9 (at 1.5 m/s 0.18–0.47), ±0.3 rad/s at 1.2 m/s at
-        // 0.301–0.315 (at 1.5 m/s 0.17–0.31). Cycles of 0.4–0.45 × with 0.20–0.21 m held
-        // 3.0 m/s straight (2.56–2.76 m/s) but turned left at 0.17–0.38 rad/s on some seeds
-        // at 1.0 m/s; 0.6–0.7 × with 0.20 m turned at 0.15–0.52. So the bound turns at 0.19 m
-        // and rises with speed, to 0.22 m from 2.5 m/s (`rising_to`; at 0.20–0.22 m and half
-        // the cycle 3.0 m/s held on seeds 0–9 at 2.52–2.68 m/s, 0.21 and 0.22 m within 15 %):
-        // it then holds 1.5–3.0 m/s on seeds 0–9 (1.46–1.50, 1.90–1.97, 2.21–2.33 and
-        // 2.61–2.66 m/s at 1.5, 2.0, 2.5 and 3.0), and below 1.2 m/s, where it turns, it runs
-        // as before, bit for bit. It is rated 2.5 m/s: there 2 N·s side pushes (seeds 0–4) and
-        // 10 % action noise (seeds 0–9) leave it up, but at 3.0 m/s 2 N·s pushes felled it on
-        // 2 of 5 seeds, 4 N·s on 2 and 4 of 5, and the noise on 1 of 10. The pronk, at the same
-        // cycle and height, holds 0–2.5 m/s straight (seeds 0–9; 2.23–2.31 at 2.5) but
-        // turns at only 0.03–0.17 rad/s for ±0.5 (its four feet land together): rated 2.0,
-        // straight only. The gallop is still refused: higher and faster (0.4–0.6 ×, 0.19–0.20
-        // m) it held 1 m/s on seeds 0–4 but drifted 0.09–0.30 rad in yaw and fell at 2 m/s on
-        // 2–4 of 5 (at 0.4 ×: up, at 1.1–1.6 m/s and 1.6 rad of drift). The pace is refused
+        // Only the gaits measured to work on the Minitaur are offered
+        // (`tools/closed_loop_table.py`): the static walk needs a 0.6 s cycle (at the table's 0.8 s
+        // it fell on every seed). The bound and the pronk need a shorter cycle and a higher body:
+        // with the table's cycle (0.3 s) the bound fell within 0.4 s on every seed at 0.3–1 m/s, at
+        // the standing CoM height (0.165 m) and at 0.19 m alike, by sinking below the env's 0.13 m
+        // fall height as the body pitched ±0.2 rad; with half the cycle at the standing height it
+        // stays up but lags (0.77–0.88 m/s for 1.0, 1.31–1.49 for 2.0, seeds 0–9). At 0.19 m and
+        // half the table's cycle (0.15 s) the bound holds 0–2.5 m/s on seeds 0–9 (`control_probe
+        // minitaur bound V 11 --set unrated=1 --set period=0.5 --height 0.19 --measure-from 1`,
+        // 2026-11-29; at 2.0 m/s 1.79–1.92, at 2.5 2.12–2.34, one seed just outside 15 %), under 10
+        // % action noise at 0.3, 1.0 and 2.0 m/s and 4 N·s side pushes at 1.0 and 2.0 m/s (seeds
+        // 0–4; the trot fell under −y pushes at 2.0 m/s on 2 of 5; with the rise below, 4 of 5 each
+        // way at 2.0 m/s). It also turns where the trot cannot: with its two front or two hind feet
+        // planted the body yaws about their midpoint while each foot moves only fore and aft, in
+        // its leg's plane. ±0.5 rad/s at 0.3, 0.6 and 1.0 m/s turned at 0.472–0.513 rad/s on seeds
+        // 0–9 (at 1.5 m/s 0.18–0.47), ±0.3 rad/s at 1.2 m/s at 0.301–0.315 (at 1.5 m/s 0.17–0.31).
+        // Cycles of 0.4–0.45 × with 0.20–0.21 m held 3.0 m/s straight (2.56–2.76 m/s) but turned
+        // left at 0.17–0.38 rad/s on some seeds at 1.0 m/s; 0.6–0.7 × with 0.20 m turned at
+        // 0.15–0.52. So the bound turns at 0.19 m and rises with speed, to 0.22 m from 2.5 m/s
+        // (`rising_to`; at 0.20–0.22 m and half the cycle 3.0 m/s held on seeds 0–9 at 2.52–2.68
+        // m/s, 0.21 and 0.22 m within 15 %): it then holds 1.5–3.0 m/s on seeds 0–9 (1.46–1.50,
+        // 1.90–1.97, 2.21–2.33 and 2.61–2.66 m/s at 1.5, 2.0, 2.5 and 3.0), and below 1.2 m/s,
+        // where it turns, it runs as before, bit for bit. It is rated 2.5 m/s: there 2 N·s side
+        // pushes (seeds 0–4) and 10 % action noise (seeds 0–9) leave it up, but at 3.0 m/s 2 N·s
+        // pushes felled it on 2 of 5 seeds, 4 N·s on 2 and 4 of 5, and the noise on 1 of 10. The
+        // pronk, at the same cycle and height, holds 0–2.5 m/s straight (seeds 0–9; 2.23–2.31 at
+        // 2.5) but turns at only 0.03–0.17 rad/s for ±0.5 (its four feet land together): rated 2.0,
+        // straight only. The gallop is still refused: higher and faster (0.4–0.6 ×, 0.19–0.20 m) it
+        // held 1 m/s on seeds 0–4 but drifted 0.09–0.30 rad in yaw and fell at 2 m/s on 2–4 of 5
+        // (at 0.4 ×: up, at 1.1–1.6 m/s and 1.6 rad of drift). The pace is refused
         // for another reason: it holds straight runs (on the controller of 2026-11-28, seeds
         // 0–4: 0.3–1.0 m/s, and at 0.3 and 0.6 m/s under 10 % action noise and 2 N·s
         // pushes), but a ±0.5 rad/s yaw-rate command topples it within 11 s on seeds 0–2
