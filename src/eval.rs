@@ -14,6 +14,7 @@ use centaur_rl::{Checkpoint, Policy, RlError};
 use serde::Serialize;
 
 use crate::experiment::{AgentStats, ExperimentError, evaluate_policy};
+use crate::hybrid::Fade;
 use crate::registry::{EnvSource, RegistryError};
 use crate::rundir::write_atomic;
 use crate::settings::{EnvSettings, split_run_toml};
@@ -39,6 +40,9 @@ pub struct EvalOptions {
     /// Evaluate even if the checkpoint's environment, as it records it, is no longer the
     /// one its name and settings build today (a preset or default changed since training).
     pub allow_env_change: bool,
+    /// A hybrid's safety fade ([`crate::hybrid::ResidualConfig::fade`]), a filter on the
+    /// trained policy; refused for an environment that is not a hybrid.
+    pub fade: Option<Fade>,
 }
 
 /// The `eval.json` record.
@@ -54,6 +58,9 @@ pub struct EvalReport {
     pub changed_from_training: Vec<&'static str>,
     /// First reset seed.
     pub seed: u64,
+    /// The hybrid's safety fade, if it was evaluated behind one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fade: Option<Fade>,
     /// Episodes, return, speed, falls, energy, torque RMS (robots); return only otherwise.
     pub stats: AgentStats,
 }
@@ -137,6 +144,9 @@ pub fn run_eval(opts: &EvalOptions) -> Result<EvalReport, EvalError> {
     let source = EnvSource::with_body(&env, body).with_settings(settings)?;
     let policy = Policy::from_checkpoint(&checkpoint).map_err(RlError::from)?;
     let stats = if env == "pendulum" || env.starts_with("modular:") {
+        if opts.fade.is_some() {
+            return Err(ExperimentError::NotAHybrid { env, option: "a safety fade" }.into());
+        }
         if opts.record.is_some() {
             return Err(EvalError::Refused(format!(
                 "--record: {env} is not recorded (robot environments are)"
@@ -144,7 +154,8 @@ pub fn run_eval(opts: &EvalOptions) -> Result<EvalReport, EvalError> {
         }
         plain_stats(source.make()?.as_mut(), policy, opts)?
     } else {
-        evaluate_policy(&env, source.settings(), policy, opts.episodes, opts.seed, opts.record.as_deref())?
+        let record = opts.record.as_deref();
+        evaluate_policy(&env, source.settings(), policy, opts.episodes, opts.seed, record, opts.fade)?
     };
     let report = EvalReport {
         checkpoint: file.clone(),
@@ -152,6 +163,7 @@ pub fn run_eval(opts: &EvalOptions) -> Result<EvalReport, EvalError> {
         changed_from_training: changed(source.settings(), &trained),
         settings: source.settings().clone(),
         seed: opts.seed,
+        fade: opts.fade,
         stats,
     };
     let out =
@@ -162,8 +174,9 @@ pub fn run_eval(opts: &EvalOptions) -> Result<EvalReport, EvalError> {
 }
 
 /// `eval.json` for the checkpoint as trained; with `--config FILE` or `--env NAME`,
-/// `eval_FILE.json` / `eval_NAME.json` (both: `eval_NAME_FILE.json`), so that judging one
-/// policy in several configurations keeps every judgement.
+/// `eval_FILE.json` / `eval_NAME.json` (both: `eval_NAME_FILE.json`), with `_fade` before
+/// `.json` behind a safety fade, so that judging one policy in several configurations keeps
+/// every judgement.
 fn default_name(opts: &EvalOptions) -> String {
     let mut name = String::from("eval");
     if let Some(env) = &opts.env {
@@ -180,6 +193,9 @@ fn default_name(opts: &EvalOptions) -> String {
     if let Some(stem) = opts.config.as_deref().and_then(Path::file_stem) {
         name.push('_');
         name.push_str(&stem.to_string_lossy());
+    }
+    if opts.fade.is_some() {
+        name.push_str("_fade");
     }
     name + ".json"
 }

@@ -555,6 +555,7 @@ fn execute(
                 record: None,
                 out: Some(out),
                 allow_env_change: false,
+                fade: None,
             };
             run_eval(&eval).map_err(|e| SweepError::Judge {
                 point: task.0.clone(),

@@ -423,6 +423,7 @@ fn a_changed_environment_is_not_taken_for_the_one_trained_on() {
             record: None,
             out: Some(out.join("eval.json")),
             allow_env_change,
+            fade: None,
         })
     };
     eval(false).unwrap();
@@ -773,6 +774,30 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     let o = robustness(&seed_0, &["--fade", "0.2", "0.1"]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("fade.end"), "{o:?}");
+    // `centaur eval` behind a fade: the hybrid's own file, the fade in it; refused for pure RL
+    // (not a hybrid) and for a fade that ends before it starts.
+    let eval_fade = |agent: &str, env: &str, start: f64, end: f64| {
+        centaur::eval::run_eval(&centaur::eval::EvalOptions {
+            checkpoint: seed_0.join(agent),
+            config: None,
+            env: Some(env.into()),
+            episodes: 1,
+            seed: 0,
+            record: None,
+            out: None,
+            allow_env_change: false,
+            fade: Some(centaur::hybrid::Fade { start, end }),
+        })
+    };
+    let report = eval_fade("hybrid", "minitaur-residual", 0.12, 0.24).unwrap();
+    let written =
+        std::fs::read_to_string(seed_0.join("hybrid").join("eval_minitaur-residual_fade.json")).unwrap();
+    assert_eq!(report.stats.episodes, 1);
+    assert!(written.contains("\"fade\"") && written.contains("0.24"), "{written}");
+    let e = eval_fade("pure_rl", "minitaur", 0.12, 0.24).unwrap_err().to_string();
+    assert!(e.contains("applies to a hybrid"), "{e}");
+    let e = eval_fade("hybrid", "minitaur-residual", 0.2, 0.1).unwrap_err().to_string();
+    assert!(e.contains("fade.end"), "{e}");
     // A record from before the switch (no `controller_motor`) was trained with the drawn
     // motor, which the study then follows: another table.
     let record_path = seed_0.join("experiment.json");
@@ -989,6 +1014,7 @@ fn the_env_table_of_a_run_file_configures_the_environment() {
             record,
             out: None,
             allow_env_change: false,
+            fade: None,
         })
     };
     let mcap = out.join("eval.mcap");

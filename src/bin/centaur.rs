@@ -194,13 +194,19 @@ struct EvalArgs {
     #[arg(long)]
     record: Option<PathBuf>,
     /// Where to write the report [default: beside the checkpoint, eval.json; with --config
-    /// FILE or --env NAME, eval_NAME_FILE.json, so that no judgement replaces another].
+    /// FILE or --env NAME, eval_NAME_FILE.json, with _fade behind --fade, so that no
+    /// judgement replaces another].
     #[arg(long)]
     out: Option<PathBuf>,
     /// Evaluate even if the environment the checkpoint records is no longer what its name
     /// and settings build (a preset or default changed since training).
     #[arg(long)]
     allow_env_change: bool,
+    /// A hybrid (`<robot>-residual`) behind a safety fade: its steering fades from a sag of
+    /// START to none halfway to END, then its joint residual to none at END (as `centaur
+    /// compare --fade`; a filter on the trained policy) [default: none]
+    #[arg(long, num_args = 2, value_names = ["START", "END"], allow_negative_numbers = true)]
+    fade: Option<Vec<f64>>,
 }
 
 /// `centaur eval`.
@@ -214,6 +220,7 @@ fn eval(args: EvalArgs) -> ExitCode {
         record: args.record,
         out: args.out,
         allow_env_change: args.allow_env_change,
+        fade: args.fade.as_deref().map(|f| centaur::hybrid::Fade { start: f[0], end: f[1] }),
     };
     match centaur::eval::run_eval(&opts) {
         Ok(report) => {

@@ -52,6 +52,14 @@ pub enum ExperimentError {
         /// The one asked for.
         env: String,
     },
+    /// An option that only a hybrid (`<robot>-residual`) takes, given for another environment.
+    #[error("{option} applies to a hybrid (`<robot>-residual`), not to '{env}'")]
+    NotAHybrid {
+        /// The environment.
+        env: String,
+        /// What was asked for.
+        option: &'static str,
+    },
     /// A robot environment error (building a perturbed robot).
     #[error("robot: {0}")]
     Robot(#[from] centaur_envs::RobotEnvError),
