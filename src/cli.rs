@@ -143,8 +143,8 @@ pub struct HybridArgs {
     pub fade: Option<Vec<f64>>,
 }
 
-/// A gait by name (`--gait`), for clap.
-fn gait_name(name: &str) -> Result<Gait, String> {
+/// A gait by name (`--gait` here and on `centaur control`), for clap.
+pub fn gait_name(name: &str) -> Result<Gait, String> {
     crate::control::parse_gait(name).map_err(|e| e.to_string())
 }
 

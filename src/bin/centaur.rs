@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use centaur::cli::{HybridArgs, TrainingProgress, positive_count, progress_style};
 use centaur::compare::{CompareOptions, run_compare};
-use centaur::control::{ControlOptions, Push, check_out_dir, parse_gait, run_control, write_summary};
+use centaur::control::{ControlOptions, Push, check_out_dir, run_control, write_summary};
 use centaur::experiment::{Condition, RobustnessOptions, robustness_table, run_robustness};
 use centaur::experiment::{Phase, tuned_config};
 use centaur::registry::residual_config;
@@ -368,7 +368,7 @@ struct ControlArgs {
     /// pronk to 2.0; ant: stand, trot to 1.2, walk to 0.3; walker2d: stand, walk to 0.5;
     /// humanoid: stand (by stepping in place), walk to 0.5) and refuses the others with an
     /// error naming what it offers.
-    #[arg(long, value_parser = parse_gait_arg, default_value = "trot")]
+    #[arg(long, value_parser = centaur::cli::gait_name, default_value = "trot")]
     gait: Gait,
     /// Commanded forward speed (m/s).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
@@ -576,10 +576,6 @@ fn compare(args: CompareArgs) -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-fn parse_gait_arg(s: &str) -> Result<Gait, String> {
-    parse_gait(s).map_err(|e| e.to_string())
 }
 
 fn parse_mpc_solver(s: &str) -> Result<MpcSolver, String> {
