@@ -133,10 +133,31 @@ fn main() {
                 "stance_joint_kp" => cfg.stance_joint_gains.0 = x,
                 "stance_joint_kd" => cfg.stance_joint_gains.1 = x,
                 "rating" => cfg.gaits.iter_mut().for_each(|o| o.max_speed = x),
+                "duty" => cfg
+                    .gaits
+                    .iter_mut()
+                    .filter(|o| o.gait != centaur::mpc::Gait::Stand)
+                    .for_each(|o| o.duty_factor = Some(x)),
+                "walk_w_ang" => cfg
+                    .gaits
+                    .iter_mut()
+                    .filter(|o| o.gait != centaur::mpc::Gait::Stand)
+                    .for_each(|o| o.body_angular_weight = Some(x)),
                 "unrated" => cfg.offer_every_gait(),
                 "mu" => {
                     cfg.mpc.mu = x;
                     cfg.wbc.mu = x
+                }
+                "walk_default_weights" => cfg.gaits.iter_mut().for_each(|o| {
+                    o.mpc_state_weights = None;
+                    o.body_angular_weight = None
+                }),
+                _ if k.starts_with("walk_q") => {
+                    let idx: usize = k["walk_q".len()..].parse().expect("walk_qN");
+                    let base = cfg.mpc.state_weights;
+                    for o in cfg.gaits.iter_mut().filter(|o| o.gait != centaur::mpc::Gait::Stand) {
+                        o.mpc_state_weights.get_or_insert(base)[idx] = x;
+                    }
                 }
                 _ => {
                     let idx: usize = k.strip_prefix("q").and_then(|s| s.parse().ok()).expect("unknown key");

@@ -164,7 +164,7 @@ fn bad_residuals_and_configs_are_refused() {
     // controller stood instead, without a word).
     match make_residual_env("walker2d", ResidualConfig::default()) {
         Err(e @ RegistryError::Hybrid(HybridError::Controller(ConfigError::GaitNotOffered { .. }))) => {
-            assert!(e.to_string().contains("walk (0–0.5 m/s; straight only)"), "{e}")
+            assert!(e.to_string().contains("walk (0–1 m/s; straight only)"), "{e}")
         }
         Err(other) => panic!("{other}"),
         Ok(_) => panic!("a trot accepted on Walker2d"),

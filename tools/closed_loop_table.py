@@ -50,6 +50,7 @@ SPEED_ROWS = [
     ("ant", "walk", 0.3),
     ("walker2d", "stand", 0.0),
     ("walker2d", "walk", 0.5),
+    ("walker2d", "walk", 1.0),
     ("humanoid", "stand", 0.0),
     ("humanoid", "walk", 0.3),
     ("humanoid", "walk", 0.4),
@@ -59,7 +60,8 @@ SPEED_ROWS = [
 UNRATED_ROWS = [
     ("ant", "trot", 1.5),
     ("ant", "walk", 0.5),
-    ("walker2d", "walk", 1.0),
+    ("walker2d", "walk", 1.25),
+    ("walker2d", "walk", 1.5),
     ("humanoid", "walk", 0.6),
     ("humanoid", "walk", 0.7),
     ("minitaur", "trot", 2.75),

@@ -87,6 +87,21 @@ pub struct GaitOffer {
     /// same height at every speed). Set with [`GaitOffer::rising_to`].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub height_rise: Option<HeightRise>,
+    /// Every leg's stance fraction of the cycle while this gait runs, replacing the gait
+    /// table's ([`crate::GaitPattern::with_duty`]; default: none, the table's). Set with
+    /// [`GaitOffer::duty`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub duty_factor: Option<f64>,
+    /// The MPC's state weights while this gait runs, replacing
+    /// [`MpcConfig::state_weights`] (default: none, the configuration's). Set with
+    /// [`GaitOffer::mpc_weights`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mpc_state_weights: Option<[f64; 12]>,
+    /// The whole-body QP's body-orientation weight while this gait runs, replacing
+    /// [`WbcConfig::w_body_angular`] (default: none, the configuration's). Set with
+    /// [`GaitOffer::body_angular_weight`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub body_angular_weight: Option<f64>,
 }
 
 /// The CoM height of a gait rising linearly with the commanded (ramped) planar speed, from
@@ -124,7 +139,27 @@ impl GaitOffer {
             faster_turning: None,
             com_height: None,
             height_rise: None,
+            duty_factor: None,
+            mpc_state_weights: None,
+            body_angular_weight: None,
         }
+    }
+
+    /// The same offer with every leg in stance for `duty` of the cycle
+    /// ([`GaitOffer::duty_factor`]).
+    pub fn duty(self, duty: f64) -> Self {
+        GaitOffer { duty_factor: Some(duty), ..self }
+    }
+
+    /// The same offer with its own MPC state weights ([`GaitOffer::mpc_state_weights`]).
+    pub fn mpc_weights(self, weights: [f64; 12]) -> Self {
+        GaitOffer { mpc_state_weights: Some(weights), ..self }
+    }
+
+    /// The same offer with its own body-orientation weight in the whole-body QP
+    /// ([`GaitOffer::body_angular_weight`]).
+    pub fn body_angular_weight(self, weight: f64) -> Self {
+        GaitOffer { body_angular_weight: Some(weight), ..self }
     }
 
     /// The same offer at `scale` times its table period.
@@ -512,7 +547,11 @@ impl ControllerConfig {
     /// the **planar** MPC variant ([`MpcConfig::biped_planar`]) + WBC, biped walk. Each foot
     /// has two contact points, the bottoms of the ends of its capsule: (−0.2, 0, 0.04) and
     /// (0, 0, 0.04) in the `foot`/`foot_left` frames (capsule centre (−0.1, 0, 0.1),
-    /// half-length 0.1 along −x, radius 0.06).
+    /// half-length 0.1 along −x, radius 0.06). The walk, rated 1.0 m/s, carries its own
+    /// tuning ([`GaitOffer::duty`], [`GaitOffer::mpc_weights`],
+    /// [`GaitOffer::body_angular_weight`]): each foot in stance for 0.35 of the cycle, the
+    /// torso's pitch left to a weak WBC orientation task so that it leans back and the feet
+    /// land ahead (the source has the measurements).
     pub fn walker2d() -> Self {
         let mut contacts = Vec::new();
         for (leg, f) in ["foot_left", "foot"].iter().enumerate() {
@@ -538,9 +577,36 @@ impl ControllerConfig {
         // A stiffer body-velocity task: at the default 20 the walk lags its command by a
         // third (0.35 m/s for 0.5); at 80 it makes 0.42 (0.45 after the first second).
         c.body_kd_vel = [80.0; 3];
-        // Rated to 0.5 m/s (0.45–0.46 over seeds 0–4); commanded 1.0 it stays up at 0.67–0.73.
-        // Planar: it cannot turn.
-        c.gaits = vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Walk, 0.5).straight_only()];
+        // The walk's own tuning, measured with `control_probe walker2d walk 1.0 11
+        // --measure-from 1 --set unrated=1` and the probe's `duty`, `walk_default_weights`
+        // and `walk_w_ang` keys over seeds 0–4 (2026-11-29). With the gait table's stance
+        // fraction (0.6) and the configuration's weights it made only 0.67–0.73 m/s: its
+        // 0.32 s swings asked the swing hip for ~140 N·m (limit 100; a hip at its limit 28 %
+        // of the time on seed 0), and the MPC braked each stance to pitch the torso upright,
+        // while the torso must lean back for a foot to land ahead of the hip at all
+        // (Gymnasium's thigh swings only backwards from the torso's axis, to 0°). Together
+        // the three changes make 0.88 m/s (a hip at its limit 7 % of the time); short of
+        // any of them it lags or falls:
+        // - stance 0.35 of the cycle (0.52 s swings, no planned double support); with the
+        //   configuration's weights that alone makes 0.54 m/s;
+        // - no MPC pitch or pitch-rate weight, leaving the torso's pitch to the WBC; with
+        //   the WBC's orientation weight at the configuration's 10 it falls within 4.5 s;
+        // - the WBC's orientation weight 0.5: the torso leans up to 0.51–0.53 rad (the env's
+        //   healthy band is ±1 rad); 0.2 makes the same 0.88 m/s at 0.62–0.71 rad, 1.0
+        //   0.87 m/s at 0.43–0.45 rad.
+        // The same weights at the table's stance fraction fall on 4 of 5 seeds.
+        let mut walk_weights = c.mpc.state_weights;
+        walk_weights[1] = 0.0;
+        walk_weights[7] = 0.0;
+        // Rated to 1.0 m/s; planar: it cannot turn.
+        c.gaits = vec![
+            GaitOffer::new(Gait::Stand, 0.0),
+            GaitOffer::new(Gait::Walk, 1.0)
+                .straight_only()
+                .duty(0.35)
+                .mpc_weights(walk_weights)
+                .body_angular_weight(0.5),
+        ];
         c
     }
 
@@ -833,6 +899,9 @@ impl ControllerConfig {
                     period_scale: own.map_or(1.0, |o| o.period_scale),
                     com_height: own.and_then(|o| o.com_height),
                     height_rise: own.and_then(|o| o.height_rise),
+                    duty_factor: own.and_then(|o| o.duty_factor),
+                    mpc_state_weights: own.and_then(|o| o.mpc_state_weights),
+                    body_angular_weight: own.and_then(|o| o.body_angular_weight),
                     ..GaitOffer::new(g, f64::INFINITY)
                 }
             })
@@ -887,6 +956,28 @@ impl ControllerConfig {
             })
             .collect();
         list.join(", ")
+    }
+
+    /// Stance fraction of each gait ([`Gait::index`]) for the gait scheduler
+    /// ([`GaitOffer::duty_factor`]): 0 for the table's.
+    pub fn duty_factors(&self) -> [f64; Gait::ALL.len()] {
+        let mut duties = [0.0; Gait::ALL.len()];
+        for o in &self.gaits {
+            duties[o.gait.index()] = o.duty_factor.unwrap_or(0.0);
+        }
+        duties
+    }
+
+    /// The MPC's state weights while `gait` runs: its offer's own, else
+    /// [`MpcConfig::state_weights`].
+    pub fn mpc_state_weights(&self, gait: Gait) -> [f64; 12] {
+        self.find_offer(gait).and_then(|o| o.mpc_state_weights).unwrap_or(self.mpc.state_weights)
+    }
+
+    /// The whole-body QP's body-orientation weight while `gait` runs: its offer's own, else
+    /// [`WbcConfig::w_body_angular`].
+    pub fn body_angular_weight(&self, gait: Gait) -> f64 {
+        self.find_offer(gait).and_then(|o| o.body_angular_weight).unwrap_or(self.wbc.w_body_angular)
     }
 
     /// Period scale of each gait ([`Gait::index`]) for the gait scheduler: 0 for a gait not
@@ -1030,6 +1121,33 @@ impl ControllerConfig {
                 && !(h.is_finite() && h > 0.0)
             {
                 return Err(ConfigError::OutOfRange { field: "gaits.com_height", value: h, range: "> 0 m" });
+            }
+            if let Some(d) = o.duty_factor
+                && !(d > 0.0 && d < 1.0 && o.gait != Gait::Stand)
+            {
+                return Err(ConfigError::OutOfRange {
+                    field: "gaits.duty_factor",
+                    value: d,
+                    range: "in (0, 1), and none for stand",
+                });
+            }
+            if let Some(w) = o.mpc_state_weights
+                && let Some(v) = w.iter().find(|v| !(v.is_finite() && **v >= 0.0))
+            {
+                return Err(ConfigError::OutOfRange {
+                    field: "gaits.mpc_state_weights",
+                    value: *v,
+                    range: "finite, >= 0",
+                });
+            }
+            if let Some(w) = o.body_angular_weight
+                && !(w.is_finite() && w >= 0.0)
+            {
+                return Err(ConfigError::OutOfRange {
+                    field: "gaits.body_angular_weight",
+                    value: w,
+                    range: "finite, >= 0",
+                });
             }
             if let Some(r) = o.height_rise {
                 if o.com_height.is_none() {

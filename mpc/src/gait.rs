@@ -133,6 +133,17 @@ impl GaitPattern {
         }
     }
 
+    /// The pattern with every leg's stance fraction `duty` instead of its table's
+    /// (`duty ∈ (0, 1)`; otherwise, and for [`Gait::Stand`], returned unchanged). The phase
+    /// offsets stay, so each leg still lifts off in the table's order; below ½ a biped's
+    /// or a trot's stances no longer overlap (flight phases in the schedule).
+    pub fn with_duty(mut self, duty: f64) -> GaitPattern {
+        if self.gait != Gait::Stand && duty > 0.0 && duty < 1.0 {
+            self.duty[..self.n_legs].fill(duty);
+        }
+        self
+    }
+
     /// The pattern with the trot's diagonal partners staggered by `s` of the cycle for
     /// turning (`|s|` ≤ [`MAX_STAGGER`], clamped): positive `s` (a left turn) lets the left
     /// legs lead their pairs (FL before HR, HL before FR), negative the right legs, and every
@@ -221,6 +232,9 @@ pub struct GaitScheduler {
     n_legs: usize,
     /// Period scale per gait ([`Gait::index`]); 0: the gait is not run.
     period_scales: [f64; Gait::ALL.len()],
+    /// Stance fraction of every leg per gait ([`Gait::index`]), replacing the table's; 0:
+    /// the table's.
+    duty_factors: [f64; Gait::ALL.len()],
     pattern: GaitPattern,
     pending: Option<GaitPattern>,
     /// Stagger for turning ([`GaitPattern::staggered`]) the next cycle takes.
@@ -261,6 +275,7 @@ impl GaitScheduler {
         Self {
             n_legs,
             period_scales,
+            duty_factors: [0.0; Gait::ALL.len()],
             pattern,
             pending: None,
             stagger: 0.0,
@@ -268,6 +283,26 @@ impl GaitScheduler {
             phase: 0.0,
             last_t: None,
         }
+    }
+
+    /// The same scheduler with gait `g`'s legs in stance for `duty_factors[g.index()]` of
+    /// its cycle instead of its table's stance fractions ([`GaitPattern::with_duty`]); an
+    /// entry outside (0, 1) keeps the table's, and so does Stand.
+    pub fn with_duty_factors(mut self, duty_factors: [f64; Gait::ALL.len()]) -> Self {
+        self.duty_factors = duty_factors;
+        self
+    }
+
+    /// The pattern of `gait` as this scheduler runs it (its period scale and stance
+    /// fraction), or `None` if the gait is not defined for this many legs or not run.
+    fn table(&self, gait: Gait) -> Option<GaitPattern> {
+        let scale = self.period_scales[gait.index()];
+        if scale.is_nan() || scale <= 0.0 {
+            return None;
+        }
+        let mut p = GaitPattern::new(gait, self.n_legs)?;
+        p.period *= scale;
+        Some(p.with_duty(self.duty_factors[gait.index()]))
     }
 
     /// The pattern in force.
@@ -318,9 +353,7 @@ impl GaitScheduler {
         match self.pending {
             Some(p) => Some(self.turning(p)),
             None => {
-                let mut p = GaitPattern::new(self.pattern.gait, self.n_legs)?;
-                p.period *= self.period_scales[self.pattern.gait.index()];
-                let p = self.turning(p);
+                let p = self.turning(self.table(self.pattern.gait)?);
                 (p != self.pattern).then_some(p)
             }
         }
@@ -328,7 +361,8 @@ impl GaitScheduler {
 
     /// Back to standing at phase 0 and forget the clock.
     pub fn reset(&mut self) {
-        *self = Self::with_period_scales(self.n_legs, self.period_scales);
+        *self =
+            Self::with_period_scales(self.n_legs, self.period_scales).with_duty_factors(self.duty_factors);
     }
 
     /// Advances the phase to time `t` and requests `gait`. A gait not defined for this
@@ -342,11 +376,7 @@ impl GaitScheduler {
         };
         self.last_t = Some(t);
         if gait != self.pattern.gait {
-            let scale = self.period_scales[gait.index()];
-            if scale > 0.0
-                && let Some(mut p) = GaitPattern::new(gait, self.n_legs)
-            {
-                p.period *= scale;
+            if let Some(p) = self.table(gait) {
                 self.pending = Some(p);
             }
         } else {
@@ -434,6 +464,41 @@ mod tests {
         assert!((p.swing_progress(0.1, 1).unwrap() - 0.2).abs() < 1e-12);
         // Stance progress of FL: 0.1 / 0.5 = 0.2.
         assert!((p.stance_progress(0.1, 0).unwrap() - 0.2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_scheduler_runs_a_gait_at_its_own_stance_fraction() {
+        let p = GaitPattern::new(Gait::Walk, 2).unwrap();
+        // Every used leg, offsets kept; Stand and out-of-range values unchanged.
+        let q = p.with_duty(0.35);
+        assert_eq!(q.duty[..2], [0.35, 0.35]);
+        assert_eq!((q.offsets, q.period), (p.offsets, p.period));
+        assert_eq!(q.duty[2..], p.duty[2..]);
+        for d in [0.0, 1.0, 1.5, -0.1, f64::NAN] {
+            assert_eq!(p.with_duty(d), p, "{d}");
+        }
+        let stand = GaitPattern::new(Gait::Stand, 2).unwrap();
+        assert_eq!(stand.with_duty(0.5), stand);
+        // Below ½ a biped's stances no longer overlap: at φ = 0.4 neither foot is down.
+        assert!(!q.in_stance(0.4, 0) && !q.in_stance(0.4, 1));
+        // The scheduler builds the walk with it, at its period scale, and keeps it over a reset.
+        let mut duties = [0.0; Gait::ALL.len()];
+        duties[Gait::Walk.index()] = 0.35;
+        let mut s = GaitScheduler::new(2, 1.25).with_duty_factors(duties);
+        s.update(0.0, Gait::Walk);
+        assert_eq!(s.pattern().duty[..2], [0.35, 0.35]);
+        assert!((s.pattern().period - 1.25 * p.period).abs() < 1e-12);
+        for k in 1..=200 {
+            s.update(k as f64 * 0.01, Gait::Walk);
+        }
+        assert_eq!(s.pattern().duty[..2], [0.35, 0.35]);
+        s.reset();
+        s.update(0.0, Gait::Walk);
+        assert_eq!(s.pattern().duty[..2], [0.35, 0.35]);
+        // Without it, the table's.
+        let mut plain = GaitScheduler::new(2, 1.0);
+        plain.update(0.0, Gait::Walk);
+        assert_eq!(plain.pattern().duty, p.duty);
     }
 
     #[test]

@@ -417,6 +417,14 @@ impl WholeBodyQp {
         self.cfg.w_posture = weight;
     }
 
+    /// Sets the body-orientation weight ([`WbcConfig::w_body_angular`]) for the next solves.
+    /// The controller sets the running gait's own ([`crate::GaitOffer::body_angular_weight`]);
+    /// the caller passes a validated weight.
+    pub(crate) fn set_body_angular_weight(&mut self, weight: f64) {
+        debug_assert!(weight.is_finite() && weight >= 0.0);
+        self.cfg.w_body_angular = weight;
+    }
+
     /// Status of the last solve.
     pub fn status(&self) -> QpStatus {
         self.status

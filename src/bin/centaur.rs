@@ -365,7 +365,7 @@ struct ControlArgs {
     env: String,
     /// Gait: stand, walk, trot, pace, bound, pronk or gallop; each robot offers some of them
     /// up to a rated speed (minitaur: stand, trot to 2.5 m/s, walk to 0.5, bound to 2.5,
-    /// pronk to 2.0; ant: stand, trot to 1.2, walk to 0.3; walker2d: stand, walk to 0.5;
+    /// pronk to 2.0; ant: stand, trot to 1.2, walk to 0.3; walker2d: stand, walk to 1.0;
     /// humanoid: stand (by stepping in place), walk to 0.5) and refuses the others with an
     /// error naming what it offers.
     #[arg(long, value_parser = centaur::cli::gait_name, default_value = "trot")]

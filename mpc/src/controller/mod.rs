@@ -80,7 +80,8 @@ impl LocomotionController {
             command.q_des[i] = robot.q_nominal[iq];
         }
         Ok(Self {
-            gait: GaitScheduler::with_period_scales(robot.n_legs, config.period_scales()),
+            gait: GaitScheduler::with_period_scales(robot.n_legs, config.period_scales())
+                .with_duty_factors(config.duty_factors()),
             data: Data::new(&robot.model),
             estimate: Estimate::new(&robot),
             reference: Reference::new(),
@@ -584,6 +585,75 @@ mod tests {
             let e = bad(ControllerConfig { turn_period_scale: p, ..ControllerConfig::minitaur() });
             assert!(e.contains("turn_period_scale"), "{e}");
         }
+    }
+
+    #[test]
+    fn a_gait_runs_with_its_own_stance_fraction_and_weights() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/mujoco/walker2d.urdf");
+        let model = Model::from_urdf_file(path, BaseKind::Fixed).unwrap();
+        let cfg = ControllerConfig::walker2d();
+        let walk = *cfg.offer(Gait::Walk).unwrap();
+        let (own_weights, own_angular) = (walk.mpc_state_weights.unwrap(), walk.body_angular_weight.unwrap());
+        assert_eq!((walk.duty_factor, own_angular), (Some(0.35), 0.5));
+        assert_eq!((own_weights[1], own_weights[7]), (0.0, 0.0));
+        assert_ne!(own_weights, cfg.mpc.state_weights);
+        // After `seconds` of `command` from the nominal state: the pattern in force, the
+        // MPC's state weights and the WBC's orientation weight.
+        let after = |cfg: ControllerConfig, command: Command, seconds: f64| {
+            let mut c = LocomotionController::new(&model, cfg).unwrap();
+            let s = c.nominal_state();
+            for k in 0..(seconds / 0.01) as usize {
+                c.tick(&s, &command, k as f64 * 0.01);
+            }
+            (*c.gait.pattern(), c.mpc().unwrap().input.state_weights, c.torques.wbc.config().w_body_angular)
+        };
+        // Standing: the configuration's own.
+        let (p, w, a) = after(cfg.clone(), Command::stand(), 0.5);
+        assert_eq!((p.gait, w, a), (Gait::Stand, cfg.mpc.state_weights, cfg.wbc.w_body_angular));
+        // Walking: the offer's, and each foot in stance for 0.35 of the cycle.
+        let (p, w, a) = after(cfg.clone(), Command::forward(0.5, Gait::Walk), 1.0);
+        assert_eq!((p.gait, w, a), (Gait::Walk, own_weights, own_angular));
+        assert_eq!(p.duty[..2], [0.35, 0.35]);
+        // An offer without its own: the table's stance fraction and the configuration's.
+        let mut plain = cfg.clone();
+        plain.gaits = vec![GaitOffer::new(Gait::Stand, 0.0), GaitOffer::new(Gait::Walk, 1.0)];
+        let (p, w, a) = after(plain, Command::forward(0.5, Gait::Walk), 1.0);
+        assert_eq!((w, a), (cfg.mpc.state_weights, cfg.wbc.w_body_angular));
+        assert_eq!(p.duty[..2], crate::GaitPattern::new(Gait::Walk, 2).unwrap().duty[..2]);
+        // Lifting the offers for a probe keeps each offer's own tuning.
+        let mut lifted = cfg.clone();
+        lifted.offer_every_gait();
+        let l = lifted.offer(Gait::Walk).unwrap();
+        assert_eq!(
+            (l.duty_factor, l.mpc_state_weights, l.body_angular_weight),
+            (walk.duty_factor, Some(own_weights), Some(own_angular))
+        );
+        assert!(l.max_speed.is_infinite());
+        // Bad values are refused by name.
+        let bad = |offer: GaitOffer| {
+            let mut c = ControllerConfig::walker2d();
+            c.gaits = vec![GaitOffer::new(Gait::Stand, 0.0), offer];
+            c.validate().unwrap_err().to_string()
+        };
+        for d in [0.0, 1.0, -0.2, f64::NAN] {
+            let e = bad(GaitOffer::new(Gait::Walk, 1.0).duty(d));
+            assert!(e.contains("gaits.duty_factor"), "{e}");
+        }
+        let mut stand = ControllerConfig::walker2d();
+        stand.gaits[0] = GaitOffer::new(Gait::Stand, 0.0).duty(0.5);
+        assert!(stand.validate().unwrap_err().to_string().contains("gaits.duty_factor"));
+        let mut nan = own_weights;
+        nan[3] = f64::NAN;
+        let e = bad(GaitOffer::new(Gait::Walk, 1.0).mpc_weights(nan));
+        assert!(e.contains("gaits.mpc_state_weights"), "{e}");
+        let e = bad(GaitOffer::new(Gait::Walk, 1.0).body_angular_weight(-1.0));
+        assert!(e.contains("gaits.body_angular_weight"), "{e}");
+        // Recorded only where set: the Minitaur's offers read as before.
+        let json = serde_json::to_string(&ControllerConfig::minitaur().gaits).unwrap();
+        for key in ["duty_factor", "mpc_state_weights", "body_angular_weight"] {
+            assert!(!json.contains(key), "{key} in {json}");
+        }
+        assert!(serde_json::to_string(&cfg.gaits).unwrap().contains("\"duty_factor\":0.35"));
     }
 
     #[test]

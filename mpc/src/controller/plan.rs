@@ -130,9 +130,9 @@ impl Planner {
             x0[10] = 0.0;
         }
         inp.x0 = x0;
-        inp.state_weights = cfg.mpc.state_weights;
+        inp.state_weights = cfg.mpc_state_weights(gait.pattern().gait);
         inp.state_weights[8] =
-            while_turning(gait.pattern().stagger != 0.0, cfg.turn_yaw_rate_weight, cfg.mpc.state_weights[8]);
+            while_turning(gait.pattern().stagger != 0.0, cfg.turn_yaw_rate_weight, inp.state_weights[8]);
         for k in 0..h {
             let tk = (k + 1) as f64 * dt;
             let r = &mut inp.x_ref[k];

@@ -81,6 +81,7 @@ impl Torques {
             while_turning(staggered, cfg.turn_yaw_weight, cfg.wbc.body_axis_weights[5]),
         );
         self.wbc.set_posture_weight(while_turning(staggered, cfg.turn_posture_weight, cfg.wbc.w_posture));
+        self.wbc.set_body_angular_weight(cfg.body_angular_weight(cx.gait.pattern().gait));
         let nc = robot.n_contacts();
         let m = robot.mass;
         let gvec = robot.model.gravity;
