@@ -44,7 +44,12 @@
 //!   hind feet planted, the body yaws about their midpoint without a foot slipping sideways.
 //! * **Walker2d**: the **planar** MPC variant ([`MpcConfig::biped_planar`]: lateral force
 //!   columns removed, feet projected to the sagittal plane) + WBC on its planar root
-//!   joints, biped walk, heel and toe contacts per foot.
+//!   joints, biped walk, heel and toe contacts per foot. The walk carries its own tuning in
+//!   its offer ([`GaitOffer::duty`], [`GaitOffer::mpc_weights`],
+//!   [`GaitOffer::body_angular_weight`]): each foot in stance for 0.35 of the cycle and the
+//!   torso's pitch left to a weak WBC task. Its hip swings the leg only backwards from the
+//!   torso's axis, so the torso leans back for a foot to land ahead, and the heavy legs
+//!   need the longer swing to stay within the hips' torque; rated 1.0 m/s.
 //! * **Humanoid**: balance on two point feet by stepping in place (a stand command walks on
 //!   the spot, [`ControllerConfig::step_in_place`]): point feet support the robot along a
 //!   line only and there are no ankles, so no standing controller can hold it still. It
