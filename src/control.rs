@@ -187,6 +187,12 @@ pub struct ControlSummary {
     pub measured_from: f64,
     /// Largest |roll| or |pitch| of the body over the run (rad).
     pub max_tilt: f64,
+    /// Mechanical energy the actuators spent over the measured time, `Σ |τ·q̇| dt` (J; the
+    /// env's [`centaur_gym::StepInfo::energy`]).
+    pub energy: f64,
+    /// Cost of transport over the measured time: `energy / (m g distance)`, `m` the robot's
+    /// total mass (`None` when it moved less than 1 cm forward: standing).
+    pub cost_of_transport: Option<f64>,
     /// The push, if any: force (N, world) and its start and duration (s).
     pub push: Option<PushSummary>,
     /// Environment return accumulated over the run.
@@ -388,6 +394,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     let mut blocking = 0u64;
     let mut fell = false;
     let mut ret = 0.0;
+    let mut energy = 0.0;
     let mut t = 0.0;
     let wall = Instant::now();
     for k in 0..steps {
@@ -403,6 +410,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
             t0 = t;
             yaw_turned = 0.0;
             forward_path = 0.0;
+            energy = 0.0;
         }
         command.forward_velocity = speed_at(t);
         if seg_starts.last().is_none_or(|s| s.1 != command.forward_velocity) {
@@ -432,6 +440,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         wbc_n += 1;
         let step = env.step(&action, &mut obs)?;
         ret += step.reward;
+        energy += step.info.energy;
         t = (k + 1) as f64 * env.dt();
         let state = env.robot_state();
         let base_speed = state.v.rows(0, state.v.len().min(3)).norm();
@@ -491,6 +500,11 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         seconds: t,
         measured_from: t0,
         max_tilt,
+        energy,
+        cost_of_transport: (distance > 0.01).then(|| {
+            let model = env.model();
+            energy / (model.total_mass() * model.gravity.norm().max(1e-9) * distance)
+        }),
         push: opts.push.map(|p| PushSummary {
             force: p.force,
             at: p.at,

@@ -321,7 +321,10 @@ fn the_ant_survives_lateral_pushes() {
 fn walker2d_stands_still() {
     // Its hips and knees rest on their joint limits; it fell within 1.5 s before the
     // whole-body QP knew the limits.
-    assert_stands(&run("walker2d", Gait::Stand, 0.0, 0.0, None), 0.05, 0.05);
+    let s = run("walker2d", Gait::Stand, 0.0, 0.0, None);
+    assert_stands(&s, 0.05, 0.05);
+    // Standing still it has no cost of transport.
+    assert_eq!(s.cost_of_transport, None);
 }
 
 #[test]
@@ -338,7 +341,12 @@ fn walker2d_walks_at_one_metre_per_second() {
     // The CI row: seed 0, 10 s after a 1 s ramp, within 15 % (0.881–0.886 m/s over
     // seeds 0–4). Until the walk's own tuning (`ControllerConfig::walker2d`) it made
     // 0.67–0.73 m/s here.
-    assert_meets_target(&run("walker2d", Gait::Walk, 1.0, 1.0, None), 1.0);
+    let s = run("walker2d", Gait::Walk, 1.0, 1.0, None);
+    assert_meets_target(&s, 1.0);
+    // Its cost of transport over the measured 10 s (0.47–0.48 over seeds 0–4): the energy
+    // the actuators spent then, per weight and metre.
+    let cot = s.cost_of_transport.expect("it moved");
+    assert!(s.energy > 0.0 && (0.3..0.7).contains(&cot), "energy {} J, cost of transport {cot}", s.energy);
 }
 
 #[test]

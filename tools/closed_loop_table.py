@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Runs `centaur control` over robots × gaits × speeds × seeds and prints the README's
 controller tables (Markdown): survival counts, mean speed, yaw drift, tilt, cost of
-transport proxy and tick times, each over the seeds.
+transport (mechanical energy / (m g distance) over the measured time) and tick times, each
+over the seeds.
 
     cargo build --release --features cli --bin centaur
     python3 tools/closed_loop_table.py [--seeds 5] [--only minitaur] [--table speed|push|noise|turn|steps|unrated|all] [--drawn-motor]
@@ -166,8 +167,8 @@ class Runner:
 
 
 def rng(xs, fmt="{:.3f}"):
-    lo, hi = min(xs), max(xs)
-    return fmt.format(lo) if abs(hi - lo) < 5e-4 else f"{fmt.format(lo)}–{fmt.format(hi)}"
+    lo, hi = fmt.format(min(xs)), fmt.format(max(xs))
+    return lo if lo == hi or max(xs) - min(xs) < 5e-4 else f"{lo}–{hi}"
 
 
 def survived(runs):
@@ -186,15 +187,22 @@ def speed_ok(runs, v):
     return all(abs(r["mean_speed"] - v) <= 0.15 * abs(v) for r in runs)
 
 
+def cot(runs):
+    # Cost of transport over the measured time (`ControlSummary::cost_of_transport`):
+    # energy / (m g distance); "—" while standing.
+    xs = [r["cost_of_transport"] for r in runs if r.get("cost_of_transport") is not None]
+    return rng(xs, "{:.2f}") if xs and len(xs) == len(runs) else "—"
+
+
 def speed_table(runner, rows, extra=()):
     print("| robot | gait, command | survived | mean speed (m/s) | yaw drift (rad) | max tilt (rad) | "
-          "tick mean / p99 (µs) | MPC solve (µs) | meets the target |")
-    print("|---|---|---|---:|---:|---:|---:|---:|---|")
+          "cost of transport | tick mean / p99 (µs) | MPC solve (µs) | meets the target |")
+    print("|---|---|---|---:|---:|---:|---:|---:|---:|---|")
     for env, gait, speed in rows:
         runs = runner.seeds_of(env, gait, speed, extra=extra)
         ok = speed_ok(runs, speed) and all(r["yaw_drift"] < 0.2 for r in runs)
         print(f"| {env} | {gait} {speed:g} m/s | {survived(runs)} | {rng([r['mean_speed'] for r in runs])} | "
-              f"{rng([r['yaw_drift'] for r in runs])} | {rng([r['max_tilt'] for r in runs], '{:.2f}')} | "
+              f"{rng([r['yaw_drift'] for r in runs])} | {rng([r['max_tilt'] for r in runs], '{:.2f}')} | {cot(runs)} | "
               f"{sum(r['mean_tick_us'] for r in runs) / len(runs):.0f} / {max(r['p99_tick_us'] for r in runs):.0f} | "
               f"{sum(r['mean_mpc_solve_us'] for r in runs) / len(runs):.0f} | {'yes' if ok else '**no**'} |")
         sys.stdout.flush()
