@@ -638,8 +638,9 @@ fn control(args: ControlArgs) -> ExitCode {
             } else {
                 format!("at {} m/s", s.commanded_speed)
             };
+            let cot = s.cost_of_transport.map_or(String::new(), |c| format!(", cost of transport {c:.2}"));
             println!(
-                "{} {} {command} for {:.1} s: {motion}, {}, yaw drift {:.3} rad, tick {:.0} µs mean / {:.0} µs p99 (MPC {:.0} µs, WBC {:.0} µs); wrote {}",
+                "{} {} {command} for {:.1} s: {motion}, {}, yaw drift {:.3} rad{cot}, tick {:.0} µs mean / {:.0} µs p99 (MPC {:.0} µs, WBC {:.0} µs); wrote {}",
                 s.env,
                 s.gait,
                 s.seconds,
