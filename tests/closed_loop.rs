@@ -347,6 +347,13 @@ fn walker2d_walks_at_one_metre_per_second() {
     // the actuators spent then, per weight and metre.
     let cot = s.cost_of_transport.expect("it moved");
     assert!(s.energy > 0.0 && (0.3..0.7).contains(&cot), "energy {} J, cost of transport {cot}", s.energy);
+    // 4 N·s fore and aft at t = 3 s: it walks on (5 of 5 seeds each way; before the walk's
+    // tuning 1 of 5 forward and 4 of 5 back).
+    for f in [40.0, -40.0] {
+        let push = Some(Push { at: 3.0, force: [f, 0.0, 0.0], duration: 0.1 });
+        let s = run("walker2d", Gait::Walk, 1.0, 1.0, push);
+        assert!(!s.fell, "pushed with {f} N along x for 0.1 s: fell at {:.2} s", s.seconds);
+    }
 }
 
 #[test]
@@ -438,6 +445,26 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
         "{stdout}"
     );
     let _ = std::fs::remove_dir_all(&out);
+    // A fore-aft push (`--push-axis x`), the only one the planar Walker2d takes, is recorded
+    // along x; a lateral one is refused for it.
+    let pushed = |axis: &str| {
+        let args = ["control", "--env", "walker2d", "--gait", "walk", "--speed", "0.5", "--seconds", "4"];
+        Process::new(env!("CARGO_BIN_EXE_centaur"))
+            .args(args)
+            .args(["--push-force", "-40", "--push-at", "2", "--push-axis", axis, "--out"])
+            .arg(&out)
+            .output()
+            .unwrap()
+    };
+    let o = pushed("x");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(json["push"]["force"], serde_json::json!([-40.0, 0.0, 0.0]));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("cost of transport"));
+    let _ = std::fs::remove_dir_all(&out);
+    let o = pushed("y");
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("lateral (y) push"));
     // The controller told the motor drawn at reset (the default until 2026-11-27): recorded
     // in the summary; refused on a robot without the Minitaur's motor model.
     let drawn = |env: &str| {

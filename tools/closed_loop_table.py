@@ -75,7 +75,7 @@ UNRATED_ROWS = [
     ("ant", "bound", 0.3),
     ("ant", "gallop", 0.3),
 ]
-# (robot, gait, speed, lateral push N for 0.1 s at t = 3 s)
+# (robot, gait, speed, push N for 0.1 s at t = 3 s[, axis: "y" lateral (default) or "x" fore-aft])
 PUSH_ROWS = [
     ("minitaur", "trot", 0.3, 10), ("minitaur", "trot", 0.3, -10),
     ("minitaur", "trot", 0.3, 20), ("minitaur", "trot", 0.3, -20),
@@ -96,6 +96,11 @@ PUSH_ROWS = [
     ("humanoid", "walk", 0.5, 40), ("humanoid", "walk", 0.5, -40),
     # Above the walk's 0.5 m/s rating (run with --unrated): why it is rated 0.5.
     ("humanoid", "walk", 0.6, 40), ("humanoid", "walk", 0.6, -40),
+    # The planar Walker2d takes fore-aft pushes only (`--push-axis x`).
+    ("walker2d", "walk", 0.5, 40, "x"), ("walker2d", "walk", 0.5, -40, "x"),
+    ("walker2d", "walk", 1.0, 40, "x"), ("walker2d", "walk", 1.0, -40, "x"),
+    ("walker2d", "walk", 0.5, 100, "x"), ("walker2d", "walk", 0.5, -100, "x"),
+    ("walker2d", "walk", 1.0, 100, "x"), ("walker2d", "walk", 1.0, -100, "x"),
 ]
 # (robot, gait, speed, action noise as a fraction of each entry's half-range)
 NOISE_ROWS = [
@@ -231,13 +236,15 @@ def main() -> int:
         speed_table(r, pick(UNRATED_ROWS), extra=("--unrated",))
         print()
     if want("push"):
-        print("### Lateral pushes (0.1 s at t = 3 s)\n")
+        print("### Pushes (0.1 s at t = 3 s; lateral unless marked along x)\n")
         print("| robot | gait, command | push | survived | mean speed (m/s) | max tilt (rad) |")
         print("|---|---|---|---|---:|---:|")
-        for env, gait, speed, f in pick(PUSH_ROWS):
+        for env, gait, speed, f, *axis in pick(PUSH_ROWS):
+            axis = axis[0] if axis else "y"
             unrated = ("--unrated",) if (env, gait, speed) in UNRATED_PUSH_ROWS else ()
-            runs = r.seeds_of(env, gait, speed, extra=("--push-force", str(f)) + unrated)
-            print(f"| {env} | {gait} {speed:g} m/s | {f:+g} N × 0.1 s ({abs(f) * 0.1:g} N·s) | {survived(runs)} | "
+            runs = r.seeds_of(env, gait, speed, extra=("--push-force", str(f), "--push-axis", axis) + unrated)
+            along = " along x" if axis == "x" else ""
+            print(f"| {env} | {gait} {speed:g} m/s | {f:+g} N{along} × 0.1 s ({abs(f) * 0.1:g} N·s) | {survived(runs)} | "
                   f"{rng([x['mean_speed'] for x in runs])} | {rng([x['max_tilt'] for x in runs], '{:.2f}')} |")
             sys.stdout.flush()
         print()

@@ -382,9 +382,14 @@ struct ControlArgs {
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
-    /// Lateral push on the body (N, world +y; negative pushes to the right).
+    /// Push on the body (N): lateral, world +y (negative pushes to the right), or with
+    /// `--push-axis x` along world +x, the robots' starting heading (negative pushes back;
+    /// the planar Walker2d takes only these).
     #[arg(long, allow_negative_numbers = true)]
     push_force: Option<f64>,
+    /// The push's axis: `y` (lateral, the default) or `x` (fore and aft).
+    #[arg(long, default_value = "y", value_parser = ["x", "y"], requires = "push_force")]
+    push_axis: String,
     /// Start of the push (s).
     #[arg(long, default_value_t = 3.0, requires = "push_force")]
     push_at: f64,
@@ -596,7 +601,7 @@ fn control(args: ControlArgs) -> ExitCode {
         seed: args.seed,
         push: args.push_force.map(|f| Push {
             at: args.push_at,
-            force: [0.0, f, 0.0],
+            force: if args.push_axis == "x" { [f, 0.0, 0.0] } else { [0.0, f, 0.0] },
             duration: args.push_duration,
         }),
         measure_from: args.measure_from,
