@@ -47,7 +47,8 @@ pub enum ControlMode {
 }
 
 /// A gait a configuration offers ([`ControllerConfig::gaits`]): the controller runs it at
-/// its own period, up to its rated speed.
+/// its own period, up to its rated speed, and where the offer says so at its own CoM height,
+/// stance fraction and task weights.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct GaitOffer {
     /// The gait.
@@ -885,8 +886,8 @@ impl ControllerConfig {
     }
 
     /// Lifts the gait offers, to show why a gait is not offered: every gait defined for the
-    /// robot's leg count, at the period scale and CoM height of its offer (1 and the nominal
-    /// height when not offered), unrated.
+    /// robot's leg count, with the period scale, CoM height, stance fraction and weights of
+    /// its offer (the table's and the configuration's when not offered), unrated.
     pub fn offer_every_gait(&mut self) {
         let n_legs = self.robot.n_legs;
         let offered = std::mem::take(&mut self.gaits);
