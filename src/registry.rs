@@ -7,7 +7,7 @@
 //! | `pendulum` | Gymnasium's Pendulum-v1 ([`centaur_gym::pendulum::Pendulum`]) | — | — |
 //! | `minitaur`, `minitaur-fast`, `minitaur-deterministic` | PyBullet's MinitaurBulletEnv-v0 ([`centaur_envs::MinitaurEnv`]; `-fast`: 3.3 ms physics steps; `-deterministic`: no randomisation) | Minitaur | trot 2 m/s steered ±1.5 m/s (rated 3.5 m/s), scale 0.25, exploration σ 0.3 |
 //! | `ant`, `ant27` | Gymnasium Ant-v5 (`ant27`: the 27-d observation without contact forces) | Ant | trot 1 m/s steered ±0.5 m/s, scale 0.3, exploration σ 0.1 |
-//! | `walker2d` | Gymnasium Walker2d-v5 | Walker2d | walk 0.5 m/s steered ±0.5 m/s (to the walk's 1.0 m/s rating), scale 0.1, exploration σ 0.1 |
+//! | `walker2d` | Gymnasium Walker2d-v5 | Walker2d | walk 1.0 m/s steered ±0.5 m/s (rated 1.5 m/s), scale 0.1, exploration σ 0.1 |
 //! | `humanoid` | Gymnasium Humanoid-v5 | Humanoid | walk 0.3 m/s steered ±0.1 m/s, scale 0.1, exploration σ 0.1 |
 //! | `hopper`, `halfcheetah` | Gymnasium Hopper-, HalfCheetah-v5 | — | — |
 //! | `gecko`, `modular-ant`, `spider` | Revolve2's modular robots of those names ([`centaur_envs::ModularEnv`]) | — | — |
@@ -103,23 +103,23 @@ fn ant_residual() -> ResidualConfig {
     }
 }
 
-/// Walker2d's hybrid: 10 % of the control range around a 0.5 m/s walk (PPO's exploration
-/// at 30 % knocks the walking controller over: one seed of 60k PPO steps evaluated at 460
-/// with 0.3, 1200 with 0.1) whose speed the policy steers within ±0.5 m/s, to the walk's
-/// 1.0 m/s rating (until 2026-11-29 the walk was rated 0.5 m/s and this hybrid rated it
-/// 1.0, where it made 0.67–0.73 m/s; since the walk's own tuning, 0.88 m/s); a
-/// gentle start with σ 0.1 on the residual (PPO's first rollout, seed 0, before the
-/// steering: 99.8 % of the controller alone; 68 % at σ 0.3, 61 % at PPO's own 1.0) and 0.5
-/// on the steering (with it, the gentle-start test's first rollout: 1,393.0 against 1,409.4,
-/// 98.8 %; on the tuned walk, 2026-11-29, 1,458.5 against 1,468.5, 99.3 %). Five
-/// seeds to 1M samples on the walk before its tuning (2026-11-28, README): 1,703.0
-/// [1,532.2, 1,753.8] at 0.71 m/s, 2/50 falls, against 1,554.5 [1,425.1, 1,627.3] at
-/// 0.59 m/s, 3/50, without the steering.
+/// Walker2d's hybrid: 10 % of the control range around a 1.0 m/s walk whose speed the
+/// policy steers within ±0.5 m/s, rated 1.5 m/s over the walk's own 1.0 (commanded 1.25 and
+/// 1.5 m/s the walk stays up on seeds 0–4 at 0.99–1.03 m/s); a gentle start with σ 0.1 on
+/// the residual and 0.5 on the steering (the gentle-start test's first rollout: 1,779.7
+/// against the controller's 1,789.0, 99.5 %). The preset since 2026-11-29, after the walk's own
+/// tuning (README, "Walker2d, 5 seeds × 1M samples"); 2-seed screens to 1M that day
+/// (seeds 0–1): 2,043.2 with 0/20 falls, against 1,865.3 for a 0.5 m/s walk steered
+/// ±0.5 m/s to its 1.0 m/s rating (the preset before). PPO's exploration at 30 % of the
+/// action range knocks the walking controller over (one seed of 60k PPO steps evaluated at
+/// 460 with 0.3, 1200 with 0.1; the first rollout at PPO's own σ = 1 scored 61 % of the
+/// controller alone, at σ 0.1 99.8 %, on the walk of 2026-11-27).
 fn walker2d_residual() -> ResidualConfig {
     ResidualConfig {
         steering: Steering { speed: 0.5, yaw_rate: 0.0 },
+        rated_speed: Some(1.5),
         exploration: Some(Exploration { residual: 0.1, steering: 0.5 }),
-        ..ResidualConfig::new(0.1, Command::forward(0.5, Gait::Walk))
+        ..ResidualConfig::new(0.1, Command::forward(1.0, Gait::Walk))
     }
 }
 
