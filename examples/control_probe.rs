@@ -138,7 +138,7 @@ fn main() {
                     .iter_mut()
                     .filter(|o| o.gait != centaur::mpc::Gait::Stand)
                     .for_each(|o| o.duty_factor = Some(x)),
-                "walk_w_ang" => cfg
+                "offer_w_ang" => cfg
                     .gaits
                     .iter_mut()
                     .filter(|o| o.gait != centaur::mpc::Gait::Stand)
@@ -148,12 +148,12 @@ fn main() {
                     cfg.mpc.mu = x;
                     cfg.wbc.mu = x
                 }
-                "walk_default_weights" => cfg.gaits.iter_mut().for_each(|o| {
+                "offer_default_weights" => cfg.gaits.iter_mut().for_each(|o| {
                     o.mpc_state_weights = None;
                     o.body_angular_weight = None
                 }),
-                _ if k.starts_with("walk_q") => {
-                    let idx: usize = k["walk_q".len()..].parse().expect("walk_qN");
+                _ if k.starts_with("offer_q") => {
+                    let idx: usize = k["offer_q".len()..].parse().expect("offer_qN");
                     let base = cfg.mpc.state_weights;
                     for o in cfg.gaits.iter_mut().filter(|o| o.gait != centaur::mpc::Gait::Stand) {
                         o.mpc_state_weights.get_or_insert(base)[idx] = x;

@@ -501,10 +501,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         measured_from: t0,
         max_tilt,
         energy,
-        cost_of_transport: (distance > 0.01).then(|| {
-            let model = env.model();
-            energy / (model.total_mass() * model.gravity.norm().max(1e-9) * distance)
-        }),
+        cost_of_transport: crate::experiment::cost_of_transport(energy, env.model(), distance),
         push: opts.push.map(|p| PushSummary {
             force: p.force,
             at: p.at,

@@ -89,8 +89,9 @@ pub struct GaitOffer {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub height_rise: Option<HeightRise>,
     /// Every leg's stance fraction of the cycle while this gait runs, replacing the gait
-    /// table's ([`crate::GaitPattern::with_duty`]; default: none, the table's). Set with
-    /// [`GaitOffer::duty`].
+    /// table's ([`crate::GaitPattern::with_duty`]; default: none, the table's; a trot
+    /// staggered for turning takes the stagger's instead, [`crate::GaitPattern::staggered`]).
+    /// Set with [`GaitOffer::duty`].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub duty_factor: Option<f64>,
     /// The MPC's state weights while this gait runs, replacing
@@ -579,8 +580,8 @@ impl ControllerConfig {
         // third (0.35 m/s for 0.5); at 80 it makes 0.42 (0.45 after the first second).
         c.body_kd_vel = [80.0; 3];
         // The walk's own tuning, measured with `control_probe walker2d walk 1.0 11
-        // --measure-from 1 --set unrated=1` and the probe's `duty`, `walk_default_weights`
-        // and `walk_w_ang` keys over seeds 0–4 (2026-11-29). With the gait table's stance
+        // --measure-from 1 --set unrated=1` and the probe's `duty`, `offer_default_weights`
+        // and `offer_w_ang` keys over seeds 0–4 (2026-11-29). With the gait table's stance
         // fraction (0.6) and the configuration's weights it made only 0.67–0.73 m/s: its
         // 0.32 s swings asked the swing hip for ~140 N·m (limit 100; a hip at its limit 28 %
         // of the time on seed 0), and the MPC braked each stance to pitch the torso upright,

@@ -227,8 +227,6 @@ pub(crate) fn evaluate_pushed(
     let (mut falls, mut energy, mut distance) = (0usize, 0.0, 0.0);
     let (mut torque_sq, mut torque_n) = (0.0, 0usize);
     let mut contacts: Vec<(Vector3<f64>, Vector3<f64>)> = Vec::new();
-    let mass = driver.robot().model().total_mass();
-    let g = driver.robot().model().gravity.norm().max(1e-9);
     for ep in 0..episodes {
         driver.reset(seed + ep as u64, &mut obs)?;
         let x0 = base_x(driver.robot());
@@ -299,7 +297,7 @@ pub(crate) fn evaluate_pushed(
         mean_speed: speeds.iter().sum::<f64>() / k,
         falls,
         episodes,
-        cost_of_transport: (distance > 0.01).then(|| energy / (mass * g * distance)),
+        cost_of_transport: super::summary::cost_of_transport(energy, driver.robot().model(), distance),
         energy_mean: energy / k,
         torque_rms: (torque_sq / torque_n.max(1) as f64).sqrt(),
         length_mean: lengths.iter().sum::<f64>() / k,

@@ -3,6 +3,14 @@
 
 use serde::{Deserialize, Serialize};
 
+/// Cost of transport `E / (m g d)`: `energy` (J) the actuators spent carrying `model`'s total
+/// mass a forward `distance` (m); `None` below 1 cm (standing, or moving back). The
+/// evaluations' [`AgentStats::cost_of_transport`] and `centaur control`'s
+/// ([`crate::control::ControlSummary::cost_of_transport`]).
+pub fn cost_of_transport(energy: f64, model: &centaur_dynamics::Model, distance: f64) -> Option<f64> {
+    (distance > 0.01).then(|| energy / (model.total_mass() * model.gravity.norm().max(1e-9) * distance))
+}
+
 /// How an agent did over the evaluation episodes (and its training cost).
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct AgentStats {
