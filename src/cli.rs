@@ -11,7 +11,7 @@ use crate::experiment::{
     EXPERIMENT_FILES, ExperimentError, ExperimentOptions, ExperimentResult, Phase, run_experiment,
     tuned_config,
 };
-use crate::hybrid::{Exploration, Fade, ResidualConfig, Steering};
+use crate::hybrid::{Exploration, ExplorationRamp, Fade, ResidualConfig, Steering};
 use crate::mpc::Gait;
 use crate::registry::residual_config;
 use crate::settings::EnvSettings;
@@ -124,6 +124,19 @@ pub struct HybridArgs {
     /// Initial exploration σ of the steering, in policy units (PPO and A2C) [default: the robot's]
     #[arg(long)]
     pub explore_steering: Option<f64>,
+    /// A rising exploration of the joint residual (PPO and A2C): the learner's σ is held at
+    /// least at a floor rising log-linearly from the initial σ to SIGMA (policy units) over
+    /// the first --explore-ramp-samples training samples, then released [default: the
+    /// robot's: walker2d 0.3, none elsewhere]
+    #[arg(long, value_name = "SIGMA", conflicts_with = "no_explore_ramp")]
+    pub explore_ramp: Option<f64>,
+    /// Training samples over which --explore-ramp rises [default: the robot's ramp's, else
+    /// 200,000]
+    #[arg(long, value_name = "SAMPLES", requires = "explore_ramp")]
+    pub explore_ramp_samples: Option<u64>,
+    /// No rising exploration, whatever the robot's preset
+    #[arg(long)]
+    pub no_explore_ramp: bool,
     /// Off-policy learners (SAC, SAC v1, TD3, DDPG) warm up with the hybrid's own
     /// exploration around the controller instead of uniformly random actions
     #[arg(long)]
@@ -142,6 +155,10 @@ pub struct HybridArgs {
     #[arg(long, num_args = 2, value_names = ["START", "END"], allow_negative_numbers = true)]
     pub fade: Option<Vec<f64>>,
 }
+
+/// The samples over which `--explore-ramp` rises when neither the command line nor the
+/// robot's preset says.
+pub const DEFAULT_RAMP_SAMPLES: u64 = 200_000;
 
 /// A gait by name (`--gait` here and on `centaur control`), for clap.
 pub fn gait_name(name: &str) -> Result<Gait, String> {
@@ -178,6 +195,16 @@ impl HybridArgs {
                 residual: self.explore_residual.unwrap_or(e.residual),
                 steering: self.explore_steering.unwrap_or(e.steering),
             });
+        }
+        if self.no_explore_ramp {
+            preset.exploration_ramp = None;
+        }
+        if let Some(residual) = self.explore_ramp {
+            let samples = self
+                .explore_ramp_samples
+                .or(preset.exploration_ramp.map(|r| r.samples))
+                .unwrap_or(DEFAULT_RAMP_SAMPLES);
+            preset.exploration_ramp = Some(ExplorationRamp { residual, samples });
         }
         preset.warmup_with_policy |= self.warmup_with_policy;
         if self.rated_speed.is_some() {
@@ -398,5 +425,41 @@ mod tests {
         );
         let e = parse(&["--gait", "moonwalk"]).err().unwrap().to_string();
         assert!(e.contains("moonwalk"), "{e}");
+    }
+
+    #[test]
+    fn the_exploration_ramp_is_the_presets_unless_given_or_switched_off() {
+        use clap::Parser;
+        #[derive(clap::Parser)]
+        struct Line {
+            #[command(flatten)]
+            hybrid: HybridArgs,
+        }
+        let parse = |robot: &str, args: &[&str]| {
+            let preset = residual_config(robot).unwrap();
+            Line::try_parse_from([&["x"][..], args].concat()).map(|l| l.hybrid.apply(preset))
+        };
+        let walker = residual_config("walker2d").unwrap().exploration_ramp.unwrap();
+        assert_eq!(parse("walker2d", &[]).unwrap().exploration_ramp, Some(walker));
+        assert_eq!(parse("walker2d", &["--no-explore-ramp"]).unwrap().exploration_ramp, None);
+        // A new σ keeps the preset's samples; elsewhere the default count.
+        let ramp = |robot, args: &[&str]| parse(robot, args).unwrap().exploration_ramp.unwrap();
+        assert_eq!(ramp("walker2d", &["--explore-ramp", "0.5"]), ExplorationRamp { residual: 0.5, ..walker });
+        assert_eq!(
+            ramp("ant", &["--explore-ramp", "0.5"]),
+            ExplorationRamp { residual: 0.5, samples: DEFAULT_RAMP_SAMPLES }
+        );
+        assert_eq!(
+            ramp("ant", &["--explore-ramp", "0.5", "--explore-ramp-samples", "300000"]),
+            ExplorationRamp { residual: 0.5, samples: 300_000 }
+        );
+        // Samples without a σ, a ramp with its opposite, and a count that is not whole: refused.
+        for args in [
+            &["--explore-ramp-samples", "300000"][..],
+            &["--explore-ramp", "0.5", "--no-explore-ramp"],
+            &["--explore-ramp", "0.5", "--explore-ramp-samples", "1.5"],
+        ] {
+            assert!(parse("walker2d", args).is_err(), "{args:?} accepted");
+        }
     }
 }

@@ -110,6 +110,25 @@ pub struct Exploration {
     pub steering: f64,
 }
 
+/// A rising exploration for the joint residual: the learner's σ on every residual entry is
+/// held at least at a floor that rises log-linearly from [`Exploration::residual`] (the
+/// gentle start) to `residual` over the first `samples` training samples, then is released
+/// to the learner ([`centaur_rl::ExplorationFloor`]; PPO and A2C).
+///
+/// Why: a gentle start keeps the first episodes on the controller's gait, but a residual
+/// explored that gently never leaves it. Walker2d's hybrid with a residual bound of the
+/// whole action range and σ 0.01 stayed at the walk's 1.0 m/s for 1M samples; explored at
+/// σ 0.3 from the start it learnt to run (README, "Walker2d: a residual that learns to
+/// run"), but its first episodes fell. The ramp does both.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExplorationRamp {
+    /// σ of every joint-residual entry at the end of the ramp, in the policy's [−1, 1] units.
+    pub residual: f64,
+    /// Training samples (all environments together) over which the floor rises.
+    pub samples: u64,
+}
+
 /// A safety fade: the policy's authority shrinks as the body sinks below the controller's
 /// height reference, handing the robot back to the controller alone in two stages. The sag
 /// is `(h_ref − z_com) / h_ref`, the CoM's drop below the height the controller holds it at
@@ -203,6 +222,11 @@ pub struct ResidualConfig {
     /// learner's own, e.g. PPO's `log_std_init`). Only learners with a per-entry Gaussian
     /// (PPO, A2C) take it.
     pub exploration: Option<Exploration>,
+    /// A rising exploration floor for the joint residual (`None`, the default: none;
+    /// recorded only where set, so the records of runs without it read as before). Needs
+    /// [`ResidualConfig::exploration`] (its start) and the joint residual.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub exploration_ramp: Option<ExplorationRamp>,
     /// Off-policy learners (SAC, SAC v1, TD3, DDPG) warm up with the policy's own
     /// exploration around its zero output, i.e. the controller plus noise, instead of
     /// uniformly random actions (default: false, Stable-Baselines3's uniform warm-up).
@@ -226,10 +250,11 @@ pub struct ResidualConfig {
     pub fade: Option<Fade>,
 }
 
-/// Every field as `derive(Debug)` writes it, but `fade` only where set: runs record this
-/// text in their fingerprint ([`crate::experiment::ExperimentOptions::fingerprint`]), and a
-/// run without a fade keeps the fingerprint it had before the fade existed (so `centaur
-/// compare --resume` still keeps it).
+/// Every field as `derive(Debug)` writes it, but `fade` and `exploration_ramp` only where
+/// set: runs record this text in their fingerprint
+/// ([`crate::experiment::ExperimentOptions::fingerprint`]), and a run without them keeps
+/// the fingerprint it had before they existed (so `centaur compare --resume` and
+/// `--pure-from` still take it).
 impl std::fmt::Debug for ResidualConfig {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let ResidualConfig {
@@ -237,6 +262,7 @@ impl std::fmt::Debug for ResidualConfig {
             joint_residual,
             steering,
             exploration,
+            exploration_ramp,
             warmup_with_policy,
             include_reference,
             command,
@@ -247,8 +273,11 @@ impl std::fmt::Debug for ResidualConfig {
         s.field("scale", scale)
             .field("joint_residual", joint_residual)
             .field("steering", steering)
-            .field("exploration", exploration)
-            .field("warmup_with_policy", warmup_with_policy)
+            .field("exploration", exploration);
+        if let Some(ramp) = exploration_ramp {
+            s.field("exploration_ramp", ramp);
+        }
+        s.field("warmup_with_policy", warmup_with_policy)
             .field("include_reference", include_reference)
             .field("command", command)
             .field("rated_speed", rated_speed);
@@ -266,6 +295,7 @@ impl Default for ResidualConfig {
             joint_residual: true,
             steering: Steering::OFF,
             exploration: None,
+            exploration_ramp: None,
             warmup_with_policy: false,
             include_reference: true,
             command: Command::forward(0.3, Gait::Trot),
@@ -321,6 +351,9 @@ impl ResidualConfig {
                 }
             }
         }
+        if let Some(ramp) = self.exploration_ramp {
+            self.validate_ramp(ramp)?;
+        }
         self.check_command_values()?;
         if !self.joint_residual && self.steering.dim() == 0 {
             return Err(HybridError::NothingToLearn);
@@ -347,6 +380,59 @@ impl ResidualConfig {
         let c = &self.command;
         config.check_command(c.gait, c.forward_velocity.hypot(c.lateral_velocity), c.yaw_rate)?;
         Ok(())
+    }
+
+    /// The ramp's end σ within (0, 10] and at least the start's, a positive sample count,
+    /// and something to ramp: an initial exploration and a joint residual.
+    fn validate_ramp(&self, ramp: ExplorationRamp) -> Result<(), HybridError> {
+        let Some(start) = self.exploration else {
+            return Err(HybridError::BadSetting {
+                part: "exploration_ramp.residual",
+                value: ramp.residual,
+                expected: "an initial exploration to ramp from (set exploration)",
+            });
+        };
+        if !self.joint_residual {
+            return Err(HybridError::BadSetting {
+                part: "exploration_ramp.residual",
+                value: ramp.residual,
+                expected: "a joint residual to explore (the hybrid has none)",
+            });
+        }
+        if !(ramp.residual > 0.0 && ramp.residual <= MAX_EXPLORATION) {
+            let value = ramp.residual;
+            return Err(HybridError::BadSetting {
+                part: "exploration_ramp.residual",
+                value,
+                expected: "a σ in (0, 10]",
+            });
+        }
+        if ramp.residual < start.residual {
+            return Err(HybridError::BadSetting {
+                part: "exploration_ramp.residual",
+                value: ramp.residual,
+                expected: "a σ at least the initial exploration.residual (the floor rises)",
+            });
+        }
+        if ramp.samples == 0 {
+            return Err(HybridError::BadSetting {
+                part: "exploration_ramp.samples",
+                value: 0.0,
+                expected: "at least one training sample",
+            });
+        }
+        Ok(())
+    }
+
+    /// The learner's exploration floor for a policy of `policy_dim` actions (joint residual
+    /// first, then steering: the steering entries have none), if
+    /// [`ResidualConfig::exploration_ramp`] is set.
+    pub fn exploration_floor(&self, policy_dim: usize) -> Option<centaur_rl::ExplorationFloor> {
+        let (ramp, start) = (self.exploration_ramp?, self.exploration?);
+        let joints = policy_dim - self.steering.dim().min(policy_dim);
+        let entries =
+            (0..policy_dim).map(|k| (k < joints).then_some([start.residual, ramp.residual])).collect();
+        Some(centaur_rl::ExplorationFloor { entries, steps: ramp.samples })
     }
 
     /// The command's numbers ([`Command::check`]) and a yaw rate within [`MAX_YAW_RATE`].
@@ -926,6 +1012,47 @@ mod tests {
         assert_eq!(config.initial_exploration(1), Some(vec![0.7]));
         config.exploration = None;
         assert_eq!(config.initial_exploration(1), None);
+    }
+
+    #[test]
+    fn the_exploration_ramp_floors_the_residual_only_and_is_checked() {
+        let config = ResidualConfig {
+            steering: Steering { speed: 0.5, yaw_rate: 0.0 },
+            exploration: Some(Exploration { residual: 0.01, steering: 0.5 }),
+            exploration_ramp: Some(ExplorationRamp { residual: 0.3, samples: 100_000 }),
+            ..ResidualConfig::default()
+        };
+        assert!(config.validate(2).is_ok());
+        let floor = config.exploration_floor(3).unwrap();
+        assert_eq!(floor.entries, vec![Some([0.01, 0.3]), Some([0.01, 0.3]), None]);
+        assert_eq!(floor.steps, 100_000);
+        assert_eq!(ResidualConfig { exploration_ramp: None, ..config.clone() }.exploration_floor(3), None);
+        // Refused by name: nothing to ramp from, no residual, a falling or absurd σ, no samples.
+        let bad = |c: ResidualConfig, part: &str| match c.validate(2) {
+            Err(HybridError::BadSetting { part: p, .. }) => assert_eq!(p, part),
+            other => panic!("{c:?}: {other:?}"),
+        };
+        bad(ResidualConfig { exploration: None, ..config.clone() }, "exploration_ramp.residual");
+        bad(ResidualConfig { joint_residual: false, ..config.clone() }, "exploration_ramp.residual");
+        for sigma in [0.005, 0.0, -1.0, f64::NAN, f64::INFINITY, 11.0] {
+            let ramp = Some(ExplorationRamp { residual: sigma, samples: 100_000 });
+            bad(ResidualConfig { exploration_ramp: ramp, ..config.clone() }, "exploration_ramp.residual");
+        }
+        let none = Some(ExplorationRamp { residual: 0.3, samples: 0 });
+        bad(ResidualConfig { exploration_ramp: none, ..config.clone() }, "exploration_ramp.samples");
+        // Recorded only where set: a setup without it keeps its text and its JSON.
+        let without = ResidualConfig { exploration_ramp: None, ..config.clone() };
+        assert!(
+            !format!("{without:?}").contains("ramp")
+                && !serde_json::to_string(&without).unwrap().contains("ramp")
+        );
+        let text = format!("{config:?}");
+        assert!(
+            text.contains("exploration_ramp: ExplorationRamp { residual: 0.3, samples: 100000 }"),
+            "{text}"
+        );
+        let back: ResidualConfig = serde_json::from_str(&serde_json::to_string(&config).unwrap()).unwrap();
+        assert_eq!(back, config);
     }
 
     #[test]

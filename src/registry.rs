@@ -7,7 +7,7 @@
 //! | `pendulum` | Gymnasium's Pendulum-v1 ([`centaur_gym::pendulum::Pendulum`]) | — | — |
 //! | `minitaur`, `minitaur-fast`, `minitaur-deterministic` | PyBullet's MinitaurBulletEnv-v0 ([`centaur_envs::MinitaurEnv`]; `-fast`: 3.3 ms physics steps; `-deterministic`: no randomisation) | Minitaur | trot 2 m/s steered ±1.5 m/s (rated 3.5 m/s), scale 0.25, exploration σ 0.3 |
 //! | `ant`, `ant27` | Gymnasium Ant-v5 (`ant27`: the 27-d observation without contact forces) | Ant | trot 1 m/s steered ±0.5 m/s, scale 0.3, exploration σ 0.1 |
-//! | `walker2d` | Gymnasium Walker2d-v5 | Walker2d | walk 1.0 m/s steered ±0.5 m/s (rated 1.5 m/s), scale 0.1, exploration σ 0.1 |
+//! | `walker2d` | Gymnasium Walker2d-v5 | Walker2d | walk 1.0 m/s steered ±0.5 m/s (rated 1.5 m/s), scale 1.0, exploration σ 0.01 rising to 0.3 over 100k samples |
 //! | `humanoid` | Gymnasium Humanoid-v5 | Humanoid | walk 0.3 m/s steered ±0.1 m/s, scale 0.1, exploration σ 0.1 |
 //! | `hopper`, `halfcheetah` | Gymnasium Hopper-, HalfCheetah-v5 | — | — |
 //! | `gecko`, `modular-ant`, `spider` | Revolve2's modular robots of those names ([`centaur_envs::ModularEnv`]) | — | — |
@@ -24,7 +24,7 @@ use centaur_gym::pendulum::Pendulum;
 use centaur_gym::{Env, EnvError, VecEnv};
 use centaur_mpc::{Command, ControllerConfig, Gait, LocomotionController};
 
-use crate::hybrid::{Exploration, HybridError, ResidualConfig, Steering};
+use crate::hybrid::{Exploration, ExplorationRamp, HybridError, ResidualConfig, Steering};
 use crate::residual::ResidualEnv;
 use crate::settings::{EnvSettings, NotApplicable};
 
@@ -103,23 +103,26 @@ fn ant_residual() -> ResidualConfig {
     }
 }
 
-/// Walker2d's hybrid: 10 % of the control range around a 1.0 m/s walk whose speed the
-/// policy steers within ±0.5 m/s, rated 1.5 m/s over the walk's own 1.0 (commanded 1.25 and
-/// 1.5 m/s the walk stays up on seeds 0–4 at 0.99–1.03 m/s); a gentle start with σ 0.1 on
-/// the residual and 0.5 on the steering (the gentle-start test's first rollout: 1,779.7
-/// against the controller's 1,789.0, 99.5 %). The preset since 2026-11-29, after the walk's own
-/// tuning (README, "Walker2d, 5 seeds × 1M samples"); 2-seed screens to 1M that day
-/// (seeds 0–1): 2,043.2 with 0/20 falls, against 1,865.3 for a 0.5 m/s walk steered
-/// ±0.5 m/s to its 1.0 m/s rating (the preset before). PPO's exploration at 30 % of the
-/// action range knocks the walking controller over (one seed of 60k PPO steps evaluated at
-/// 460 with 0.3, 1200 with 0.1; the first rollout at PPO's own σ = 1 scored 61 % of the
-/// controller alone, at σ 0.1 99.8 %, on the walk of 2026-11-27).
+/// Walker2d's hybrid: a residual bounded at half the action range (1.0 of [−1, 1]) around a
+/// 1.0 m/s walk whose speed the policy steers within ±0.5 m/s, rated 1.5 m/s over the walk's
+/// own 1.0 (commanded 1.25 and 1.5 m/s the walk stays up on seeds 0–4 at 0.99–1.03 m/s); a
+/// gentle start with σ 0.01 on the residual (0.01 action units, as before) and 0.5 on the
+/// steering, and a rising exploration: PPO's residual σ is held at least at a floor rising
+/// to 0.3 over the first 100k samples, then released. The preset since 2026-11-29 (evening):
+/// with the residual bounded at 10 % of the range the walk bounded the hybrid at ≈ 2,035
+/// (1.0 m/s) and pure PPO, running at 2.6–4.4 m/s, passed it at 500k samples; bounded at
+/// 1.0 but explored at σ 0.01 the policy never left the walk (1,478, 9/20 falls); explored
+/// at σ 0.3 from the start it learnt to run (seeds 0–1 × 1M: 4,012) but its first episodes
+/// fell; the ramp does both (README, "Walker2d: a residual that learns to run"). The walk
+/// before (2026-11-27) knocked over at PPO's own σ = 1 on a 0.1 bound: the first rollout
+/// scored 61 % of the controller alone, 99.8 % at 0.01 action units.
 fn walker2d_residual() -> ResidualConfig {
     ResidualConfig {
         steering: Steering { speed: 0.5, yaw_rate: 0.0 },
         rated_speed: Some(1.5),
-        exploration: Some(Exploration { residual: 0.1, steering: 0.5 }),
-        ..ResidualConfig::new(0.1, Command::forward(1.0, Gait::Walk))
+        exploration: Some(Exploration { residual: 0.01, steering: 0.5 }),
+        exploration_ramp: Some(ExplorationRamp { residual: 0.3, samples: 100_000 }),
+        ..ResidualConfig::new(1.0, Command::forward(1.0, Gait::Walk))
     }
 }
 

@@ -34,7 +34,8 @@ use crate::hybrid::{ActionMapping, HybridError, Residual, ResidualConfig};
 /// Makes a freshly built learner of kind `kind` start a hybrid as its controller: its mean
 /// output zero (the untrained hybrid acts exactly like the controller) and, for learners
 /// that explore with a per-entry Gaussian (PPO, A2C), the initial exploration per action
-/// part that `config` asks for (a gentle start); for off-policy learners, a warm-up with the
+/// part that `config` asks for (a gentle start) and its rising floor, if any
+/// ([`ResidualConfig::exploration_ramp`]); for off-policy learners, a warm-up with the
 /// policy's own exploration if `config.warmup_with_policy` (an on-policy learner asked for
 /// it is refused). `policy_dim` is the hybrid env's action dimension. Used by the
 /// experiment runner and `centaur train` on `<robot>-residual`.
@@ -49,6 +50,9 @@ pub fn start_as_controller(
         && kind.takes_exploration_std()
     {
         algo.set_exploration_std(&std)?;
+        if let Some(floor) = config.exploration_floor(policy_dim) {
+            algo.set_exploration_floor(floor)?;
+        }
     }
     if config.warmup_with_policy {
         algo.set_warmup_with_policy()?;

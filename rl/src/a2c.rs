@@ -19,7 +19,7 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::algorithm::Algorithm;
+use crate::algorithm::{Algorithm, ExplorationFloor};
 use crate::buffer::{RolloutBuffer, n_step_returns};
 use crate::checkpoint::Checkpoint;
 use crate::distributions::{gaussian_entropy, gaussian_log_prob, gaussian_log_prob_grad};
@@ -205,6 +205,8 @@ pub struct A2c {
     actor: Mlp,
     log_std: Vec<f32>,
     log_std_grad: Vec<f32>,
+    /// A rising floor under the exploration σ, if set ([`ExplorationFloor`]).
+    exploration_floor: Option<ExplorationFloor>,
     critic: Mlp,
     optim: Optim,
     obs_rms: RunningMeanStd,
@@ -280,6 +282,7 @@ impl A2c {
             optim,
             log_std: vec![config.log_std_init as f32; ad],
             log_std_grad: vec![0.0; ad],
+            exploration_floor: None,
             actor,
             critic,
             obs_rms: RunningMeanStd::new(od),
@@ -480,6 +483,7 @@ impl A2c {
         c.read_mlp("actor", &mut p.actor)?;
         c.read_mlp("critic", &mut p.critic)?;
         c.read_f32_into("log_std", &mut p.log_std)?;
+        p.exploration_floor = ExplorationFloor::read(c, "a2c", p.act_space.dim())?;
         match &mut p.optim {
             Optim::Adam([a, l, cr]) => {
                 c.read_adam("adam/actor", a)?;
@@ -532,6 +536,9 @@ impl Algorithm for A2c {
             let anneal = |lr0: f64| if c.anneal_lr { linear_decay(lr0, done, horizon) } else { lr0 };
             let lr = anneal(c.learning_rate);
             let lr_critic = anneal(c.critic_learning_rate.unwrap_or(c.learning_rate));
+            if let Some(floor) = &self.exploration_floor {
+                floor.apply(&mut self.log_std, self.steps_done);
+            }
             self.collect_rollout(env, &mut episodes)?;
             self.compute_advantages();
             let mut m = UpdateMetrics::empty();
@@ -574,6 +581,7 @@ impl Algorithm for A2c {
         c.put_f32("actor", &self.actor.params);
         c.put_f32("critic", &self.critic.params);
         c.put_f32("log_std", &self.log_std);
+        ExplorationFloor::write(&self.exploration_floor, &mut c);
         match &self.optim {
             Optim::Adam([a, l, cr]) => {
                 c.put_adam("adam/actor", a);
@@ -609,6 +617,12 @@ impl Algorithm for A2c {
 
     fn set_exploration_std(&mut self, std: &[f64]) -> Result<(), RlError> {
         self.log_std = crate::algorithm::exploration_log_std("a2c", std, self.act_space.dim())?;
+        Ok(())
+    }
+
+    fn set_exploration_floor(&mut self, floor: ExplorationFloor) -> Result<(), RlError> {
+        floor.validate("a2c", self.act_space.dim())?;
+        self.exploration_floor = Some(floor);
         Ok(())
     }
 

@@ -78,6 +78,102 @@ pub trait Algorithm {
                     .into(),
         })
     }
+
+    /// Sets a rising floor under the exploration σ ([`ExplorationFloor`]), counted from the
+    /// learner's first training sample. Only learners with a per-entry Gaussian (PPO, A2C)
+    /// take it; the others refuse with [`RlError::Incompatible`] (the default).
+    fn set_exploration_floor(&mut self, floor: ExplorationFloor) -> Result<(), RlError> {
+        let _ = floor;
+        Err(RlError::Incompatible {
+            algo: "off-policy",
+            reason:
+                "the learner's exploration is not a per-entry Gaussian; it cannot be set per action entry"
+                    .into(),
+        })
+    }
+}
+
+/// A rising floor under a Gaussian learner's exploration σ, per action entry: from σ₀ at
+/// the start of training to σ₁ after `steps` training samples, log-linearly, then none. At
+/// the start of each rollout the learner raises every floored entry's σ to at least the
+/// floor; its own updates move σ as always. A hybrid starts gently (σ₀ small, so its first
+/// episodes walk like the controller) and is made to explore widely once learning is under
+/// way (σ₁), after which the learner's σ is its own again. PPO and A2C take it
+/// ([`Algorithm::set_exploration_floor`]) and keep it in their checkpoints.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExplorationFloor {
+    /// Per action entry: the floor's `[σ₀, σ₁]`, or `None` for an entry without a floor.
+    pub entries: Vec<Option<[f64; 2]>>,
+    /// Training samples (environment steps, all environments together) over which the floor
+    /// rises; after them it is released.
+    pub steps: u64,
+}
+
+impl ExplorationFloor {
+    /// Checks the floor against the action dimension: every σ finite and positive, σ₁ ≥ σ₀,
+    /// at least one step.
+    pub fn validate(&self, algo: &'static str, act_dim: usize) -> Result<(), RlError> {
+        let bad = |field: &'static str, value: String, reason: &'static str| {
+            Err(RlError::InvalidConfig { algo, field, value, reason })
+        };
+        if self.entries.len() != act_dim {
+            return Err(RlError::Incompatible {
+                algo,
+                reason: format!(
+                    "an exploration floor of {} entries for {act_dim} actions",
+                    self.entries.len()
+                ),
+            });
+        }
+        if self.steps == 0 {
+            return bad("exploration floor steps", "0".into(), "must be at least 1");
+        }
+        for [from, to] in self.entries.iter().flatten() {
+            if !(from.is_finite() && *from > 0.0 && to.is_finite() && *to > 0.0) {
+                return bad("exploration floor σ", format!("[{from}, {to}]"), "must be finite and positive");
+            }
+            if to < from {
+                return bad("exploration floor σ", format!("[{from}, {to}]"), "must rise (σ₁ ≥ σ₀)");
+            }
+        }
+        Ok(())
+    }
+
+    /// Raises `log_std` to the floor after `steps_done` training samples (nothing once the
+    /// floor is released). Allocation-free.
+    pub fn apply(&self, log_std: &mut [f32], steps_done: u64) {
+        if steps_done >= self.steps {
+            return;
+        }
+        let f = steps_done as f64 / self.steps as f64;
+        for (ls, entry) in log_std.iter_mut().zip(&self.entries) {
+            if let Some([from, to]) = entry {
+                let floor = from.ln() + f * (to.ln() - from.ln());
+                *ls = ls.max(floor as f32);
+            }
+        }
+    }
+
+    /// The floor kept in `c` (as metadata), if any, checked against `act_dim`.
+    pub(crate) fn read(c: &Checkpoint, algo: &'static str, act_dim: usize) -> Result<Option<Self>, RlError> {
+        if !c.meta.contains_key(Self::META) {
+            return Ok(None);
+        }
+        let floor: ExplorationFloor = c.get_meta(Self::META)?;
+        floor.validate(algo, act_dim)?;
+        Ok(Some(floor))
+    }
+
+    /// Keeps `floor` in `c`, if any (nothing is written without one, so checkpoints of
+    /// learners without a floor are as before).
+    pub(crate) fn write(floor: &Option<Self>, c: &mut Checkpoint) {
+        if let Some(f) = floor {
+            c.set_meta(Self::META, f);
+        }
+    }
+
+    const META: &'static str = "exploration_floor";
 }
 
 /// Checks a per-entry exploration std (length `act_dim`, every entry finite and positive) and
@@ -102,4 +198,49 @@ pub(crate) fn exploration_log_std(
         });
     }
     Ok(std.iter().map(|s| s.ln() as f32).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn floor() -> ExplorationFloor {
+        ExplorationFloor { entries: vec![Some([0.01, 0.3]), None], steps: 100 }
+    }
+
+    #[test]
+    fn the_floor_rises_log_linearly_then_is_released() {
+        let f = floor();
+        let at = |steps: u64, start: f32| {
+            let mut ls = [start, start];
+            f.apply(&mut ls, steps);
+            ls
+        };
+        let low = (0.001f64).ln() as f32;
+        // At the start the floor is σ₀; halfway the geometric mean; the free entry is untouched.
+        assert!((at(0, low)[0] as f64 - 0.01f64.ln()).abs() < 1e-6);
+        assert!((at(50, low)[0] as f64 - (0.01f64 * 0.3).sqrt().ln()).abs() < 1e-6);
+        assert_eq!(at(50, low)[1], low);
+        // It only raises: a σ above the floor stays.
+        assert_eq!(at(50, 0.0)[0], 0.0);
+        // Released once the ramp is over.
+        assert_eq!(at(100, low)[0], low);
+        assert_eq!(at(10_000, low)[0], low);
+    }
+
+    #[test]
+    fn bad_floors_are_refused() {
+        assert!(floor().validate("ppo", 2).is_ok());
+        assert!(matches!(floor().validate("ppo", 3), Err(RlError::Incompatible { .. })));
+        for (entries, steps) in [
+            (vec![Some([0.01, 0.3]), None], 0),
+            (vec![Some([0.3, 0.01]), None], 100),
+            (vec![Some([0.0, 0.3]), None], 100),
+            (vec![Some([0.01, f64::NAN]), None], 100),
+            (vec![Some([0.01, f64::INFINITY]), None], 100),
+        ] {
+            let f = ExplorationFloor { entries, steps };
+            assert!(matches!(f.validate("ppo", 2), Err(RlError::InvalidConfig { .. })), "{f:?} accepted");
+        }
+    }
 }

@@ -99,7 +99,7 @@ pub mod sac_v1;
 pub mod td3;
 
 pub use a2c::{A2c, A2cConfig};
-pub use algorithm::Algorithm;
+pub use algorithm::{Algorithm, ExplorationFloor};
 pub use checkpoint::{Checkpoint, CheckpointError};
 pub use ddpg::{Ddpg, DdpgConfig};
 pub use error::RlError;

@@ -56,7 +56,7 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::algorithm::Algorithm;
+use crate::algorithm::{Algorithm, ExplorationFloor};
 use crate::buffer::{RolloutBuffer, gae, n_step_returns};
 use crate::checkpoint::Checkpoint;
 use crate::distributions::{gaussian_entropy, gaussian_log_prob, gaussian_log_prob_grad};
@@ -344,6 +344,8 @@ pub struct Ppo {
     actor: Mlp,
     log_std: Vec<f32>,
     log_std_grad: Vec<f32>,
+    /// A rising floor under the exploration σ, if set ([`ExplorationFloor`]).
+    exploration_floor: Option<ExplorationFloor>,
     /// The KL penalty's coefficient `β` (used with `kl_penalty`).
     kl_coef: f64,
     /// The value network, or the value head on `trunk`.
@@ -455,6 +457,7 @@ impl Ppo {
             opt_critic: Adam::new(critic.n_params(), eps),
             log_std: vec![config.log_std_init as f32; ad],
             log_std_grad: vec![0.0; ad],
+            exploration_floor: None,
             kl_coef: config.kl_coef_init,
             actor,
             critic,
@@ -835,6 +838,7 @@ impl Ppo {
         c.read_mlp("actor", &mut p.actor)?;
         c.read_mlp("critic", &mut p.critic)?;
         c.read_f32_into("log_std", &mut p.log_std)?;
+        p.exploration_floor = ExplorationFloor::read(c, "ppo", p.act_space.dim())?;
         c.read_adam("adam/actor", &mut p.opt_actor)?;
         c.read_adam("adam/log_std", &mut p.opt_log_std)?;
         c.read_adam("adam/critic", &mut p.opt_critic)?;
@@ -882,6 +886,9 @@ impl Algorithm for Ppo {
             let anneal = |lr0: f64| if c.anneal_lr { linear_decay(lr0, done, horizon) } else { lr0 };
             let lr = anneal(c.learning_rate);
             let lr_critic = anneal(c.critic_learning_rate.unwrap_or(c.learning_rate));
+            if let Some(floor) = &self.exploration_floor {
+                floor.apply(&mut self.log_std, self.steps_done);
+            }
             self.collect_rollout(env, &mut episodes)?;
             self.compute_advantages();
             let mut m = UpdateMetrics::empty();
@@ -919,6 +926,7 @@ impl Algorithm for Ppo {
         c.put_f32("actor", &self.actor.params);
         c.put_f32("critic", &self.critic.params);
         c.put_f32("log_std", &self.log_std);
+        ExplorationFloor::write(&self.exploration_floor, &mut c);
         c.put_adam("adam/actor", &self.opt_actor);
         c.put_adam("adam/log_std", &self.opt_log_std);
         c.put_adam("adam/critic", &self.opt_critic);
@@ -963,6 +971,12 @@ impl Algorithm for Ppo {
 
     fn set_exploration_std(&mut self, std: &[f64]) -> Result<(), RlError> {
         self.log_std = crate::algorithm::exploration_log_std("ppo", std, self.act_space.dim())?;
+        Ok(())
+    }
+
+    fn set_exploration_floor(&mut self, floor: ExplorationFloor) -> Result<(), RlError> {
+        floor.validate("ppo", self.act_space.dim())?;
+        self.exploration_floor = Some(floor);
         Ok(())
     }
 

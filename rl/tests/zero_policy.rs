@@ -13,30 +13,8 @@ fn zeroed_policies_output_zero_and_still_learn() {
     let venv = || VecEnv::new(vec![Box::new(Pendulum::new()) as Box<dyn Env>], 1).unwrap();
     let v = venv();
     let small = vec![16, 16];
-    let mut algos: Vec<Box<dyn Algorithm>> = vec![
-        Box::new(
-            Ppo::for_env(
-                PpoConfig {
-                    actor_hidden: small.clone(),
-                    critic_hidden: small.clone(),
-                    n_steps: 64,
-                    ..PpoConfig::default()
-                },
-                &v,
-            )
-            .unwrap(),
-        ),
-        Box::new(
-            A2c::for_env(
-                A2cConfig {
-                    actor_hidden: small.clone(),
-                    critic_hidden: small.clone(),
-                    ..A2cConfig::default()
-                },
-                &v,
-            )
-            .unwrap(),
-        ),
+    let mut algos = gaussian_learners(&v);
+    algos.extend::<Vec<Box<dyn Algorithm>>>(vec![
         Box::new(
             Sac::for_env(
                 SacConfig {
@@ -89,7 +67,7 @@ fn zeroed_policies_output_zero_and_still_learn() {
             )
             .unwrap(),
         ),
-    ];
+    ]);
     let mut rng = Rng::seed_from_u64(0);
     for algo in algos.iter_mut() {
         algo.zero_policy_output();
@@ -112,4 +90,83 @@ fn zeroed_policies_output_zero_and_still_learn() {
         }
         assert!(moved, "{}: the policy never left zero", algo.name());
     }
+}
+
+/// Small PPO and A2C learners (the two with a per-entry Gaussian) for `v`.
+fn gaussian_learners(v: &VecEnv) -> Vec<Box<dyn Algorithm>> {
+    let small = vec![16, 16];
+    vec![
+        Box::new(
+            Ppo::for_env(
+                PpoConfig {
+                    actor_hidden: small.clone(),
+                    critic_hidden: small.clone(),
+                    n_steps: 64,
+                    ..PpoConfig::default()
+                },
+                v,
+            )
+            .unwrap(),
+        ),
+        Box::new(
+            A2c::for_env(
+                A2cConfig { actor_hidden: small.clone(), critic_hidden: small, ..A2cConfig::default() },
+                v,
+            )
+            .unwrap(),
+        ),
+    ]
+}
+
+/// PPO and A2C raise their exploration σ to a rising floor at each rollout, keep the floor
+/// in their checkpoints (a resumed run goes on with it), refuse a corrupt one, and the
+/// off-policy learners refuse a floor.
+#[test]
+fn a_rising_exploration_floor_is_applied_and_kept() {
+    use centaur_rl::{Checkpoint, ExplorationFloor, RlError};
+    let venv = || VecEnv::new(vec![Box::new(Pendulum::new()) as Box<dyn Env>], 1).unwrap();
+    let v = venv();
+    let small = vec![16, 16];
+    let floor = ExplorationFloor { entries: vec![Some([0.01, 1.0])], steps: 256 };
+    let sigma = |c: &Checkpoint| c.f32("log_std", Some(1)).unwrap()[0].exp();
+    let learners = gaussian_learners(&v);
+    for (k, mut algo) in learners.into_iter().enumerate() {
+        algo.set_exploration_std(&[0.01]).unwrap();
+        algo.set_exploration_floor(floor.clone()).unwrap();
+        let mut env = venv();
+        // PPO's rollouts start at 0, 64, 128 and 192 samples (the last floor 0.01·100^0.75 ≈
+        // 0.32), A2C's every 5 (the last at 250, ≈ 0.9).
+        algo.learn(&mut env, 256, &mut |_| std::ops::ControlFlow::Continue(())).unwrap();
+        let c = algo.to_checkpoint();
+        assert!(sigma(&c) > 0.3, "{}: σ {} below the floor", algo.name(), sigma(&c));
+        // Without a floor the same learner stays near its initial σ.
+        let mut free = gaussian_learners(&v).swap_remove(k);
+        free.set_exploration_std(&[0.01]).unwrap();
+        free.learn(&mut venv(), 256, &mut |_| std::ops::ControlFlow::Continue(())).unwrap();
+        assert!(sigma(&free.to_checkpoint()) < 0.05, "{}: σ rose without a floor", algo.name());
+        // The checkpoint keeps the floor; one without a floor writes none.
+        assert_eq!(c.get_meta::<ExplorationFloor>("exploration_floor").unwrap(), floor);
+        assert!(!free.to_checkpoint().meta.contains_key("exploration_floor"));
+        let dir = std::env::temp_dir().join(format!("centaur_floor_{}_{}", algo.name(), std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("ckpt");
+        algo.save(&path).unwrap();
+        let back = centaur_rl::learners::load(&path).unwrap();
+        assert_eq!(back.to_checkpoint().get_meta::<ExplorationFloor>("exploration_floor").unwrap(), floor);
+        // A corrupt floor is refused by name.
+        let mut bad = c.clone();
+        bad.set_meta("exploration_floor", ExplorationFloor { entries: vec![Some([0.01, 1.0])], steps: 0 });
+        bad.write(&path).unwrap();
+        assert!(matches!(
+            centaur_rl::learners::load(&path),
+            Err(RlError::InvalidConfig { field: "exploration floor steps", .. })
+        ));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+    let mut sac = Sac::for_env(
+        SacConfig { actor_hidden: small.clone(), critic_hidden: small, ..SacConfig::default() },
+        &v,
+    )
+    .unwrap();
+    assert!(matches!(sac.set_exploration_floor(floor), Err(RlError::Incompatible { .. })));
 }

@@ -327,6 +327,8 @@ mod legacy {
                 joint_residual,
                 steering,
                 exploration,
+                // Records of this form predate the ramp: it can only be `None` here.
+                exploration_ramp: _,
                 warmup_with_policy,
                 include_reference,
                 command,
