@@ -108,10 +108,10 @@ fn ant_residual() -> ResidualConfig {
 /// own 1.0 (commanded 1.25 and 1.5 m/s the walk stays up on seeds 0–4 at 0.99–1.03 m/s); a
 /// gentle start with σ 0.01 on the residual (0.01 action units, as before) and 0.5 on the
 /// steering, and a rising exploration: PPO's residual σ is held at least at a floor rising
-/// to 0.3 over the first 100k samples, then released. The preset since 2026-11-29 (evening):
+/// to 0.3 over the first 100k samples, then released. The preset since commit c58109b (2026-11-29):
 /// with the residual bounded at 10 % of the range the walk bounded the hybrid at ≈ 2,035
 /// (1.0 m/s) and pure PPO, running at 2.6–4.4 m/s, passed it at 500k samples; bounded at
-/// 1.0 but explored at σ 0.01 the policy never left the walk (1,478, 9/20 falls); explored
+/// 1.0 but explored at σ 0.01 the policy never left the walk (1,383, 10/20 falls); explored
 /// at σ 0.3 from the start it learnt to run (seeds 0–1 × 1M: 4,012) but its first episodes
 /// fell; the ramp does both (README, "Walker2d: a residual that learns to run"). The walk
 /// before (2026-11-27) knocked over at PPO's own σ = 1 on a 0.1 bound: the first rollout
