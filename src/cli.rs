@@ -304,6 +304,11 @@ pub struct ExampleDefaults<'a> {
     pub steps: u64,
     /// Parallel environments per agent.
     pub envs: usize,
+    /// The example's bound of the joint residual over the robot preset's (`None`: the
+    /// preset's); `--residual-scale` overrides it. `residual_sac_walker2d` keeps 0.1: the
+    /// Walker2d preset's 1.0 is for PPO's rising exploration, and SAC's warm-up and entropy
+    /// explore a 1.0 bound far off the controller's gait.
+    pub residual_scale: Option<f64>,
 }
 
 impl ExampleArgs {
@@ -317,7 +322,11 @@ impl ExampleArgs {
             }
             None => (tuned_config(defaults.env, defaults.algo), EnvSettings::default()),
         };
-        let residual = self.hybrid.apply(residual_config(defaults.env).map_err(|e| e.to_string())?);
+        let mut preset = residual_config(defaults.env).map_err(|e| e.to_string())?;
+        if let Some(scale) = defaults.residual_scale {
+            preset.scale = vec![scale];
+        }
+        let residual = self.hybrid.apply(preset);
         let n_envs = self.envs.unwrap_or(defaults.envs).max(1);
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         Ok(ExperimentOptions {
