@@ -86,9 +86,8 @@ pub trait Algorithm {
         let _ = floor;
         Err(RlError::Incompatible {
             algo: "off-policy",
-            reason:
-                "the learner's exploration is not a per-entry Gaussian; it cannot be set per action entry"
-                    .into(),
+            reason: "the learner's exploration is not a per-entry Gaussian; it takes no exploration floor"
+                .into(),
         })
     }
 }
