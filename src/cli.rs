@@ -412,18 +412,21 @@ mod tests {
         std::fs::remove_dir_all(&root).unwrap();
     }
 
-    #[test]
-    fn the_hybrids_gait_is_the_presets_unless_given() {
+    /// `preset` with the hybrid options `args` applied, as a command line parses them.
+    fn parse_hybrid(preset: ResidualConfig, args: &[&str]) -> Result<ResidualConfig, clap::Error> {
         use clap::Parser;
         #[derive(clap::Parser)]
         struct Line {
             #[command(flatten)]
             hybrid: HybridArgs,
         }
+        Line::try_parse_from([&["x"][..], args].concat()).map(|l| l.hybrid.apply(preset))
+    }
+
+    #[test]
+    fn the_hybrids_gait_is_the_presets_unless_given() {
         let preset = residual_config("minitaur").unwrap();
-        let parse = |args: &[&str]| {
-            Line::try_parse_from([&["x"][..], args].concat()).map(|l| l.hybrid.apply(preset.clone()))
-        };
+        let parse = |args: &[&str]| parse_hybrid(preset.clone(), args);
         assert_eq!(parse(&[]).unwrap(), preset);
         let bound = parse(&["--gait", "bound", "--speed", "1.5"]).unwrap();
         assert_eq!((bound.command.gait, bound.command.forward_velocity), (Gait::Bound, 1.5));
@@ -438,16 +441,7 @@ mod tests {
 
     #[test]
     fn the_exploration_ramp_is_the_presets_unless_given_or_switched_off() {
-        use clap::Parser;
-        #[derive(clap::Parser)]
-        struct Line {
-            #[command(flatten)]
-            hybrid: HybridArgs,
-        }
-        let parse = |robot: &str, args: &[&str]| {
-            let preset = residual_config(robot).unwrap();
-            Line::try_parse_from([&["x"][..], args].concat()).map(|l| l.hybrid.apply(preset))
-        };
+        let parse = |robot: &str, args: &[&str]| parse_hybrid(residual_config(robot).unwrap(), args);
         let walker = residual_config("walker2d").unwrap().exploration_ramp.unwrap();
         assert_eq!(parse("walker2d", &[]).unwrap().exploration_ramp, Some(walker));
         assert_eq!(parse("walker2d", &["--no-explore-ramp"]).unwrap().exploration_ramp, None);

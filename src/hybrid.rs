@@ -310,8 +310,14 @@ impl ResidualConfig {
     /// (joint residual first, then steering), if [`ResidualConfig::exploration`] is set.
     pub fn initial_exploration(&self, policy_dim: usize) -> Option<Vec<f64>> {
         let e = self.exploration?;
-        let steer = self.steering.dim().min(policy_dim);
-        Some((0..policy_dim).map(|k| if k < policy_dim - steer { e.residual } else { e.steering }).collect())
+        let joints = self.joint_entries(policy_dim);
+        Some((0..policy_dim).map(|k| if k < joints { e.residual } else { e.steering }).collect())
+    }
+
+    /// How many of a policy's `policy_dim` actions are joint-residual entries (they come
+    /// first; the steering entries follow).
+    fn joint_entries(&self, policy_dim: usize) -> usize {
+        policy_dim - self.steering.dim().min(policy_dim)
     }
 
     /// A residual of `scale` around the controller following `command`.
@@ -429,7 +435,7 @@ impl ResidualConfig {
     /// [`ResidualConfig::exploration_ramp`] is set.
     pub fn exploration_floor(&self, policy_dim: usize) -> Option<centaur_rl::ExplorationFloor> {
         let (ramp, start) = (self.exploration_ramp?, self.exploration?);
-        let joints = policy_dim - self.steering.dim().min(policy_dim);
+        let joints = self.joint_entries(policy_dim);
         let entries =
             (0..policy_dim).map(|k| (k < joints).then_some([start.residual, ramp.residual])).collect();
         Some(centaur_rl::ExplorationFloor { entries, steps: ramp.samples })
