@@ -48,7 +48,6 @@ fn main() -> ExitCode {
         algo: AlgoKind::Ppo,
         steps: 300_000,
         envs: 4,
-        residual_scale: None,
     };
     let opts = match cli.run.options(&defaults) {
         Ok(opts) => opts,

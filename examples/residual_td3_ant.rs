@@ -26,14 +26,8 @@ struct Cli {
 }
 
 fn main() -> ExitCode {
-    let defaults = ExampleDefaults {
-        name: "residual_td3_ant",
-        env: "ant",
-        algo: AlgoKind::Td3,
-        steps: 50_000,
-        envs: 1,
-        residual_scale: None,
-    };
+    let defaults =
+        ExampleDefaults { name: "residual_td3_ant", env: "ant", algo: AlgoKind::Td3, steps: 50_000, envs: 1 };
     match Cli::parse().run.options(&defaults) {
         Ok(opts) => run_example(defaults.name, &opts),
         Err(e) => {

@@ -13,7 +13,7 @@ use crate::experiment::{
 };
 use crate::hybrid::{Exploration, ExplorationRamp, Fade, ResidualConfig, Steering};
 use crate::mpc::Gait;
-use crate::registry::residual_config;
+use crate::registry::residual_config_for;
 use crate::settings::EnvSettings;
 use crate::train::{parse_run_config, read_config_file};
 
@@ -94,7 +94,7 @@ pub enum HybridParts {
 }
 
 /// The hybrid's setup on the command line, over the robot's preset
-/// ([`crate::registry::residual_config`]); flattened into the examples' and `centaur`'s
+/// for the learner ([`crate::registry::residual_config_for`]); flattened into the examples' and `centaur`'s
 /// parsers.
 #[derive(Clone, Debug, Default, clap::Args)]
 pub struct HybridArgs {
@@ -304,11 +304,6 @@ pub struct ExampleDefaults<'a> {
     pub steps: u64,
     /// Parallel environments per agent.
     pub envs: usize,
-    /// The example's bound of the joint residual over the robot preset's (`None`: the
-    /// preset's); `--residual-scale` overrides it. `residual_sac_walker2d` keeps 0.1: the
-    /// Walker2d preset's 1.0 is for PPO's rising exploration, and SAC's warm-up and entropy
-    /// explore a 1.0 bound far off the controller's gait.
-    pub residual_scale: Option<f64>,
 }
 
 impl ExampleArgs {
@@ -322,10 +317,7 @@ impl ExampleArgs {
             }
             None => (tuned_config(defaults.env, defaults.algo), EnvSettings::default()),
         };
-        let mut preset = residual_config(defaults.env).map_err(|e| e.to_string())?;
-        if let Some(scale) = defaults.residual_scale {
-            preset.scale = vec![scale];
-        }
+        let preset = residual_config_for(defaults.env, defaults.algo).map_err(|e| e.to_string())?;
         let residual = self.hybrid.apply(preset);
         let n_envs = self.envs.unwrap_or(defaults.envs).max(1);
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -394,6 +386,7 @@ pub fn run_example(name: &str, opts: &ExperimentOptions) -> std::process::ExitCo
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::registry::residual_config;
 
     #[test]
     fn an_example_moves_past_a_directory_with_a_run_or_held_by_another_process() {

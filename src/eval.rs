@@ -10,7 +10,7 @@
 
 use std::path::{Path, PathBuf};
 
-use centaur_rl::{Checkpoint, Policy, RlError};
+use centaur_rl::{AlgoKind, Checkpoint, Policy, RlError};
 use serde::Serialize;
 
 use crate::experiment::{AgentStats, ExperimentError, evaluate_policy};
@@ -126,14 +126,21 @@ pub fn run_eval(opts: &EvalOptions) -> Result<EvalReport, EvalError> {
         None => trained.clone(),
     };
     let body: Option<String> = checkpoint.get_meta("body").ok();
+    // A hybrid is rebuilt with the residual preset of the learner that trained it.
+    let learner = AlgoKind::from_name(&checkpoint.algo).ok_or_else(|| {
+        EvalError::Refused(format!("{}: unknown algorithm `{}`", file.display(), checkpoint.algo))
+    })?;
     // The environment trained on, rebuilt today, must be the one the checkpoint records
     // (whatever the evaluation changes on top of it with --config).
     if let Ok(recorded) = checkpoint.get_meta::<String>("env_config")
         && Some(&env) == trained_env.as_ref()
         && !opts.allow_env_change
     {
-        let today =
-            EnvSource::with_body(&env, body.clone()).with_settings(trained.clone())?.make()?.config_text();
+        let today = EnvSource::with_body(&env, body.clone())
+            .for_learner(learner)?
+            .with_settings(trained.clone())?
+            .make()?
+            .config_text();
         if let Some(difference) = today.and_then(|today| config_difference(&recorded, &today)) {
             return Err(EvalError::Refused(format!(
                 "{}: `{env}` is no longer the environment this policy was trained on (a preset or default changed since): {difference}; evaluate anyway with --allow-env-change",
@@ -141,7 +148,7 @@ pub fn run_eval(opts: &EvalOptions) -> Result<EvalReport, EvalError> {
             )));
         }
     }
-    let source = EnvSource::with_body(&env, body).with_settings(settings)?;
+    let source = EnvSource::with_body(&env, body).for_learner(learner)?.with_settings(settings)?;
     let policy = Policy::from_checkpoint(&checkpoint).map_err(RlError::from)?;
     let stats = if env == "pendulum" || env.starts_with("modular:") {
         if opts.fade.is_some() {
@@ -155,7 +162,7 @@ pub fn run_eval(opts: &EvalOptions) -> Result<EvalReport, EvalError> {
         plain_stats(source.make()?.as_mut(), policy, opts)?
     } else {
         let record = opts.record.as_deref();
-        evaluate_policy(&env, source.settings(), policy, opts.episodes, opts.seed, record, opts.fade)?
+        evaluate_policy(&source, policy, opts.episodes, opts.seed, record, opts.fade)?
     };
     let report = EvalReport {
         checkpoint: file.clone(),

@@ -7,7 +7,7 @@
 //! | `pendulum` | Gymnasium's Pendulum-v1 ([`centaur_gym::pendulum::Pendulum`]) | — | — |
 //! | `minitaur`, `minitaur-fast`, `minitaur-deterministic` | PyBullet's MinitaurBulletEnv-v0 ([`centaur_envs::MinitaurEnv`]; `-fast`: 3.3 ms physics steps; `-deterministic`: no randomisation) | Minitaur | trot 2 m/s steered ±1.5 m/s (rated 3.5 m/s), scale 0.25, exploration σ 0.3 |
 //! | `ant`, `ant27` | Gymnasium Ant-v5 (`ant27`: the 27-d observation without contact forces) | Ant | trot 1 m/s steered ±0.5 m/s, scale 0.3, exploration σ 0.1 |
-//! | `walker2d` | Gymnasium Walker2d-v5 | Walker2d | walk 1.0 m/s steered ±0.5 m/s (rated 1.5 m/s), scale 1.0, exploration σ 0.01 rising to 0.3 over 100k samples |
+//! | `walker2d` | Gymnasium Walker2d-v5 | Walker2d | walk 1.0 m/s steered ±0.5 m/s (rated 1.5 m/s), scale 1.0, exploration σ 0.01 rising to 0.3 over 100k samples (SAC, TD3, DDPG: scale 0.1, no rise) |
 //! | `humanoid` | Gymnasium Humanoid-v5 | Humanoid | walk 0.3 m/s steered ±0.1 m/s, scale 0.1, exploration σ 0.1 |
 //! | `hopper`, `halfcheetah` | Gymnasium Hopper-, HalfCheetah-v5 | — | — |
 //! | `gecko`, `modular-ant`, `spider` | Revolve2's modular robots of those names ([`centaur_envs::ModularEnv`]) | — | — |
@@ -23,6 +23,7 @@ use centaur_envs::{
 use centaur_gym::pendulum::Pendulum;
 use centaur_gym::{Env, EnvError, VecEnv};
 use centaur_mpc::{Command, ControllerConfig, Gait, LocomotionController};
+use centaur_rl::AlgoKind;
 
 use crate::hybrid::{Exploration, ExplorationRamp, HybridError, ResidualConfig, Steering};
 use crate::residual::ResidualEnv;
@@ -39,9 +40,10 @@ pub struct RobotSpec {
     pub build: BuildRobot,
     /// The controller preset (`None`: the robot has no controller).
     pub controller: Option<fn() -> ControllerConfig>,
-    /// The residual preset of the hybrid: the command the controller follows and the
-    /// residual's scale (`None`: no hybrid).
-    pub residual: Option<fn() -> ResidualConfig>,
+    /// The residual preset of the hybrid for a learner kind: the command the controller
+    /// follows, the residual's scale and its exploration (`None`: no hybrid). The robots
+    /// whose best hybrid differs by learner (Walker2d's) tell them apart here.
+    pub residual: Option<fn(AlgoKind) -> ResidualConfig>,
     /// The motor model the controller is told with these settings, read from the env's
     /// preset with the settings over it (`None`: the robot's actions are torques).
     pub controller_motor: fn(&EnvSettings) -> Option<MotorInverse>,
@@ -82,7 +84,7 @@ fn modular(config: ModularConfig, s: &EnvSettings) -> Result<Box<dyn RobotEnv>, 
 /// residual (≈ 0.075 action units per joint) and 0.5 on the steering. On seed 0 of the
 /// main example, rated 2.5, a ±0.5 m/s span reached 19.8 in 300k steps, ±1 m/s 21.8 (the
 /// steering's gradient is twice as large).
-fn minitaur_residual() -> ResidualConfig {
+fn minitaur_residual(_: AlgoKind) -> ResidualConfig {
     ResidualConfig {
         steering: Steering { speed: 1.5, yaw_rate: 0.0 },
         exploration: Some(Exploration { residual: 0.3, steering: 0.5 }),
@@ -95,7 +97,7 @@ fn minitaur_residual() -> ResidualConfig {
 /// steers within ±0.5 m/s (the controller clamps it to the trot's 1.2 m/s rating); a gentle
 /// start with σ 0.1 on the residual and 0.5 on the steering (its first rollout scores 98 % of
 /// the controller alone, 75 % at the Minitaur's σ 0.3 on the residual).
-fn ant_residual() -> ResidualConfig {
+fn ant_residual(_: AlgoKind) -> ResidualConfig {
     ResidualConfig {
         steering: Steering { speed: 0.5, yaw_rate: 0.0 },
         exploration: Some(Exploration { residual: 0.1, steering: 0.5 }),
@@ -116,13 +118,25 @@ fn ant_residual() -> ResidualConfig {
 /// fell; the ramp does both (README, "Walker2d: a residual that learns to run"). The walk
 /// before (2026-11-27) knocked over at PPO's own σ = 1 on a 0.1 bound: the first rollout
 /// scored 61 % of the controller alone, 99.8 % at 0.01 action units.
-fn walker2d_residual() -> ResidualConfig {
-    ResidualConfig {
+///
+/// The off-policy learners (SAC, TD3, DDPG) take neither the gentle start nor the rising
+/// floor (they explore with their own noise: a warm-up, an entropy bonus) and keep the
+/// bound of 0.1 (10 % of the range): on `residual_sac_walker2d`'s 50k samples, seed 0, SAC
+/// scored 1,291.4 with 4/10 falls on it and 569.3 with 10/10 on 1.0 (the controller alone
+/// 1,786.6). Their preset is the walk, the steering and the rating above with that bound
+/// and no ramp.
+fn walker2d_residual(kind: AlgoKind) -> ResidualConfig {
+    let preset = ResidualConfig {
         steering: Steering { speed: 0.5, yaw_rate: 0.0 },
         rated_speed: Some(1.5),
         exploration: Some(Exploration { residual: 0.01, steering: 0.5 }),
         exploration_ramp: Some(ExplorationRamp { residual: 0.3, samples: 100_000 }),
         ..ResidualConfig::new(1.0, Command::forward(1.0, Gait::Walk))
+    };
+    if kind.takes_exploration_std() {
+        preset
+    } else {
+        ResidualConfig { scale: vec![0.1], exploration_ramp: None, ..preset }
     }
 }
 
@@ -132,7 +146,7 @@ fn walker2d_residual() -> ResidualConfig {
 /// episodes at 57k samples (seeds 0–1, PPO's defaults), with 10 % in none (both level with
 /// the controller alone at 200k). Until the controller walked (2026-11-28) it was 30 %
 /// around standing (stepping in place), at PPO's own exploration.
-fn humanoid_residual() -> ResidualConfig {
+fn humanoid_residual(_: AlgoKind) -> ResidualConfig {
     ResidualConfig {
         steering: Steering { speed: 0.1, yaw_rate: 0.0 },
         exploration: Some(Exploration { residual: 0.1, steering: 0.5 }),
@@ -357,6 +371,9 @@ pub struct EnvSource {
     name: String,
     body: Option<String>,
     settings: EnvSettings,
+    /// The learner a hybrid `<robot>-residual` is built for: its residual preset
+    /// ([`residual_config_for`]); PPO's unless [`EnvSource::for_learner`] says otherwise.
+    learner: AlgoKind,
 }
 
 impl EnvSource {
@@ -367,9 +384,29 @@ impl EnvSource {
             Some(file) => Some(read_body_file(Path::new(file))?),
             None => None,
         };
-        let source = EnvSource { name: name.to_string(), body, settings: EnvSettings::default() };
+        let source = EnvSource::with_body(name, body);
         source.make()?;
         Ok(source)
+    }
+
+    /// The same environment built for learners of `kind`: a hybrid `<robot>-residual` takes
+    /// that learner's residual preset ([`residual_config_for`]; the other environments do not
+    /// depend on the learner). Checked by making one.
+    pub fn for_learner(self, kind: AlgoKind) -> Result<EnvSource, RegistryError> {
+        let source = EnvSource { learner: kind, ..self };
+        source.make()?;
+        Ok(source)
+    }
+
+    /// The learner the environment is built for ([`EnvSource::for_learner`]).
+    pub fn learner(&self) -> AlgoKind {
+        self.learner
+    }
+
+    /// The residual preset of the hybrid this source builds (`None`: not a hybrid).
+    pub fn residual(&self) -> Option<ResidualConfig> {
+        let robot = self.name.strip_suffix("-residual")?;
+        residual_config_for(robot, self.learner).ok()
     }
 
     /// The same environment with `[env]` settings over its preset, checked by making one.
@@ -388,7 +425,7 @@ impl EnvSource {
     /// names other than `modular:FILE.json`, which requires it.
     pub fn with_body(name: &str, body: Option<String>) -> EnvSource {
         let body = if name.starts_with("modular:") { body } else { None };
-        EnvSource { name: name.to_string(), body, settings: EnvSettings::default() }
+        EnvSource { name: name.to_string(), body, settings: EnvSettings::default(), learner: AlgoKind::Ppo }
     }
 
     /// The environment's name.
@@ -414,7 +451,7 @@ impl EnvSource {
                     "the run records no body for this file",
                 ),
             }),
-            (None, _) => make_env_with(&self.name, &self.settings),
+            (None, _) => make_env_for(&self.name, &self.settings, self.learner),
         }
     }
 
@@ -457,11 +494,18 @@ pub fn controller_config(name: &str) -> Result<ControllerConfig, RegistryError> 
         .ok_or_else(|| RegistryError::NoController { name: name.to_string() })
 }
 
-/// The residual preset of a robot environment's hybrid.
+/// The residual preset of a robot environment's hybrid for PPO (and A2C), the learner the
+/// presets are tuned with; [`residual_config_for`] gives another learner's.
 pub fn residual_config(name: &str) -> Result<ResidualConfig, RegistryError> {
+    residual_config_for(name, AlgoKind::Ppo)
+}
+
+/// The residual preset of a robot environment's hybrid for learners of `kind` (Walker2d's
+/// off-policy learners keep a narrower bound: [`RobotSpec::residual`]).
+pub fn residual_config_for(name: &str, kind: AlgoKind) -> Result<ResidualConfig, RegistryError> {
     robot(name)
         .and_then(|r| r.residual)
-        .map(|preset| preset())
+        .map(|preset| preset(kind))
         .ok_or_else(|| RegistryError::NoController { name: name.to_string() })
 }
 
@@ -484,7 +528,8 @@ pub fn make_residual_env_with(
 }
 
 /// A fresh environment by name: `pendulum`, a robot, `modular:FILE.json`, or a hybrid
-/// `<robot>-residual` with the robot's residual preset.
+/// `<robot>-residual` with the robot's residual preset for PPO ([`make_env_for`]: another
+/// learner's).
 pub fn make_env(name: &str) -> Result<Box<dyn Env>, RegistryError> {
     make_env_with(name, &EnvSettings::default())
 }
@@ -492,6 +537,16 @@ pub fn make_env(name: &str) -> Result<Box<dyn Env>, RegistryError> {
 /// [`make_env`] with `[env]` settings over the preset (only `max_episode_steps` for the
 /// Pendulum).
 pub fn make_env_with(name: &str, settings: &EnvSettings) -> Result<Box<dyn Env>, RegistryError> {
+    make_env_for(name, settings, AlgoKind::Ppo)
+}
+
+/// [`make_env_with`] for learners of `kind`: a hybrid `<robot>-residual` takes that
+/// learner's residual preset ([`residual_config_for`]).
+pub fn make_env_for(
+    name: &str,
+    settings: &EnvSettings,
+    kind: AlgoKind,
+) -> Result<Box<dyn Env>, RegistryError> {
     if name == "pendulum" {
         if settings.max_episode_steps == Some(0) {
             let message = "max_episode_steps must be positive".to_string();
@@ -502,7 +557,7 @@ pub fn make_env_with(name: &str, settings: &EnvSettings) -> Result<Box<dyn Env>,
     if let Some(robot) = name.strip_suffix("-residual")
         && self::robot(robot).is_some_and(|r| r.residual.is_some())
     {
-        return Ok(Box::new(make_residual_env_with(robot, residual_config(robot)?, settings)?));
+        return Ok(Box::new(make_residual_env_with(robot, residual_config_for(robot, kind)?, settings)?));
     }
     Ok(make_robot_env_with(name, settings)?)
 }
@@ -566,6 +621,37 @@ mod tests {
                 r.name
             );
         }
+    }
+
+    /// Walker2d's hybrid differs by learner: PPO and A2C get the 1.0 bound with the rising
+    /// exploration, the off-policy learners the 0.1 bound without it (the walk, steering and
+    /// rating the same); every other robot's preset is the same for every learner, and
+    /// `residual_config` is PPO's.
+    #[test]
+    fn the_residual_preset_is_chosen_per_learner_where_it_differs() {
+        let ppo = residual_config_for("walker2d", AlgoKind::Ppo).unwrap();
+        assert_eq!(residual_config("walker2d").unwrap(), ppo);
+        assert_eq!(residual_config_for("walker2d", AlgoKind::A2c).unwrap(), ppo);
+        assert_eq!((ppo.scale.clone(), ppo.exploration_ramp.is_some()), (vec![1.0], true));
+        for kind in [AlgoKind::Sac, AlgoKind::SacV1, AlgoKind::Td3, AlgoKind::Ddpg] {
+            let off = residual_config_for("walker2d", kind).unwrap();
+            assert_eq!(off, ResidualConfig { scale: vec![0.1], exploration_ramp: None, ..ppo.clone() });
+            off.validate(6).unwrap();
+        }
+        for spec in ROBOTS.iter().filter(|r| r.residual.is_some() && r.name != "walker2d") {
+            for kind in AlgoKind::ALL {
+                assert_eq!(
+                    residual_config_for(spec.name, kind).unwrap(),
+                    residual_config(spec.name).unwrap()
+                );
+            }
+        }
+        // The source carries the learner to the hybrid it builds.
+        let source = EnvSource::read("walker2d-residual").unwrap().for_learner(AlgoKind::Sac).unwrap();
+        assert_eq!(source.residual().unwrap().scale, vec![0.1]);
+        let text = source.make().unwrap().config_text().unwrap();
+        assert!(text.contains(r#""scale":[0.1]"#), "{text}");
+        assert_eq!(EnvSource::read("walker2d").unwrap().residual(), None);
     }
 
     /// The two name lists this table replaced disagreed: `minitaur-deterministic` got the

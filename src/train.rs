@@ -428,8 +428,7 @@ fn new_learner(
     let kind = config.kind();
     let probe = source.make_vec(n_envs, 1)?;
     let mut algo = config.with_seed(seed).with_default_lr_decay_steps(steps).build(&probe)?;
-    if let Some(robot) = source.name().strip_suffix("-residual") {
-        let preset = crate::registry::residual_config(robot)?;
+    if let Some(preset) = source.residual() {
         start_as_controller(algo.as_mut(), kind, &preset, probe.action_space().dim())?;
     }
     Ok(algo)
@@ -444,7 +443,7 @@ pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> R
         (Some(p), Some(text)) => parse_run_config(opts.algo, text, p)?,
         _ => (AlgoConfig::default_for(opts.algo), EnvSettings::default()),
     };
-    let source = EnvSource::read(&opts.env)?.with_settings(settings)?;
+    let source = EnvSource::read(&opts.env)?.for_learner(opts.algo)?.with_settings(settings)?;
     let built = source.make()?;
     check_checkpoint_period(opts, &config, built.max_episode_steps())?;
     let env_config = built.config_text();
@@ -509,8 +508,9 @@ pub fn resume(
     let _held = lock_dir(dir).map_err(|c| claim_err(dir, c))?;
     let kind = AlgoKind::from_name(&record.algo)
         .ok_or_else(|| fail(format!("unknown algorithm `{}`", record.algo)))?;
-    let source =
-        EnvSource::with_body(&record.env, record.body.clone()).with_settings(record.env_settings.clone())?;
+    let source = EnvSource::with_body(&record.env, record.body.clone())
+        .for_learner(kind)?
+        .with_settings(record.env_settings.clone())?;
     if let (Some(recorded), Some(today)) = (&record.env_config, source.make()?.config_text())
         && let Some(difference) = config_difference(recorded, &today)
     {

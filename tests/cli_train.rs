@@ -413,19 +413,7 @@ fn a_changed_environment_is_not_taken_for_the_one_trained_on() {
     let ckpt_path = out.join("checkpoint");
     let mut ckpt = centaur_rl::Checkpoint::read(&ckpt_path).unwrap();
     assert_eq!(ckpt.get_meta::<String>("env_config").unwrap(), built);
-    let eval = |allow_env_change| {
-        centaur::eval::run_eval(&centaur::eval::EvalOptions {
-            checkpoint: out.clone(),
-            config: None,
-            env: None,
-            episodes: 1,
-            seed: 0,
-            record: None,
-            out: Some(out.join("eval.json")),
-            allow_env_change,
-            fade: None,
-        })
-    };
+    let eval = |allow_env_change| eval_one_episode(&out, allow_env_change);
     eval(false).unwrap();
     let mut recorded_as = |config: &str| {
         ckpt.set_meta("env_config", config);
@@ -513,6 +501,54 @@ fn a_hybrid_trained_from_the_command_line_starts_as_the_controller() {
         assert!(action.iter().all(|&a| a == 0.0), "{action:?}");
     }
     std::fs::remove_dir_all(&out).unwrap();
+    std::fs::remove_file(&config).unwrap();
+}
+
+/// `centaur eval` of the run in `out`: one episode, written to `out/eval.json`.
+fn eval_one_episode(
+    out: &Path,
+    allow_env_change: bool,
+) -> Result<centaur::eval::EvalReport, centaur::eval::EvalError> {
+    centaur::eval::run_eval(&centaur::eval::EvalOptions {
+        checkpoint: out.to_path_buf(),
+        config: None,
+        env: None,
+        episodes: 1,
+        seed: 0,
+        record: None,
+        out: Some(out.join("eval.json")),
+        allow_env_change,
+        fade: None,
+    })
+}
+
+/// A hybrid is trained on its learner's residual preset and evaluated on the same: Walker2d's
+/// residual is bounded at 1.0 for PPO (with its rising exploration) and at 0.1 for the
+/// off-policy learners; the run and the checkpoint record it, and `centaur eval` rebuilds
+/// the hybrid from the checkpoint's learner (the other preset would be refused as a changed
+/// environment).
+#[test]
+fn a_hybrid_is_trained_and_evaluated_on_its_learners_preset() {
+    let config = out_dir("learner-preset.toml");
+    std::fs::write(&config, "[env]\nmax_episode_steps = 5\n").unwrap();
+    for (algo, scale, ramp) in
+        [(AlgoKind::Sac, 0.1, false), (AlgoKind::Td3, 0.1, false), (AlgoKind::Ppo, 1.0, true)]
+    {
+        let out = out_dir(&format!("learner-preset-{}", algo.name()));
+        let opts = TrainOptions {
+            env: "walker2d-residual".into(),
+            eval_episodes: 1,
+            ..pendulum_run(algo, 0, out.clone(), &config)
+        };
+        train(&opts, &mut |_| {}).unwrap();
+        let record = centaur::train::read_run_record(&out).unwrap();
+        let built: serde_json::Value = serde_json::from_str(record.env_config.as_deref().unwrap()).unwrap();
+        assert_eq!(built["residual"]["scale"], serde_json::json!([scale]), "{}", algo.name());
+        assert_eq!(built["residual"].get("exploration_ramp").is_some(), ramp, "{}", algo.name());
+        let report = eval_one_episode(&out, false);
+        assert!(report.is_ok(), "{}: {}", algo.name(), report.unwrap_err());
+        std::fs::remove_dir_all(&out).unwrap();
+    }
     std::fs::remove_file(&config).unwrap();
 }
 

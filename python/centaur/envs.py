@@ -4,6 +4,11 @@ whose batch steps in Rust threads) over the native environments.
 Options are the `[env]` keys of a run's TOML file (`randomize=False`, `max_episode_steps=500`,
 `healthy_reward=5.0`, …; see the README's table): a key the environment does not have, or
 a bad value, raises `centaur.CentaurError` naming it.
+
+`learner="sac"` (any `centaur train --algo` name) builds a hybrid (`*-Residual-*`) with that
+learner's residual preset, as `centaur train --algo sac` does; the default is PPO's. They
+differ on Walker2d: PPO's residual is bounded at 1.0 and meant to start at a small σ that
+rises, the off-policy learners' (SAC, TD3, DDPG) at 0.1.
 """
 
 from __future__ import annotations
@@ -89,6 +94,7 @@ class CentaurEnv(gymnasium.Env):
         body: str | os.PathLike | None = None,
         max_episode_steps: int | None = None,
         gymnasium_time_limit: bool = False,
+        learner: str | None = None,
         **options: Any,
     ):
         if render_mode is not None:
@@ -99,7 +105,7 @@ class CentaurEnv(gymnasium.Env):
         name = _native_name(name, body)
         # Made by gymnasium.make: its TimeLimit wrapper keeps time.
         _length_option(name, options, _NO_LIMIT if gymnasium_time_limit else max_episode_steps)
-        self._env = _native.Env(name, _settings(options))
+        self._env = _native.Env(name, _settings(options), learner)
         self.name, self.observation_space, self.action_space, self.max_episode_steps, self.dt, self.reward_term_names = (
             _spaces(self._env.describe())
         )
@@ -150,6 +156,7 @@ class CentaurVectorEnv(VectorEnv):
         body: str | os.PathLike | None = None,
         max_episode_steps: int | None = None,
         gymnasium_time_limit: bool = False,
+        learner: str | None = None,
         **options: Any,
     ):
         # `gymnasium_time_limit` is the spec's note for gymnasium.make; gymnasium.make_vec
@@ -161,7 +168,7 @@ class CentaurVectorEnv(VectorEnv):
             num_threads = min(num_envs, os.cpu_count() or 1)
         name = _native_name(name, body)
         _length_option(name, options, max_episode_steps)
-        self._env = _native.VecEnv(name, int(num_envs), int(num_threads), _settings(options))
+        self._env = _native.VecEnv(name, int(num_envs), int(num_threads), _settings(options), learner)
         self.num_envs = int(num_envs)
         self.num_threads = int(num_threads)
         (

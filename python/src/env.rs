@@ -6,6 +6,7 @@ use std::time::Instant;
 use centaur::registry::{EnvSource, env_names};
 use centaur::settings::EnvSettings;
 use centaur_gym::{BoxSpace, Env as RustEnv, MAX_REWARD_TERMS, StepInfo, VecEnv as RustVecEnv, VecStep};
+use centaur_rl::AlgoKind;
 use numpy::prelude::*;
 use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3};
 use pyo3::prelude::*;
@@ -21,13 +22,22 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     Ok(())
 }
 
-/// The environment of `name` with `settings` (the `[env]` table as JSON, `None`: the preset).
-fn source(name: &str, settings: Option<&str>) -> PyResult<EnvSource> {
+/// The environment of `name` with `settings` (the `[env]` table as JSON, `None`: the preset)
+/// for `learner` (a `centaur train --algo` name; a hybrid takes that learner's residual
+/// preset; `None`: PPO's).
+fn source(name: &str, settings: Option<&str>, learner: Option<&str>) -> PyResult<EnvSource> {
     let settings: EnvSettings = match settings {
         Some(json) => serde_json::from_str(json).map_err(|e| error(format!("env options: {e}")))?,
         None => EnvSettings::default(),
     };
-    EnvSource::read(name).and_then(|s| s.with_settings(settings)).map_err(error)
+    let kind = match learner {
+        Some(name) => AlgoKind::from_name(name).ok_or_else(|| {
+            let names: Vec<_> = AlgoKind::ALL.iter().map(|k| k.name()).collect();
+            error(format!("learner `{name}`: expected one of {}", names.join(", ")))
+        })?,
+        None => AlgoKind::Ppo,
+    };
+    EnvSource::read(name).and_then(|s| s.for_learner(kind)?.with_settings(settings)).map_err(error)
 }
 
 /// The names `Env` and `VecEnv` take (`modular:FILE.json` for a body file).
@@ -66,11 +76,13 @@ struct EnvState {
 
 #[pymethods]
 impl Env {
-    /// `name` as `centaur train --env` takes it; `settings`: the `[env]` table as JSON.
+    /// `name` as `centaur train --env` takes it; `settings`: the `[env]` table as JSON;
+    /// `learner`: the learner a hybrid is for (`"sac"`, …: its residual preset; PPO's by
+    /// default).
     #[new]
-    #[pyo3(signature = (name, settings=None))]
-    fn new(name: &str, settings: Option<&str>) -> PyResult<Env> {
-        let env = source(name, settings)?.make().map_err(error)?;
+    #[pyo3(signature = (name, settings=None, learner=None))]
+    fn new(name: &str, settings: Option<&str>, learner: Option<&str>) -> PyResult<Env> {
+        let env = source(name, settings, learner)?.make().map_err(error)?;
         let obs = vec![0.0; env.observation_space().dim()];
         Ok(Env { inner: Mutex::new(EnvState { env, obs }) })
     }
@@ -154,17 +166,24 @@ fn info_arrays<'py>(py: Python<'py>, infos: &[StepInfo], n_terms: usize) -> PyRe
 
 #[pymethods]
 impl VecEnv {
-    /// `num_envs` copies of `name` on `threads` threads (at most one per environment).
+    /// `num_envs` copies of `name` on `threads` threads (at most one per environment);
+    /// `settings` and `learner` as for `Env`.
     #[new]
-    #[pyo3(signature = (name, num_envs, threads, settings=None))]
-    fn new(name: &str, num_envs: usize, threads: usize, settings: Option<&str>) -> PyResult<VecEnv> {
+    #[pyo3(signature = (name, num_envs, threads, settings=None, learner=None))]
+    fn new(
+        name: &str,
+        num_envs: usize,
+        threads: usize,
+        settings: Option<&str>,
+        learner: Option<&str>,
+    ) -> PyResult<VecEnv> {
         if num_envs == 0 {
             return Err(error("num_envs must be at least 1"));
         }
         if threads == 0 {
             return Err(error("threads must be at least 1"));
         }
-        let envs = source(name, settings)?.make_vec(num_envs, threads).map_err(error)?;
+        let envs = source(name, settings, learner)?.make_vec(num_envs, threads).map_err(error)?;
         let out = envs.make_step_buffers();
         let obs = vec![0.0; num_envs * envs.observation_space().dim()];
         let actions = vec![0.0; num_envs * envs.action_space().dim()];
@@ -233,7 +252,7 @@ fn bench_vec_env(
     if num_envs == 0 || threads == 0 {
         return Err(error("num_envs and threads must be at least 1"));
     }
-    let mut envs = source(name, settings)?.make_vec(num_envs, threads).map_err(error)?;
+    let mut envs = source(name, settings, None)?.make_vec(num_envs, threads).map_err(error)?;
     let (n, a) = (envs.len(), envs.action_space().dim());
     let shape = actions.shape();
     if shape[1] != n || shape[2] != a || shape[0] == 0 {

@@ -145,3 +145,28 @@ def test_seeding_follows_gymnasium():
 def test_module_prefix_imports_centaur():
     env = gym.make("centaur:centaur/Hopper-v5")
     assert env.unwrapped.name == "hopper"
+
+
+def test_a_hybrid_takes_its_learners_residual_preset():
+    # Walker2d's residual is bounded at 1.0 for PPO and A2C, at 0.1 for the off-policy
+    # learners: the same full-scale action moves the robot differently.
+    def after_steps(env_id, vector=False, **kwargs):
+        if vector:
+            env = gym.make_vec(env_id, num_envs=1, vectorization_mode="vector_entry_point", **kwargs)
+        else:
+            env = gym.make(env_id, **kwargs)
+        env.reset(seed=3)
+        shape = env.action_space.shape
+        return [env.step(np.ones(shape, dtype=np.float32))[0] for _ in range(5)][-1].reshape(-1)
+
+    walker = "centaur/Walker2d-Residual-v5"
+    default, ppo, sac = after_steps(walker), after_steps(walker, learner="ppo"), after_steps(walker, learner="sac")
+    np.testing.assert_array_equal(default, ppo)
+    np.testing.assert_array_equal(sac, after_steps(walker, learner="td3"))
+    np.testing.assert_array_equal(sac, after_steps(walker, vector=True, learner="sac"))
+    assert not np.allclose(default, sac)
+    # robots whose preset is the same for every learner
+    ant = "centaur/Ant-Residual-v5"
+    np.testing.assert_array_equal(after_steps(ant), after_steps(ant, learner="sac"))
+    with pytest.raises(centaur.CentaurError, match="learner `nope`: expected one of ppo, a2c, sac"):
+        gym.make(walker, learner="nope")

@@ -10,7 +10,7 @@ use centaur::compare::{CompareOptions, run_compare};
 use centaur::control::{ControlOptions, Push, check_out_dir, run_control, write_summary};
 use centaur::experiment::{Condition, RobustnessOptions, robustness_table, run_robustness};
 use centaur::experiment::{Phase, tuned_config};
-use centaur::registry::residual_config;
+use centaur::registry::{residual_config, residual_config_for};
 use centaur::train::{TrainOptions, parse_run_config, read_config_file, read_run_record, resume, train};
 use centaur_envs::minitaur::MotorInverse;
 use centaur_mpc::{Gait, MpcSolver};
@@ -517,7 +517,7 @@ fn compare(args: CompareArgs) -> ExitCode {
         }
         None => (tuned_config(&args.env, args.algo), Default::default()),
     };
-    let residual = match residual_config(&args.env) {
+    let residual = match residual_config_for(&args.env, args.algo) {
         Ok(r) => args.hybrid.apply(r),
         Err(e) => {
             eprintln!("error: {e}");

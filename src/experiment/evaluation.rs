@@ -13,30 +13,31 @@ use super::options::ExperimentError;
 use super::summary::AgentStats;
 use crate::hybrid::{ActionMapping, Fade, HybridError, ResidualConfig};
 use crate::recording::{Frame, Recorder};
-use crate::registry::{make_residual_env_with, make_robot_env_with, residual_config, robot};
+use crate::registry::{EnvSource, make_residual_env_with, make_robot_env_with, residual_config_for, robot};
 use crate::residual::ResidualEnv;
-use crate::settings::EnvSettings;
 
 /// A trained policy's deterministic episodes (episode `k` resets with `seed + k`) on a robot
-/// environment, or on a hybrid `<robot>-residual` with the robot's residual preset (behind
-/// the safety `fade` if given: [`crate::hybrid::ResidualConfig::fade`]), with `[env]`
-/// settings over the preset; the first episode recorded to `record` if given. A policy of
+/// environment, or on a hybrid `<robot>-residual` with the robot's residual preset for the
+/// source's learner (behind the safety `fade` if given:
+/// [`crate::hybrid::ResidualConfig::fade`]), with the source's `[env]` settings over the
+/// preset; the first episode recorded to `record` if given. A policy of
 /// other dimensions is refused with both shapes, a fade on an environment that is not a
 /// hybrid with the environment's name.
 pub fn evaluate_policy(
-    env: &str,
-    settings: &EnvSettings,
+    source: &EnvSource,
     policy: Policy,
     episodes: usize,
     seed: u64,
     record: Option<&Path>,
     fade: Option<Fade>,
 ) -> Result<AgentStats, ExperimentError> {
+    let (env, settings) = (source.name(), source.settings());
     let hybrid = env.strip_suffix("-residual").filter(|r| robot(r).is_some_and(|s| s.residual.is_some()));
     let shape = (policy.obs_dim(), policy.act_dim());
     let (mut driver, needed) = match hybrid {
         Some(r) => {
-            let env = make_residual_env_with(r, ResidualConfig { fade, ..residual_config(r)? }, settings)?;
+            let preset = residual_config_for(r, source.learner())?;
+            let env = make_residual_env_with(r, ResidualConfig { fade, ..preset }, settings)?;
             let needed = (env.observation_space().dim(), env.action_space().dim());
             (Driver::Hybrid { env: Box::new(env), policy }, needed)
         }
