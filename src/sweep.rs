@@ -341,7 +341,7 @@ pub fn check_grid(path: &Path) -> Result<CheckedGrid, SweepError> {
         AlgoKind::from_name(&grid.algo).ok_or_else(|| grid_err(format!("unknown algo `{}`", grid.algo)))?;
     let points = points(&grid).map_err(grid_err)?;
     // Every point's settings are checked before anything runs.
-    let source = EnvSource::read(&grid.env).map_err(TrainError::from)?;
+    let source = EnvSource::read(&grid.env).and_then(|s| s.for_learner(kind)).map_err(TrainError::from)?;
     let texts: Vec<String> = points.iter().map(|p| toml::to_string(&p.config).unwrap_or_default()).collect();
     for (p, t) in points.iter().zip(&texts) {
         let point_err = |e: &dyn std::fmt::Display| grid_err(format!("{} ({:?}): {e}", p.name, p.values));
