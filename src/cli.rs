@@ -11,7 +11,7 @@ use crate::experiment::{
     EXPERIMENT_FILES, ExperimentError, ExperimentOptions, ExperimentResult, Phase, run_experiment,
     tuned_config,
 };
-use crate::hybrid::{Exploration, ExplorationRamp, Fade, ResidualConfig, Steering};
+use crate::hybrid::{BoundRamp, Exploration, ExplorationRamp, Fade, ResidualConfig, Steering};
 use crate::mpc::Gait;
 use crate::registry::residual_config_for;
 use crate::settings::EnvSettings;
@@ -137,6 +137,19 @@ pub struct HybridArgs {
     /// No rising exploration, whatever the robot's preset
     #[arg(long)]
     pub no_explore_ramp: bool,
+    /// A rising residual bound: the joint residual's bound starts at FROM times the scale
+    /// (a fraction in (0, 1]) and rises log-linearly to the full scale over the first
+    /// --bound-ramp-samples training samples; a gentle start that leaves the learner's own
+    /// exploration as it is (every learner) [default: the robot's: none]
+    #[arg(long, value_name = "FROM", conflicts_with = "no_bound_ramp")]
+    pub bound_ramp: Option<f64>,
+    /// Training samples over which --bound-ramp rises [default: the robot's ramp's, else
+    /// 200,000]
+    #[arg(long, value_name = "SAMPLES", requires = "bound_ramp")]
+    pub bound_ramp_samples: Option<u64>,
+    /// No rising residual bound, whatever the robot's preset
+    #[arg(long)]
+    pub no_bound_ramp: bool,
     /// Off-policy learners (SAC, SAC v1, TD3, DDPG) warm up with the hybrid's own
     /// exploration around the controller instead of uniformly random actions
     #[arg(long)]
@@ -156,8 +169,8 @@ pub struct HybridArgs {
     pub fade: Option<Vec<f64>>,
 }
 
-/// The samples over which `--explore-ramp` rises when neither the command line nor the
-/// robot's preset says.
+/// The samples over which `--explore-ramp` and `--bound-ramp` rise when neither the
+/// command line nor the robot's preset says.
 pub const DEFAULT_RAMP_SAMPLES: u64 = 200_000;
 
 /// A gait by name (`--gait` here and on `centaur control`), for clap.
@@ -205,6 +218,16 @@ impl HybridArgs {
                 .or(preset.exploration_ramp.map(|r| r.samples))
                 .unwrap_or(DEFAULT_RAMP_SAMPLES);
             preset.exploration_ramp = Some(ExplorationRamp { residual, samples });
+        }
+        if self.no_bound_ramp {
+            preset.bound_ramp = None;
+        }
+        if let Some(from) = self.bound_ramp {
+            let samples = self
+                .bound_ramp_samples
+                .or(preset.bound_ramp.map(|r| r.samples))
+                .unwrap_or(DEFAULT_RAMP_SAMPLES);
+            preset.bound_ramp = Some(BoundRamp { from, samples });
         }
         preset.warmup_with_policy |= self.warmup_with_policy;
         if self.rated_speed.is_some() {
@@ -433,9 +456,49 @@ mod tests {
     }
 
     #[test]
+    fn the_bound_ramp_is_the_presets_unless_given_or_switched_off() {
+        let ant = residual_config("ant").unwrap();
+        let ramp =
+            |preset: &ResidualConfig, args: &[&str]| parse_hybrid(preset.clone(), args).unwrap().bound_ramp;
+        assert_eq!(ramp(&ant, &[]), None);
+        assert_eq!(
+            ramp(&ant, &["--bound-ramp", "0.05"]),
+            Some(BoundRamp { from: 0.05, samples: DEFAULT_RAMP_SAMPLES })
+        );
+        let with =
+            ResidualConfig { bound_ramp: Some(BoundRamp { from: 0.1, samples: 50_000 }), ..ant.clone() };
+        assert_eq!(ramp(&with, &[]), with.bound_ramp);
+        assert_eq!(ramp(&with, &["--no-bound-ramp"]), None);
+        // A new start keeps the preset's samples.
+        assert_eq!(ramp(&with, &["--bound-ramp", "0.2"]), Some(BoundRamp { from: 0.2, samples: 50_000 }));
+        assert_eq!(
+            ramp(&ant, &["--bound-ramp", "0.2", "--bound-ramp-samples", "300000"]),
+            Some(BoundRamp { from: 0.2, samples: 300_000 })
+        );
+        for args in [
+            &["--bound-ramp-samples", "300000"][..],
+            &["--bound-ramp", "0.5", "--no-bound-ramp"],
+            &["--bound-ramp", "0.5", "--bound-ramp-samples", "1.5"],
+        ] {
+            assert!(parse_hybrid(ant.clone(), args).is_err(), "{args:?}");
+        }
+    }
+
+    #[test]
     fn the_exploration_ramp_is_the_presets_unless_given_or_switched_off() {
-        let parse = |robot: &str, args: &[&str]| parse_hybrid(residual_config(robot).unwrap(), args);
-        let walker = residual_config("walker2d").unwrap().exploration_ramp.unwrap();
+        // A preset with a ramp (Walker2d's had one from commit c58109b until the rising bound).
+        let walker = ExplorationRamp { residual: 0.3, samples: 100_000 };
+        let with = ResidualConfig {
+            exploration: Some(Exploration { residual: 0.01, steering: 0.5 }),
+            exploration_ramp: Some(walker),
+            ..residual_config("walker2d").unwrap()
+        };
+        let parse = |robot: &str, args: &[&str]| {
+            parse_hybrid(
+                if robot == "walker2d" { with.clone() } else { residual_config(robot).unwrap() },
+                args,
+            )
+        };
         assert_eq!(parse("walker2d", &[]).unwrap().exploration_ramp, Some(walker));
         assert_eq!(parse("walker2d", &["--no-explore-ramp"]).unwrap().exploration_ramp, None);
         // A new σ keeps the preset's samples; elsewhere the default count.

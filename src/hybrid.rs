@@ -129,6 +129,48 @@ pub struct ExplorationRamp {
     pub samples: u64,
 }
 
+/// A rising residual bound: the joint residual's bound starts at `from` times the scale and
+/// rises log-linearly to the full scale over the first `samples` training samples (all
+/// environments together), then stays there. A gentle start that leaves the learner's own
+/// exploration alone: the residual's noise, and its mean, act at the small bound while the
+/// learner's σ is already the one that finds a new gait (the rising exploration,
+/// [`ExplorationRamp`], instead starts the learner at a tiny σ). The environment learns the
+/// samples from the learner ([`centaur_gym::Env::set_training_samples`]; Centaur's learners
+/// tell it, and a resumed run's learner goes on from its own count); one never told (an
+/// evaluation, a deployed stack, another trainer) applies the full scale.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoundRamp {
+    /// The bound at the start, as a fraction of the scale, in (0, 1].
+    pub from: f64,
+    /// Training samples (all environments together) over which the bound rises.
+    pub samples: u64,
+}
+
+impl BoundRamp {
+    /// The fraction of the scale after `samples` training samples (`None`: never told, the
+    /// full scale): `from^(1 − min(samples / self.samples, 1))`.
+    pub fn factor(&self, samples: Option<u64>) -> f32 {
+        let Some(t) = samples else { return 1.0 };
+        let progress = (t as f64 / self.samples as f64).min(1.0);
+        self.from.powf(1.0 - progress) as f32
+    }
+
+    fn validate(&self, joint_residual: bool) -> Result<(), HybridError> {
+        let refuse = |part, value, expected| Err(HybridError::BadSetting { part, value, expected });
+        if !joint_residual {
+            return refuse("bound_ramp.from", self.from, "a joint residual to bound (the hybrid has none)");
+        }
+        if !(self.from > 0.0 && self.from <= 1.0) {
+            return refuse("bound_ramp.from", self.from, "a fraction of the scale in (0, 1]");
+        }
+        if self.samples == 0 {
+            return refuse("bound_ramp.samples", 0.0, "at least one training sample");
+        }
+        Ok(())
+    }
+}
+
 /// A safety fade: the policy's authority shrinks as the body sinks below the controller's
 /// height reference, handing the robot back to the controller alone in two stages. The sag
 /// is `(h_ref − z_com) / h_ref`, the CoM's drop below the height the controller holds it at
@@ -248,10 +290,14 @@ pub struct ResidualConfig {
     /// only where set, so the records of runs without it read as before).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub fade: Option<Fade>,
+    /// A rising residual bound (`None`, the default: the full scale from the start;
+    /// recorded only where set, so the records of runs without it read as before).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bound_ramp: Option<BoundRamp>,
 }
 
-/// Every field as `derive(Debug)` writes it, but `fade` and `exploration_ramp` only where
-/// set: runs record this text in their fingerprint
+/// Every field as `derive(Debug)` writes it, but `fade`, `exploration_ramp` and `bound_ramp`
+/// only where set: runs record this text in their fingerprint
 /// ([`crate::experiment::ExperimentOptions::fingerprint`]), and a run without them keeps
 /// the fingerprint it had before they existed (so `centaur compare --resume` and
 /// `--pure-from` still take it).
@@ -268,6 +314,7 @@ impl std::fmt::Debug for ResidualConfig {
             command,
             rated_speed,
             fade,
+            bound_ramp,
         } = self;
         let mut s = f.debug_struct("ResidualConfig");
         s.field("scale", scale)
@@ -283,6 +330,9 @@ impl std::fmt::Debug for ResidualConfig {
             .field("rated_speed", rated_speed);
         if let Some(fade) = fade {
             s.field("fade", fade);
+        }
+        if let Some(ramp) = bound_ramp {
+            s.field("bound_ramp", ramp);
         }
         s.finish()
     }
@@ -301,6 +351,7 @@ impl Default for ResidualConfig {
             command: Command::forward(0.3, Gait::Trot),
             rated_speed: None,
             fade: None,
+            bound_ramp: None,
         }
     }
 }
@@ -369,6 +420,9 @@ impl ResidualConfig {
         }
         if let Some(f) = &self.fade {
             f.validate()?;
+        }
+        if let Some(ramp) = &self.bound_ramp {
+            ramp.validate(self.joint_residual)?;
         }
         Ok(())
     }
@@ -1057,6 +1111,44 @@ mod tests {
             text.contains("exploration_ramp: ExplorationRamp { residual: 0.3, samples: 100000 }"),
             "{text}"
         );
+        let back: ResidualConfig = serde_json::from_str(&serde_json::to_string(&config).unwrap()).unwrap();
+        assert_eq!(back, config);
+    }
+
+    #[test]
+    fn the_bound_ramp_rises_log_linearly_and_is_checked() {
+        let ramp = BoundRamp { from: 0.01, samples: 100_000 };
+        assert_eq!(ramp.factor(None), 1.0);
+        assert_eq!(ramp.factor(Some(0)), 0.01);
+        assert!((ramp.factor(Some(50_000)) - 0.1).abs() < 1e-6);
+        assert_eq!(ramp.factor(Some(100_000)), 1.0);
+        assert_eq!(ramp.factor(Some(u64::MAX)), 1.0);
+        let config = ResidualConfig { bound_ramp: Some(ramp), ..ResidualConfig::default() };
+        assert!(config.validate(2).is_ok());
+        let bad = |c: ResidualConfig, part: &str| match c.validate(2) {
+            Err(HybridError::BadSetting { part: p, .. }) => assert_eq!(p, part),
+            other => panic!("{c:?}: {other:?}"),
+        };
+        let steering_only = ResidualConfig {
+            joint_residual: false,
+            steering: Steering { speed: 0.5, yaw_rate: 0.0 },
+            ..config.clone()
+        };
+        bad(steering_only, "bound_ramp.from");
+        for from in [0.0, -0.1, 1.5, f64::NAN, f64::INFINITY] {
+            let r = Some(BoundRamp { from, samples: 100_000 });
+            bad(ResidualConfig { bound_ramp: r, ..config.clone() }, "bound_ramp.from");
+        }
+        let none = Some(BoundRamp { from: 0.01, samples: 0 });
+        bad(ResidualConfig { bound_ramp: none, ..config.clone() }, "bound_ramp.samples");
+        // Recorded only where set.
+        let without = ResidualConfig::default();
+        assert!(
+            !format!("{without:?}").contains("bound_ramp")
+                && !serde_json::to_string(&without).unwrap().contains("bound_ramp")
+        );
+        let text = format!("{config:?}");
+        assert!(text.contains("bound_ramp: BoundRamp { from: 0.01, samples: 100000 }"), "{text}");
         let back: ResidualConfig = serde_json::from_str(&serde_json::to_string(&config).unwrap()).unwrap();
         assert_eq!(back, config);
     }

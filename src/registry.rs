@@ -7,7 +7,7 @@
 //! | `pendulum` | Gymnasium's Pendulum-v1 ([`centaur_gym::pendulum::Pendulum`]) | — | — |
 //! | `minitaur`, `minitaur-fast`, `minitaur-deterministic` | PyBullet's MinitaurBulletEnv-v0 ([`centaur_envs::MinitaurEnv`]; `-fast`: 3.3 ms physics steps; `-deterministic`: no randomisation) | Minitaur | trot 2 m/s steered ±1.5 m/s (rated 3.5 m/s), scale 0.25, exploration σ 0.3 |
 //! | `ant`, `ant27` | Gymnasium Ant-v5 (`ant27`: the 27-d observation without contact forces) | Ant | trot 1 m/s steered ±0.5 m/s, scale 0.3, exploration σ 0.1 |
-//! | `walker2d` | Gymnasium Walker2d-v5 | Walker2d | walk 1.0 m/s steered ±0.5 m/s (rated 1.5 m/s), scale 1.0, exploration σ 0.01 rising to 0.3 over 100k samples (SAC, TD3, DDPG: scale 0.1, no rise) |
+//! | `walker2d` | Gymnasium Walker2d-v5 | Walker2d | walk 1.0 m/s steered ±0.5 m/s (rated 1.5 m/s), scale 1.0 rising from 1/30 of it over 100k samples, exploration σ 0.3 (SAC, TD3, DDPG: scale 0.1, no rise) |
 //! | `humanoid` | Gymnasium Humanoid-v5 | Humanoid | walk 0.3 m/s steered ±0.1 m/s, scale 0.1, exploration σ 0.1 |
 //! | `hopper`, `halfcheetah` | Gymnasium Hopper-, HalfCheetah-v5 | — | — |
 //! | `gecko`, `modular-ant`, `spider` | Revolve2's modular robots of those names ([`centaur_envs::ModularEnv`]) | — | — |
@@ -25,7 +25,7 @@ use centaur_gym::{Env, EnvError, VecEnv};
 use centaur_mpc::{Command, ControllerConfig, Gait, LocomotionController};
 use centaur_rl::AlgoKind;
 
-use crate::hybrid::{Exploration, ExplorationRamp, HybridError, ResidualConfig, Steering};
+use crate::hybrid::{BoundRamp, Exploration, HybridError, ResidualConfig, Steering};
 use crate::residual::ResidualEnv;
 use crate::settings::{EnvSettings, NotApplicable};
 
@@ -107,36 +107,44 @@ fn ant_residual(_: AlgoKind) -> ResidualConfig {
 
 /// Walker2d's hybrid: a residual bounded at half the action range (1.0 of [−1, 1]) around a
 /// 1.0 m/s walk whose speed the policy steers within ±0.5 m/s, rated 1.5 m/s over the walk's
-/// own 1.0 (commanded 1.25 and 1.5 m/s the walk stays up on seeds 0–4 at 0.99–1.03 m/s); a
-/// gentle start with σ 0.01 on the residual (0.01 action units, as before) and 0.5 on the
-/// steering, and a rising exploration: PPO's residual σ is held at least at a floor rising
-/// to 0.3 over the first 100k samples, then released. The preset since commit c58109b (2026-11-29):
-/// with the residual bounded at 10 % of the range the walk bounded the hybrid at ≈ 2,035
-/// (1.0 m/s) and pure PPO, running at 2.6–4.4 m/s, passed it at 500k samples; bounded at
-/// 1.0 but explored at σ 0.01 the policy never left the walk (1,383, 10/20 falls); explored
-/// at σ 0.3 from the start it learnt to run (seeds 0–1 × 1M: 4,012) but its first episodes
-/// fell; the ramp does both (README, "Walker2d: a residual that learns to run"). The walk
-/// before (2026-11-27) knocked over at PPO's own σ = 1 on a 0.1 bound: the first rollout
-/// scored 61 % of the controller alone, 99.8 % at 0.01 action units.
+/// own 1.0 (commanded 1.25 and 1.5 m/s the walk stays up on seeds 0–4 at 0.99–1.03 m/s);
+/// explored at σ 0.3 on the residual (the σ that learns to run) and 0.5 on the steering from
+/// the start, with a gentle start from a **rising bound**: the residual's bound starts at
+/// 1/30 of the scale (σ 0.3 × 0.033 = 0.01 action units, the gentle start of before) and
+/// rises log-linearly to the full 1.0 over the first 100k training samples
+/// ([`crate::hybrid::BoundRamp`]). The preset since 2026-11-29 (late), 5 seeds × 1M: 3,910.5
+/// with 0/50 falls, above the controller alone at every 100k budget; the rising exploration
+/// before it (σ 0.01 rising to 0.3 over 100k on the same bound, commit c58109b) scored
+/// 3,785.3 with 14/50 falls and fell below the controller at 200k–400k; σ 0.3 without a
+/// gentle start 3,964.7, its first episodes falling (README, "Walker2d: a residual that
+/// learns to run"). With the residual bounded at 10 % of the range the walk bounded the
+/// hybrid at ≈ 2,035 (1.0 m/s) and pure PPO, running at 2.6–4.4 m/s, passed it at 500k
+/// samples.
 ///
-/// The off-policy learners (SAC, TD3, DDPG) take neither the gentle start nor the rising
-/// floor (they explore with their own noise: a warm-up, an entropy bonus) and keep the
-/// bound of 0.1 (10 % of the range): on `residual_sac_walker2d`'s 50k samples, seed 0, SAC
-/// scored 1,291.4 with 4/10 falls on it and 569.3 with 10/10 on 1.0 (the controller alone
-/// 1,786.6). Their preset is the walk, the steering and the rating above with that bound
-/// and no ramp.
+/// The off-policy learners (SAC, TD3, DDPG) take no gentle start from the exploration (they
+/// explore with their own noise: a warm-up, an entropy bonus) and keep the bound of 0.1
+/// (10 % of the range) without a rising bound: on `residual_sac_walker2d`'s 50k samples,
+/// seed 0, SAC scored 1,291.4 with 4/10 falls on it and 569.3 with 10/10 on 1.0 (the
+/// controller alone 1,786.6). Their preset is the walk, the steering and the rating above
+/// with that bound.
 fn walker2d_residual(kind: AlgoKind) -> ResidualConfig {
-    let preset = ResidualConfig {
+    let walk = ResidualConfig {
         steering: Steering { speed: 0.5, yaw_rate: 0.0 },
         rated_speed: Some(1.5),
-        exploration: Some(Exploration { residual: 0.01, steering: 0.5 }),
-        exploration_ramp: Some(ExplorationRamp { residual: 0.3, samples: 100_000 }),
         ..ResidualConfig::new(1.0, Command::forward(1.0, Gait::Walk))
     };
     if kind.takes_exploration_std() {
-        preset
+        ResidualConfig {
+            exploration: Some(Exploration { residual: 0.3, steering: 0.5 }),
+            bound_ramp: Some(BoundRamp { from: 0.0333, samples: 100_000 }),
+            ..walk
+        }
     } else {
-        ResidualConfig { scale: vec![0.1], exploration_ramp: None, ..preset }
+        ResidualConfig {
+            scale: vec![0.1],
+            exploration: Some(Exploration { residual: 0.01, steering: 0.5 }),
+            ..walk
+        }
     }
 }
 
@@ -623,8 +631,8 @@ mod tests {
         }
     }
 
-    /// Walker2d's hybrid differs by learner: PPO and A2C get the 1.0 bound with the rising
-    /// exploration, the off-policy learners the 0.1 bound without it (the walk, steering and
+    /// Walker2d's hybrid differs by learner: PPO and A2C get the 1.0 bound rising from 1/30
+    /// of it, the off-policy learners the 0.1 bound without a rise (the walk, steering and
     /// rating the same); every other robot's preset is the same for every learner, and
     /// `residual_config` is PPO's.
     #[test]
@@ -632,10 +640,14 @@ mod tests {
         let ppo = residual_config_for("walker2d", AlgoKind::Ppo).unwrap();
         assert_eq!(residual_config("walker2d").unwrap(), ppo);
         assert_eq!(residual_config_for("walker2d", AlgoKind::A2c).unwrap(), ppo);
-        assert_eq!((ppo.scale.clone(), ppo.exploration_ramp.is_some()), (vec![1.0], true));
+        assert_eq!((ppo.scale.clone(), ppo.bound_ramp.is_some()), (vec![1.0], true));
         for kind in [AlgoKind::Sac, AlgoKind::SacV1, AlgoKind::Td3, AlgoKind::Ddpg] {
             let off = residual_config_for("walker2d", kind).unwrap();
-            assert_eq!(off, ResidualConfig { scale: vec![0.1], exploration_ramp: None, ..ppo.clone() });
+            let exploration = Some(Exploration { residual: 0.01, steering: 0.5 });
+            assert_eq!(
+                off,
+                ResidualConfig { scale: vec![0.1], exploration, bound_ramp: None, ..ppo.clone() }
+            );
             off.validate(6).unwrap();
         }
         for spec in ROBOTS.iter().filter(|r| r.residual.is_some() && r.name != "walker2d") {

@@ -79,6 +79,9 @@ pub struct ResidualEnv {
     /// last action).
     command: Command,
     name: String,
+    /// The learner's samples so far, if it said ([`Env::set_training_samples`]): the
+    /// rising residual bound's clock ([`crate::hybrid::BoundRamp`]).
+    training_samples: Option<u64>,
 }
 
 impl ResidualEnv {
@@ -131,6 +134,7 @@ impl ResidualEnv {
             mapping,
             config,
             name,
+            training_samples: None,
         })
     }
 
@@ -219,6 +223,10 @@ impl Env for ResidualEnv {
         self.env.dt()
     }
 
+    fn set_training_samples(&mut self, samples: u64) {
+        self.training_samples = Some(samples);
+    }
+
     fn reward_term_names(&self) -> &'static [&'static str] {
         // The wrapped env's terms, padded, with the residual size last.
         match self.env.reward_term_names() {
@@ -252,10 +260,11 @@ impl Env for ResidualEnv {
         let space = self.env.action_space();
         // The controller ticked on this state (`update_reference`): its CoM height is now's.
         let g = self.residual.authority(&self.controller, &self.command);
+        let bound = self.config.bound_ramp.map_or(1.0, |r| r.factor(self.training_samples));
         let sq = self.residual.apply(
             &self.reference,
             action,
-            g.residual,
+            g.residual * bound,
             &space.low,
             &space.high,
             &mut self.applied,

@@ -523,7 +523,7 @@ fn eval_one_episode(
 }
 
 /// A hybrid is trained on its learner's residual preset and evaluated on the same: Walker2d's
-/// residual is bounded at 1.0 for PPO (with its rising exploration) and at 0.1 for the
+/// residual is bounded at 1.0 for PPO (rising from 1/30 of it) and at 0.1 for the
 /// off-policy learners; the run and the checkpoint record it, and `centaur eval` rebuilds
 /// the hybrid from the checkpoint's learner (the other preset would be refused as a changed
 /// environment).
@@ -544,7 +544,7 @@ fn a_hybrid_is_trained_and_evaluated_on_its_learners_preset() {
         let record = centaur::train::read_run_record(&out).unwrap();
         let built: serde_json::Value = serde_json::from_str(record.env_config.as_deref().unwrap()).unwrap();
         assert_eq!(built["residual"]["scale"], serde_json::json!([scale]), "{}", algo.name());
-        assert_eq!(built["residual"].get("exploration_ramp").is_some(), ramp, "{}", algo.name());
+        assert_eq!(built["residual"].get("bound_ramp").is_some(), ramp, "{}", algo.name());
         let report = eval_one_episode(&out, false);
         assert!(report.is_ok(), "{}: {}", algo.name(), report.unwrap_err());
         std::fs::remove_dir_all(&out).unwrap();

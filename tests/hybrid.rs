@@ -83,6 +83,36 @@ fn walker_walk() -> ResidualConfig {
     ResidualConfig { command: Command::forward(0.3, Gait::Walk), ..ResidualConfig::default() }
 }
 
+/// A rising bound scales the residual by the ramp's factor at the samples the learner told
+/// the environment, and by nothing (the full scale) in an environment never told (an
+/// evaluation); the applied action is the reference plus that residual.
+#[test]
+fn a_rising_bound_follows_the_training_samples_the_env_is_told() {
+    use centaur::hybrid::BoundRamp;
+    let (scale, ramp) = (0.2, BoundRamp { from: 0.04, samples: 1000 });
+    let config = ResidualConfig { scale: vec![scale], bound_ramp: Some(ramp), ..walker_walk() };
+    let action = vec![0.5f32; make_residual_env("walker2d", config.clone()).unwrap().action_space().dim()];
+    for told in [None, Some(0), Some(500), Some(1000), Some(5000)] {
+        let mut env = make_residual_env("walker2d", config.clone()).unwrap();
+        let mut obs = vec![0.0f32; env.observation_space().dim()];
+        env.reset(Some(0), &mut obs).unwrap();
+        if let Some(samples) = told {
+            env.set_training_samples(samples);
+        }
+        let factor = ramp.factor(told);
+        let reference = env.reference().to_vec();
+        let s = env.step(&action, &mut obs).unwrap();
+        let bound = scale as f32 * factor;
+        let rms = s.info.reward_terms[RESIDUAL_TERM];
+        assert!((rms - f64::from(bound * 0.5)).abs() < 1e-6, "{told:?}: rms {rms}, bound {bound}");
+        let (low, high) = (&env.inner().action_space().low, &env.inner().action_space().high);
+        for k in 0..reference.len() {
+            assert_eq!(env.applied()[k], (reference[k] + bound * 0.5).clamp(low[k], high[k]), "{told:?}");
+        }
+    }
+    assert_eq!((ramp.factor(Some(0)), ramp.factor(Some(500)), ramp.factor(None)), (0.04, 0.2, 1.0));
+}
+
 #[test]
 fn the_residual_is_bounded_by_its_scale_and_the_action_space() {
     let scale = 0.2;
@@ -547,9 +577,10 @@ fn an_untrained_ant_hybrid_explores_gently() {
 fn an_untrained_walker2d_hybrid_explores_gently() {
     // The preset's 1.0 m/s walk scores ≈ 1790 over its 1000 steps (its 0.5 m/s walk ≈ 1400
     // before its tuning of 2026-11-29). On a residual bounded at 0.1, PPO's own σ = 1 scored
-    // 61 % of it in the first rollout (falls), σ 0.1 99.8 %. Today's preset bounds the
-    // residual at 1.0 and starts at σ 0.01, the same 0.01 action units: 1,780.2 against
-    // 1,789.0 (99.5 %); its exploration rises to σ 0.3 only as training goes on.
+    // 61 % of it in the first rollout (falls), σ 0.1 99.8 %. Today's preset explores at
+    // σ 0.3 from the start on a residual whose bound rises from 1/30 of 1.0 (the same 0.01
+    // action units): 1,779.9 against 1,789.0 (99.5 %). The bound is small only because PPO
+    // tells the environments its samples (0 here): on the full bound this σ scores ≈ 170.
     assert_explores_gently("walker2d", 1000, 1000.0);
 }
 

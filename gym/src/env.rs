@@ -158,6 +158,12 @@ pub trait Env: Send {
     fn config_text(&self) -> Option<String> {
         None
     }
+    /// Training progress: the learner's environment samples so far, told by Centaur's
+    /// learners before every rollout (PPO, A2C) or step (the off-policy learners). An
+    /// environment whose behaviour follows training (a hybrid's rising residual bound) reads
+    /// it; one never told (an evaluation, another trainer) behaves as fully trained. The
+    /// default ignores it.
+    fn set_training_samples(&mut self, _samples: u64) {}
     /// Starts an episode; writes the first observation into `obs`.
     fn reset(&mut self, seed: Option<u64>, obs: &mut [f32]) -> Result<(), EnvError>;
     /// Advances one control period with `action`; writes the next observation into `obs`.

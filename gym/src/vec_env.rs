@@ -189,6 +189,13 @@ impl VecEnv {
         })
     }
 
+    /// Tells every environment the learner's samples so far ([`Env::set_training_samples`]).
+    pub fn set_training_samples(&mut self, samples: u64) {
+        for slot in &mut self.slots {
+            slot.env.set_training_samples(samples);
+        }
+    }
+
     /// Number of environments.
     pub fn len(&self) -> usize {
         self.slots.len()

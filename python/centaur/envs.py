@@ -112,6 +112,14 @@ class CentaurEnv(gymnasium.Env):
         self.metadata = {"render_modes": [], "render_fps": round(1.0 / self.dt)}
         self._seeded = False
 
+    def set_training_samples(self, samples: int) -> None:
+        """Tells the environment the learner's training samples so far: a hybrid whose preset
+        has a rising residual bound (Walker2d's) follows them; one never told acts at the
+        full bound, as fully trained. Centaur's own learners tell it; call it from another
+        trainer (e.g. a Stable-Baselines3 callback at each rollout) to get the same gentle
+        start."""
+        self._env.set_training_samples(int(samples))
+
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         _check_reset_options(options)
         super().reset(seed=seed)
@@ -190,6 +198,10 @@ class CentaurVectorEnv(VectorEnv):
         self._seeded = False
         self._all = np.ones(self.num_envs, dtype=bool)
         self._all.flags.writeable = False
+
+    def set_training_samples(self, samples: int) -> None:
+        """As `CentaurEnv.set_training_samples`, for every environment."""
+        self._env.set_training_samples(int(samples))
 
     def reset(self, *, seed: int | list[int] | None = None, options: dict | None = None):
         _check_reset_options(options)

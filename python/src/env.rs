@@ -92,6 +92,13 @@ impl Env {
         describe(py, lock(&self.inner, "environment")?.env.as_ref())
     }
 
+    /// Tells the environment the learner's training samples so far (a hybrid's rising
+    /// residual bound follows them; an environment never told acts as fully trained).
+    fn set_training_samples(&self, samples: u64) -> PyResult<()> {
+        lock(&self.inner, "environment")?.env.set_training_samples(samples);
+        Ok(())
+    }
+
     /// Starts an episode (`seed`: reseed, `None`: continue the generator's stream).
     #[pyo3(signature = (seed=None))]
     fn reset<'py>(&self, py: Python<'py>, seed: Option<u64>) -> PyResult<Bound<'py, PyArray1<f32>>> {
@@ -193,6 +200,12 @@ impl VecEnv {
     /// As `Env.describe`, for one environment.
     fn describe<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
         describe(py, lock(&self.inner, "vector env")?.envs.env(0))
+    }
+
+    /// As `Env.set_training_samples`, for every environment.
+    fn set_training_samples(&self, samples: u64) -> PyResult<()> {
+        lock(&self.inner, "vector env")?.envs.set_training_samples(samples);
+        Ok(())
     }
 
     /// Resets every environment (environment `i` with seed `seed + i`): obs `(n, obs_dim)`.

@@ -170,3 +170,24 @@ def test_a_hybrid_takes_its_learners_residual_preset():
     np.testing.assert_array_equal(after_steps(ant), after_steps(ant, learner="sac"))
     with pytest.raises(centaur.CentaurError, match="learner `nope`: expected one of ppo, a2c, sac"):
         gym.make(walker, learner="nope")
+
+
+def test_a_rising_bound_follows_the_training_samples_it_is_told():
+    # Walker2d's PPO preset bounds its residual at 1/30 of 1.0 at the start of training,
+    # rising to 1.0 over 100k samples; an environment never told acts at the full bound.
+    def after_steps(told, vector=False):
+        walker = "centaur/Walker2d-Residual-v5"
+        if vector:
+            env = gym.make_vec(walker, num_envs=1, vectorization_mode="vector_entry_point")
+        else:
+            env = gym.make(walker)
+        if told is not None:
+            (env if vector else env.unwrapped).set_training_samples(told)
+        env.reset(seed=3)
+        shape = env.action_space.shape
+        return [env.step(np.ones(shape, dtype=np.float32))[0] for _ in range(5)][-1].reshape(-1)
+
+    never, start, done = after_steps(None), after_steps(0), after_steps(100_000)
+    np.testing.assert_array_equal(never, done)
+    assert not np.allclose(never, start)
+    np.testing.assert_array_equal(start, after_steps(0, vector=True))

@@ -204,6 +204,7 @@ pub(crate) fn learn<L: OffPolicyLearner>(
             let k = i % ad;
             c.env_actions[i] = rescale_action(c.actions[i], c.act_space.low[k], c.act_space.high[k]);
         }
+        env.set_training_samples(c.steps_done);
         env.step(&c.env_actions[..n * ad], &mut c.step)?;
         reward_sum += c.step.rewards.iter().sum::<f64>();
         reward_steps += n as u64;

@@ -889,6 +889,7 @@ impl Algorithm for Ppo {
             if let Some(floor) = &self.exploration_floor {
                 floor.apply(&mut self.log_std, self.steps_done);
             }
+            env.set_training_samples(self.steps_done);
             self.collect_rollout(env, &mut episodes)?;
             self.compute_advantages();
             let mut m = UpdateMetrics::empty();

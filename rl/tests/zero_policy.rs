@@ -12,62 +12,7 @@ use centaur_rl::{
 fn zeroed_policies_output_zero_and_still_learn() {
     let venv = || VecEnv::new(vec![Box::new(Pendulum::new()) as Box<dyn Env>], 1).unwrap();
     let v = venv();
-    let small = vec![16, 16];
-    let mut algos = gaussian_learners(&v);
-    algos.extend::<Vec<Box<dyn Algorithm>>>(vec![
-        Box::new(
-            Sac::for_env(
-                SacConfig {
-                    actor_hidden: small.clone(),
-                    critic_hidden: small.clone(),
-                    learning_starts: 10,
-                    batch_size: 8,
-                    ..SacConfig::default()
-                },
-                &v,
-            )
-            .unwrap(),
-        ),
-        Box::new(
-            SacV1::for_env(
-                SacV1Config {
-                    actor_hidden: small.clone(),
-                    critic_hidden: small.clone(),
-                    learning_starts: 10,
-                    batch_size: 8,
-                    ..SacV1Config::default()
-                },
-                &v,
-            )
-            .unwrap(),
-        ),
-        Box::new(
-            Td3::for_env(
-                Td3Config {
-                    actor_hidden: small.clone(),
-                    critic_hidden: small.clone(),
-                    learning_starts: 10,
-                    batch_size: 8,
-                    ..Td3Config::default()
-                },
-                &v,
-            )
-            .unwrap(),
-        ),
-        Box::new(
-            Ddpg::for_env(
-                DdpgConfig {
-                    actor_hidden: small.clone(),
-                    critic_hidden: small.clone(),
-                    learning_starts: 10,
-                    batch_size: 8,
-                    ..DdpgConfig::default()
-                },
-                &v,
-            )
-            .unwrap(),
-        ),
-    ]);
+    let mut algos = every_learner(&v);
     let mut rng = Rng::seed_from_u64(0);
     for algo in algos.iter_mut() {
         algo.zero_policy_output();
@@ -90,6 +35,67 @@ fn zeroed_policies_output_zero_and_still_learn() {
         }
         assert!(moved, "{}: the policy never left zero", algo.name());
     }
+}
+
+/// Small learners of every kind for `v` (the off-policy ones learning from step 10).
+fn every_learner(v: &VecEnv) -> Vec<Box<dyn Algorithm>> {
+    let small = vec![16, 16];
+    let mut algos = gaussian_learners(v);
+    algos.extend::<Vec<Box<dyn Algorithm>>>(vec![
+        Box::new(
+            Sac::for_env(
+                SacConfig {
+                    actor_hidden: small.clone(),
+                    critic_hidden: small.clone(),
+                    learning_starts: 10,
+                    batch_size: 8,
+                    ..SacConfig::default()
+                },
+                v,
+            )
+            .unwrap(),
+        ),
+        Box::new(
+            SacV1::for_env(
+                SacV1Config {
+                    actor_hidden: small.clone(),
+                    critic_hidden: small.clone(),
+                    learning_starts: 10,
+                    batch_size: 8,
+                    ..SacV1Config::default()
+                },
+                v,
+            )
+            .unwrap(),
+        ),
+        Box::new(
+            Td3::for_env(
+                Td3Config {
+                    actor_hidden: small.clone(),
+                    critic_hidden: small.clone(),
+                    learning_starts: 10,
+                    batch_size: 8,
+                    ..Td3Config::default()
+                },
+                v,
+            )
+            .unwrap(),
+        ),
+        Box::new(
+            Ddpg::for_env(
+                DdpgConfig {
+                    actor_hidden: small.clone(),
+                    critic_hidden: small.clone(),
+                    learning_starts: 10,
+                    batch_size: 8,
+                    ..DdpgConfig::default()
+                },
+                v,
+            )
+            .unwrap(),
+        ),
+    ]);
+    algos
 }
 
 /// Small PPO and A2C learners (the two with a per-entry Gaussian) for `v`.
@@ -169,4 +175,63 @@ fn a_rising_exploration_floor_is_applied_and_kept() {
     )
     .unwrap();
     assert!(matches!(sac.set_exploration_floor(floor), Err(RlError::Incompatible { .. })));
+}
+
+/// Pendulum, recording the training samples the learner tells it.
+struct Told {
+    inner: Pendulum,
+    seen: std::sync::Arc<std::sync::Mutex<Vec<u64>>>,
+}
+
+impl Env for Told {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+    fn observation_space(&self) -> &centaur_gym::BoxSpace {
+        self.inner.observation_space()
+    }
+    fn action_space(&self) -> &centaur_gym::BoxSpace {
+        self.inner.action_space()
+    }
+    fn max_episode_steps(&self) -> usize {
+        self.inner.max_episode_steps()
+    }
+    fn dt(&self) -> f64 {
+        self.inner.dt()
+    }
+    fn set_training_samples(&mut self, samples: u64) {
+        self.seen.lock().unwrap().push(samples);
+    }
+    fn reset(&mut self, seed: Option<u64>, obs: &mut [f32]) -> Result<(), centaur_gym::EnvError> {
+        self.inner.reset(seed, obs)
+    }
+    fn step(&mut self, action: &[f32], obs: &mut [f32]) -> Result<centaur_gym::Step, centaur_gym::EnvError> {
+        self.inner.step(action, obs)
+    }
+}
+
+/// Every learner tells its environments its samples so far before they step (a hybrid's
+/// rising residual bound runs on this clock): PPO and A2C before each rollout, the
+/// off-policy learners before each step; a second `learn` goes on from its own count.
+#[test]
+fn every_learner_tells_its_environments_the_training_samples() {
+    let seen = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let told = || {
+        let env = Told { inner: Pendulum::new(), seen: seen.clone() };
+        VecEnv::new(vec![Box::new(env) as Box<dyn Env>], 1).unwrap()
+    };
+    for (k, mut algo) in every_learner(&told()).into_iter().enumerate() {
+        seen.lock().unwrap().clear();
+        let mut env = told();
+        algo.learn(&mut env, 128, &mut |_| std::ops::ControlFlow::Continue(())).unwrap();
+        algo.learn(&mut env, 256, &mut |_| std::ops::ControlFlow::Continue(())).unwrap();
+        let got = seen.lock().unwrap().clone();
+        // PPO's rollouts are 64 samples, A2C's 5 (its last ends at 130 and 260).
+        let expected: Vec<u64> = match k {
+            0 => (0..4).map(|r| 64 * r).collect(),
+            1 => (0..26).chain(26..52).map(|r| 5 * r).collect(),
+            _ => (0..256).collect(),
+        };
+        assert_eq!(got, expected, "{}", algo.name());
+    }
 }

@@ -335,6 +335,8 @@ mod legacy {
                 rated_speed,
                 // Records of this form predate the fade: it can only be `None` here.
                 fade: _,
+                // ... and the rising bound.
+                bound_ramp: _,
             } = self.r;
             let mut s = f.debug_struct("ResidualConfig");
             s.field("scale", scale)
