@@ -119,7 +119,8 @@ pub struct Exploration {
 /// explored that gently never leaves it. Walker2d's hybrid with a residual bound of the
 /// whole action range and σ 0.01 stayed at the walk's 1.0 m/s for 1M samples; explored at
 /// σ 0.3 from the start it learnt to run (README, "Walker2d: a residual that learns to
-/// run"), but its first episodes fell. The ramp does both.
+/// run"), but its first episodes fell. The ramp does both; Walker2d's preset used it until a
+/// rising bound ([`BoundRamp`]), which keeps σ 0.3 from the start, did better.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ExplorationRamp {
