@@ -7,8 +7,9 @@ a bad value, raises `centaur.CentaurError` naming it.
 
 `learner="sac"` (any `centaur train --algo` name) builds a hybrid (`*-Residual-*`) with that
 learner's residual preset, as `centaur train --algo sac` does; the default is PPO's. They
-differ on Walker2d: PPO's residual is bounded at 1.0 and meant to start at a small σ that
-rises, the off-policy learners' (SAC, TD3, DDPG) at 0.1.
+differ on Walker2d: PPO's residual is bounded at 1.0, a bound that rises from 1/30 of it over
+the first 100k training samples the environment is told (`set_training_samples`; never
+told, it acts at the full bound), the off-policy learners' (SAC, TD3, DDPG) at 0.1.
 """
 
 from __future__ import annotations
