@@ -175,6 +175,11 @@ pub struct HybridArgs {
 /// command line nor the robot's preset says.
 pub const DEFAULT_RAMP_SAMPLES: u64 = 200_000;
 
+/// A ramp's samples: the command line's, else the preset ramp's, else the default.
+fn ramp_samples(given: Option<u64>, preset: Option<u64>) -> u64 {
+    given.or(preset).unwrap_or(DEFAULT_RAMP_SAMPLES)
+}
+
 /// A gait by name (`--gait` here and on `centaur control`), for clap.
 pub fn gait_name(name: &str) -> Result<Gait, String> {
     crate::control::parse_gait(name).map_err(|e| e.to_string())
@@ -215,20 +220,14 @@ impl HybridArgs {
             preset.exploration_ramp = None;
         }
         if let Some(residual) = self.explore_ramp {
-            let samples = self
-                .explore_ramp_samples
-                .or(preset.exploration_ramp.map(|r| r.samples))
-                .unwrap_or(DEFAULT_RAMP_SAMPLES);
+            let samples = ramp_samples(self.explore_ramp_samples, preset.exploration_ramp.map(|r| r.samples));
             preset.exploration_ramp = Some(ExplorationRamp { residual, samples });
         }
         if self.no_bound_ramp {
             preset.bound_ramp = None;
         }
         if let Some(from) = self.bound_ramp {
-            let samples = self
-                .bound_ramp_samples
-                .or(preset.bound_ramp.map(|r| r.samples))
-                .unwrap_or(DEFAULT_RAMP_SAMPLES);
+            let samples = ramp_samples(self.bound_ramp_samples, preset.bound_ramp.map(|r| r.samples));
             preset.bound_ramp = Some(BoundRamp { from, samples });
         }
         preset.warmup_with_policy |= self.warmup_with_policy;

@@ -149,11 +149,10 @@ pub struct BoundRamp {
 }
 
 impl BoundRamp {
-    /// The fraction of the scale after `samples` training samples (`None`: never told, the
-    /// full scale): `from^(1 − min(samples / self.samples, 1))`.
-    pub fn factor(&self, samples: Option<u64>) -> f32 {
-        let Some(t) = samples else { return 1.0 };
-        let progress = (t as f64 / self.samples as f64).min(1.0);
+    /// The fraction of the scale after `samples` training samples:
+    /// `from^(1 − min(samples / self.samples, 1))`.
+    pub fn factor(&self, samples: u64) -> f32 {
+        let progress = (samples as f64 / self.samples as f64).min(1.0);
         self.from.powf(1.0 - progress) as f32
     }
 
@@ -1119,11 +1118,10 @@ mod tests {
     #[test]
     fn the_bound_ramp_rises_log_linearly_and_is_checked() {
         let ramp = BoundRamp { from: 0.01, samples: 100_000 };
-        assert_eq!(ramp.factor(None), 1.0);
-        assert_eq!(ramp.factor(Some(0)), 0.01);
-        assert!((ramp.factor(Some(50_000)) - 0.1).abs() < 1e-6);
-        assert_eq!(ramp.factor(Some(100_000)), 1.0);
-        assert_eq!(ramp.factor(Some(u64::MAX)), 1.0);
+        assert_eq!(ramp.factor(0), 0.01);
+        assert!((ramp.factor(50_000) - 0.1).abs() < 1e-6);
+        assert_eq!(ramp.factor(100_000), 1.0);
+        assert_eq!(ramp.factor(u64::MAX), 1.0);
         let config = ResidualConfig { bound_ramp: Some(ramp), ..ResidualConfig::default() };
         assert!(config.validate(2).is_ok());
         let bad = |c: ResidualConfig, part: &str| match c.validate(2) {

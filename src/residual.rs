@@ -79,9 +79,10 @@ pub struct ResidualEnv {
     /// last action).
     command: Command,
     name: String,
-    /// The learner's samples so far, if it said ([`Env::set_training_samples`]): the
-    /// rising residual bound's clock ([`crate::hybrid::BoundRamp`]).
-    training_samples: Option<u64>,
+    /// The rising residual bound's fraction of the scale at the samples the learner last
+    /// told ([`Env::set_training_samples`], [`crate::hybrid::BoundRamp`]); 1 (the full
+    /// scale) if it never told or there is no ramp.
+    bound: f32,
 }
 
 impl ResidualEnv {
@@ -134,7 +135,7 @@ impl ResidualEnv {
             mapping,
             config,
             name,
-            training_samples: None,
+            bound: 1.0,
         })
     }
 
@@ -224,7 +225,9 @@ impl Env for ResidualEnv {
     }
 
     fn set_training_samples(&mut self, samples: u64) {
-        self.training_samples = Some(samples);
+        if let Some(ramp) = self.config.bound_ramp {
+            self.bound = ramp.factor(samples);
+        }
     }
 
     fn reward_term_names(&self) -> &'static [&'static str] {
@@ -260,11 +263,10 @@ impl Env for ResidualEnv {
         let space = self.env.action_space();
         // The controller ticked on this state (`update_reference`): its CoM height is now's.
         let g = self.residual.authority(&self.controller, &self.command);
-        let bound = self.config.bound_ramp.map_or(1.0, |r| r.factor(self.training_samples));
         let sq = self.residual.apply(
             &self.reference,
             action,
-            g.residual * bound,
+            g.residual * self.bound,
             &space.low,
             &space.high,
             &mut self.applied,
