@@ -114,6 +114,11 @@ pub struct HybridArgs {
     /// Span of the policy's yaw-rate steering, rad/s (0: off) [default: the robot's]
     #[arg(long)]
     pub steer_yaw_rate: Option<f64>,
+    /// Span of the policy's cadence steering, a fraction in [0, 0.9] (0: off): the gait
+    /// clock runs at 1 ± this times its rate, so the gait may step faster or slower
+    /// [default: the robot's]
+    #[arg(long)]
+    pub steer_cadence: Option<f64>,
     /// Which parts of the hybrid's action are on: both (the default), residual (no
     /// steering) or command (steering only)
     #[arg(long, value_enum, default_value = "both")]
@@ -203,6 +208,9 @@ impl HybridArgs {
         }
         if let Some(s) = self.steer_yaw_rate {
             preset.steering.yaw_rate = s;
+        }
+        if let Some(s) = self.steer_cadence {
+            preset.steering.cadence = s;
         }
         match self.parts {
             HybridParts::Both => {}
@@ -483,6 +491,16 @@ mod tests {
         ] {
             assert!(parse_hybrid(ant.clone(), args).is_err(), "{args:?}");
         }
+    }
+
+    #[test]
+    fn the_cadence_steering_is_the_presets_unless_given_and_off_with_the_steering() {
+        let walker = residual_config("walker2d").unwrap();
+        let steering = |args: &[&str]| parse_hybrid(walker.clone(), args).unwrap().steering;
+        assert_eq!(steering(&[]), walker.steering);
+        assert_eq!(steering(&["--steer-cadence", "0.5"]), Steering { cadence: 0.5, ..walker.steering });
+        assert_eq!(steering(&["--steer-cadence", "0.5", "--parts", "residual"]), Steering::OFF);
+        assert!(parse_hybrid(walker.clone(), &["--steer-cadence", "x"]).is_err());
     }
 
     #[test]

@@ -74,26 +74,55 @@ pub enum HybridError {
 }
 
 /// How the policy may steer the controller's command. Each non-zero span adds one entry
-/// `c ∈ [−1, 1]` to the policy's action, after the joint residual, and the controller
-/// follows `base + span · clip(c, −1, 1)`; zero switches that part off. The controller
-/// still clamps the result to its rating for the gait and ramps towards it at its own
-/// acceleration limit, so a noisy steering output is smoothed, not followed step by step.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+/// `c ∈ [−1, 1]` to the policy's action, after the joint residual, in this order (speed,
+/// yaw rate, cadence), and the controller follows `base + span · clip(c, −1, 1)`; zero
+/// switches that part off. The controller still clamps the result to its rating for the
+/// gait and ramps towards it at its own acceleration limit, so a noisy steering output is
+/// smoothed, not followed step by step; the cadence moves at the gait clock's slew
+/// ([`centaur_mpc::GAIT_RATE_SLEW`]).
+#[derive(Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Steering {
     /// Forward-speed span (m/s): `v = v₀ + speed · c`.
     pub speed: f64,
     /// Yaw-rate span (rad/s): `ω = ω₀ + yaw_rate · c`.
     pub yaw_rate: f64,
+    /// Cadence span, a fraction in [0, 0.9]: the gait clock runs at `1 + cadence · c` times
+    /// its rate, each cycle (swing and stance) taking `1 / (1 + cadence · c)` of the gait's
+    /// period ([`centaur_mpc::LocomotionController::set_gait_rate`]). A robot whose gait
+    /// has a fixed clock steps at one cadence whatever its speed; steering it lets the
+    /// policy step faster to run (recorded only where set, so the records of runs without
+    /// it read as before).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub cadence: f64,
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+
+/// Every field as `derive(Debug)` writes it, but `cadence` only where set: runs record
+/// this text in their fingerprint, and a run without it keeps the fingerprint it had
+/// before it existed.
+impl std::fmt::Debug for Steering {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let Steering { speed, yaw_rate, cadence } = self;
+        let mut s = f.debug_struct("Steering");
+        s.field("speed", speed).field("yaw_rate", yaw_rate);
+        if *cadence != 0.0 {
+            s.field("cadence", cadence);
+        }
+        s.finish()
+    }
 }
 
 impl Steering {
     /// No steering: the command is fixed.
-    pub const OFF: Steering = Steering { speed: 0.0, yaw_rate: 0.0 };
+    pub const OFF: Steering = Steering { speed: 0.0, yaw_rate: 0.0, cadence: 0.0 };
 
     /// Number of action entries the steering adds.
     pub fn dim(&self) -> usize {
-        usize::from(self.speed != 0.0) + usize::from(self.yaw_rate != 0.0)
+        usize::from(self.speed != 0.0) + usize::from(self.yaw_rate != 0.0) + usize::from(self.cadence != 0.0)
     }
 }
 
@@ -392,6 +421,14 @@ impl ResidualConfig {
                 return Err(HybridError::BadSetting { part, value, expected: "a finite span ≥ 0" });
             }
         }
+        if !(self.steering.cadence.is_finite() && (0.0..=MAX_CADENCE).contains(&self.steering.cadence)) {
+            let value = self.steering.cadence;
+            return Err(HybridError::BadSetting {
+                part: "steering.cadence",
+                value,
+                expected: "a fraction in [0, 0.9] (the clock's rate 1 ± cadence stays positive)",
+            });
+        }
         if self.steering.yaw_rate > MAX_YAW_RATE {
             let value = self.steering.yaw_rate;
             return Err(HybridError::BadSetting {
@@ -536,6 +573,10 @@ pub const MAX_RATED_SPEED: f64 = 20.0;
 /// at up to 0.5 rad/s). A larger one only ramps the yaw reference without end.
 pub const MAX_YAW_RATE: f64 = 2.0 * std::f64::consts::PI;
 
+/// The widest cadence span ([`Steering::cadence`]): the gait clock's rate stays within
+/// [0.1, 1.9] times its own.
+pub const MAX_CADENCE: f64 = 0.9;
+
 /// The largest initial exploration σ accepted ([`Exploration`]), in the policy's [−1, 1]
 /// units: at σ 10 nearly every sample already lands outside [−1, 1] and is clipped, and far
 /// larger ones (1e308) make the learner's first loss infinite.
@@ -667,6 +708,18 @@ impl Residual {
             cmd.yaw_rate = base.yaw_rate + self.steering.yaw_rate * next();
         }
         cmd
+    }
+
+    /// The gait clock's rate the policy's `output` steers to, `1 + cadence · g · clip(c, −1,
+    /// 1)` with `c` its cadence entry (the last steering entry) and `g` the `authority`
+    /// over the steering; `None` without cadence steering (the clock keeps its own rate).
+    pub fn gait_rate(&self, output: &[f32], authority: f32) -> Option<f64> {
+        if self.steering.cadence == 0.0 {
+            return None;
+        }
+        let k = self.joint_dim() + self.steering.dim() - 1;
+        let c = (authority * output.get(k).copied().unwrap_or(0.0).clamp(-1.0, 1.0)) as f64;
+        Some(1.0 + self.steering.cadence * c)
     }
 
     /// The policy's observation: the robot's observation, the gait phase
@@ -936,7 +989,7 @@ mod tests {
     fn steering_maps_the_policy_output_onto_the_command() {
         let base = Command::forward(2.0, Gait::Trot);
         let config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.2 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.2, cadence: 0.0 },
             ..ResidualConfig::new(0.25, base)
         };
         let r = Residual::new(&config, 3).unwrap();
@@ -951,6 +1004,48 @@ mod tests {
         let mut applied = [0.0f32; 3];
         r.apply(&[0.1, 0.2, 0.3], &[0.0, 0.0, 0.0, 1.0, 1.0], 1.0, &[-1.0; 3], &[1.0; 3], &mut applied);
         assert_eq!(applied, [0.1, 0.2, 0.3]);
+    }
+
+    #[test]
+    fn the_cadence_steers_the_gait_clock_last_and_is_checked_and_recorded_only_where_set() {
+        let base = Command::forward(1.0, Gait::Walk);
+        let config = ResidualConfig {
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4 },
+            ..ResidualConfig::new(0.25, base)
+        };
+        let r = Residual::new(&config, 3).unwrap();
+        // [r₀ r₁ r₂ | c_speed c_cadence]
+        assert_eq!(r.policy_action_dim(), 5);
+        assert_eq!(r.gait_rate(&[0.0; 5], 1.0), Some(1.0));
+        let out = [0.0, 0.0, 0.0, 0.2, 1.0];
+        assert!((r.gait_rate(&out, 1.0).unwrap() - 1.4).abs() < 1e-12);
+        assert!((r.steer(&base, &out, 1.0).forward_velocity - 1.1).abs() < 1e-6);
+        // Clipped like every entry, scaled by the authority.
+        assert!((r.gait_rate(&[0.0, 0.0, 0.0, 0.0, -5.0], 0.5).unwrap() - 0.8).abs() < 1e-6);
+        // Cadence alone: its own entry; without it, no rate.
+        let alone = ResidualConfig { steering: Steering { cadence: 0.5, ..Steering::OFF }, ..config.clone() };
+        let r = Residual::new(&alone, 3).unwrap();
+        assert_eq!(r.policy_action_dim(), 4);
+        assert_eq!(r.gait_rate(&[1.0, 1.0, 1.0, -1.0], 1.0), Some(0.5));
+        let without = ResidualConfig { steering: Steering { speed: 0.5, ..Steering::OFF }, ..config.clone() };
+        assert_eq!(Residual::new(&without, 3).unwrap().gait_rate(&[1.0; 4], 1.0), None);
+        // A span outside [0, 0.9] or not finite is refused.
+        for bad in [-0.1, 0.95, f64::NAN, f64::INFINITY] {
+            let c = ResidualConfig { steering: Steering { cadence: bad, ..Steering::OFF }, ..config.clone() };
+            assert!(
+                matches!(Residual::new(&c, 3), Err(HybridError::BadSetting { part: "steering.cadence", .. })),
+                "{bad}"
+            );
+        }
+        // Recorded (text and data) only where set: a run without it keeps its fingerprint.
+        assert_eq!(format!("{:?}", without.steering), "Steering { speed: 0.5, yaw_rate: 0.0 }");
+        assert_eq!(format!("{:?}", config.steering), "Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4 }");
+        let json = serde_json::to_string(&without.steering).unwrap();
+        assert_eq!(json, r#"{"speed":0.5,"yaw_rate":0.0}"#);
+        let back: Steering = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, without.steering);
+        let json = serde_json::to_string(&config.steering).unwrap();
+        assert_eq!(serde_json::from_str::<Steering>(&json).unwrap(), config.steering);
     }
 
     #[test]
@@ -975,7 +1070,7 @@ mod tests {
         // At authority g the residual and the steering are g times the policy's.
         let base = Command::forward(2.0, Gait::Trot);
         let config = ResidualConfig {
-            steering: Steering { speed: 1.0, yaw_rate: 0.0 },
+            steering: Steering { speed: 1.0, yaw_rate: 0.0, cadence: 0.0 },
             fade: Some(fade),
             ..ResidualConfig::new(0.25, base)
         };
@@ -1021,7 +1116,7 @@ mod tests {
         let base = Command::forward(1.0, Gait::Trot);
         let config = ResidualConfig {
             joint_residual: false,
-            steering: Steering { speed: 0.5, yaw_rate: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0 },
             ..ResidualConfig::new(0.25, base)
         };
         let r = Residual::new(&config, 3).unwrap();
@@ -1036,14 +1131,16 @@ mod tests {
     fn steering_and_exploration_settings_are_checked() {
         let nothing = ResidualConfig { joint_residual: false, ..ResidualConfig::default() };
         assert!(matches!(Residual::new(&nothing, 3), Err(HybridError::NothingToLearn)));
-        let negative =
-            ResidualConfig { steering: Steering { speed: -0.5, yaw_rate: 0.0 }, ..ResidualConfig::default() };
+        let negative = ResidualConfig {
+            steering: Steering { speed: -0.5, yaw_rate: 0.0, cadence: 0.0 },
+            ..ResidualConfig::default()
+        };
         assert!(matches!(
             Residual::new(&negative, 3),
             Err(HybridError::BadSetting { part: "steering.speed", .. })
         ));
         let nan = ResidualConfig {
-            steering: Steering { speed: 0.0, yaw_rate: f64::NAN },
+            steering: Steering { speed: 0.0, yaw_rate: f64::NAN, cadence: 0.0 },
             ..ResidualConfig::default()
         };
         assert!(matches!(
@@ -1063,7 +1160,7 @@ mod tests {
     #[test]
     fn the_initial_exploration_follows_the_action_layout() {
         let mut config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0 },
             exploration: Some(Exploration { residual: 0.2, steering: 0.7 }),
             ..ResidualConfig::default()
         };
@@ -1077,7 +1174,7 @@ mod tests {
     #[test]
     fn the_exploration_ramp_floors_the_residual_only_and_is_checked() {
         let config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0 },
             exploration: Some(Exploration { residual: 0.01, steering: 0.5 }),
             exploration_ramp: Some(ExplorationRamp { residual: 0.3, samples: 100_000 }),
             ..ResidualConfig::default()
@@ -1130,7 +1227,7 @@ mod tests {
         };
         let steering_only = ResidualConfig {
             joint_residual: false,
-            steering: Steering { speed: 0.5, yaw_rate: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0 },
             ..config.clone()
         };
         bad(steering_only, "bound_ramp.from");
@@ -1238,7 +1335,7 @@ mod tests {
         assert!(matches!(too_fast, Err(HybridError::BadSetting { part: "command.yaw_rate", .. })));
         assert!(bad(Command { body_height: Some(0.2), yaw_rate: -6.0, ..fwd }).is_ok());
         let steer_yaw = |yaw_rate: f64| ResidualConfig {
-            steering: Steering { speed: 0.0, yaw_rate },
+            steering: Steering { speed: 0.0, yaw_rate, cadence: 0.0 },
             ..ResidualConfig::default()
         };
         assert!(steer_yaw(6.0).validate(8).is_ok());

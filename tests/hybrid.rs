@@ -113,6 +113,48 @@ fn a_rising_bound_follows_the_training_samples_the_env_is_told() {
     assert_eq!((ramp.factor(0), ramp.factor(500)), (0.04, 0.2));
 }
 
+/// Cadence steering runs the controller's gait clock at `1 + cadence · c`: held at c = 1
+/// the clock reaches 1 + cadence at its slew and its phase runs ahead of the plain walk's,
+/// held at −1 behind; at c = 0 the hybrid is the plain one to the bit. The policy's last
+/// action entry is the cadence.
+#[test]
+fn cadence_steering_runs_the_gait_clock_faster_or_slower() {
+    use centaur::hybrid::Steering;
+    use centaur::mpc::GAIT_RATE_SLEW;
+    let cadence = 0.5;
+    let config = ResidualConfig { steering: Steering { cadence, ..Steering::OFF }, ..walker_walk() };
+    let run = |config: &ResidualConfig, c: Option<f32>, steps: usize| {
+        let mut env = make_residual_env("walker2d", config.clone()).unwrap();
+        let mut obs = vec![0.0f32; env.observation_space().dim()];
+        env.reset(Some(0), &mut obs).unwrap();
+        let mut action = vec![0.0f32; env.action_space().dim()];
+        if let Some(c) = c {
+            *action.last_mut().unwrap() = c;
+        }
+        let mut phases = Vec::new();
+        for _ in 0..steps {
+            env.step(&action, &mut obs).unwrap();
+            phases.push(env.controller().status().phase);
+        }
+        (phases, env.controller().gait_rate(), obs)
+    };
+    let plain = run(&walker_walk(), None, 60);
+    let zero = run(&config, Some(0.0), 60);
+    assert_eq!((&zero.0, zero.1), (&plain.0, 1.0), "c = 0 is the plain walk");
+    assert_eq!(zero.2[..plain.2.len()], plain.2[..], "the same observations");
+    let (fast, slow) = (run(&config, Some(1.0), 60), run(&config, Some(-1.0), 60));
+    // 60 steps of 8 ms: 0.48 s, more than the 0.25 s the slew takes to move the rate by 0.5.
+    const { assert!(0.5 / GAIT_RATE_SLEW < 0.48) };
+    assert!((fast.1 - 1.5).abs() < 1e-9 && (slow.1 - 0.5).abs() < 1e-9, "{} {}", fast.1, slow.1);
+    // The walk starts after 80 ms of standing; 0.4 s later (no walk cycle has wrapped yet)
+    // the phases are a tenth of a cycle and more apart.
+    let (p0, p_fast, p_slow) = (plain.0[59], fast.0[59], slow.0[59]);
+    assert!(p_slow + 0.1 < p0 && p0 + 0.1 < p_fast, "phases {p_slow} {p0} {p_fast}");
+    for phases in [&plain.0, &fast.0, &slow.0] {
+        assert!(phases[10..].windows(2).all(|w| w[1] >= w[0]), "a cycle wrapped: {phases:?}");
+    }
+}
+
 #[test]
 fn the_residual_is_bounded_by_its_scale_and_the_action_space() {
     let scale = 0.2;

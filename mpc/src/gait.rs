@@ -20,6 +20,16 @@ pub const MAX_LEGS: usize = 4;
 /// fraction of the cycle: each stance is then 0.3 of it, 0.2 on one foot at each end.
 pub const MAX_STAGGER: f64 = 0.2;
 
+/// The range of a gait clock's rate ([`GaitScheduler::set_rate`]): from a quarter of the
+/// gait's own cadence to four times it.
+pub const GAIT_RATE_RANGE: (f64, f64) = (0.25, 4.0);
+
+/// How fast (per second) the gait clock's rate follows its target
+/// ([`GaitScheduler::set_rate`]): a noisy target, as a learner's exploration gives, moves
+/// the clock by at most this much per second, so the footholds and swings planned from the
+/// period do not jump from tick to tick.
+pub const GAIT_RATE_SLEW: f64 = 2.0;
+
 /// A named gait (recorded as its lower-case [`Gait::name`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -243,6 +253,11 @@ pub struct GaitScheduler {
     stagger_period_scale: f64,
     phase: f64,
     last_t: Option<f64>,
+    /// The rate the clock runs at (1: every gait at its own period); the pattern in force
+    /// and the pending one carry it in their periods.
+    rate: f64,
+    /// The rate the clock moves towards at [`GAIT_RATE_SLEW`].
+    rate_target: f64,
 }
 
 impl GaitScheduler {
@@ -282,6 +297,8 @@ impl GaitScheduler {
             stagger_period_scale: 1.0,
             phase: 0.0,
             last_t: None,
+            rate: 1.0,
+            rate_target: 1.0,
         }
     }
 
@@ -302,6 +319,9 @@ impl GaitScheduler {
         }
         let mut p = GaitPattern::new(gait, self.n_legs)?;
         p.period *= scale;
+        if self.rate != 1.0 {
+            p.period /= self.rate;
+        }
         Some(p.with_duty(self.duty_factors[gait.index()]))
     }
 
@@ -359,6 +379,33 @@ impl GaitScheduler {
         }
     }
 
+    /// Sets the rate the gait clock runs at: 1 runs every gait at its own period, 1.5
+    /// makes every cycle (swing and stance alike) take 1/1.5 of it. The clock moves towards
+    /// the rate at [`GAIT_RATE_SLEW`] per second of [`GaitScheduler::update`]'s time, and
+    /// the phase carries on where it is, so no leg's contact jumps; the plan (contact
+    /// schedule, touchdown times, footholds) follows the period in force. The rate is
+    /// clamped to [`GAIT_RATE_RANGE`]; a non-finite one counts as 1. A reset goes back to 1.
+    pub fn set_rate(&mut self, rate: f64) {
+        let (low, high) = GAIT_RATE_RANGE;
+        self.rate_target = if rate.is_finite() { rate.clamp(low, high) } else { 1.0 };
+    }
+
+    /// The rate the clock runs at now ([`GaitScheduler::set_rate`]).
+    pub fn rate(&self) -> f64 {
+        self.rate
+    }
+
+    /// Runs the clock at `rate` from now on: the periods in force and pending shrink or
+    /// grow by the ratio, the phase stays.
+    fn apply_rate(&mut self, rate: f64) {
+        let k = self.rate / rate;
+        self.pattern.period *= k;
+        if let Some(p) = self.pending.as_mut() {
+            p.period *= k;
+        }
+        self.rate = rate;
+    }
+
     /// Back to standing at phase 0 and forget the clock.
     pub fn reset(&mut self) {
         *self =
@@ -375,6 +422,9 @@ impl GaitScheduler {
             _ => 0.0,
         };
         self.last_t = Some(t);
+        if self.rate != self.rate_target {
+            self.apply_rate(ramp(self.rate, self.rate_target, GAIT_RATE_SLEW * dt));
+        }
         if gait != self.pattern.gait {
             if let Some(p) = self.table(gait) {
                 self.pending = Some(p);
@@ -537,6 +587,60 @@ mod tests {
         assert_eq!(ramp(0.0, 1.0, 0.1), 0.1);
         assert_eq!(ramp(0.95, 1.0, 0.1), 1.0);
         assert_eq!(ramp(0.0, -1.0, 0.1), -0.1);
+    }
+
+    #[test]
+    fn the_gait_clock_runs_at_the_rate_it_is_set_to_reached_at_its_slew() {
+        let walk = GaitPattern::new(Gait::Walk, 2).unwrap();
+        let dt = 0.01;
+        let run = |rate: f64, seconds: f64| {
+            let mut s = GaitScheduler::new(2, 1.0);
+            s.set_rate(rate);
+            s.update(0.0, Gait::Walk);
+            for k in 1..=(seconds / dt).round() as usize {
+                s.update(k as f64 * dt, Gait::Walk);
+            }
+            s
+        };
+        // At rate 1 the clock is the plain one, to the bit.
+        let mut plain = GaitScheduler::new(2, 1.0);
+        let one = run(1.0, 0.5);
+        plain.update(0.0, Gait::Walk);
+        for k in 1..=50 {
+            plain.update(k as f64 * dt, Gait::Walk);
+        }
+        assert_eq!((one.phase(), one.pattern().period), (plain.phase(), plain.pattern().period));
+        // The rate moves at GAIT_RATE_SLEW per second: 1 → 1.5 in 0.25 s; the period in force
+        // shrinks with it and the phase has advanced by ∫ rate dt / T.
+        let fast = run(1.5, 0.5);
+        assert!((fast.rate() - 1.5).abs() < 1e-12, "{}", fast.rate());
+        assert!((fast.pattern().period - walk.period / 1.5).abs() < 1e-12);
+        // ∫ rate over 0.5 s: 0.25 s ramping from 1 to 1.5 (mean 1.25, in steps of 0.02 per
+        // tick: 0.3125 + the first tick's lag) + 0.25 s at 1.5.
+        let advanced: f64 = (1..=50).map(|k| (1.0 + GAIT_RATE_SLEW * dt * k as f64).min(1.5) * dt).sum();
+        assert!((fast.phase() - advanced / walk.period).abs() < 1e-9, "{} {}", fast.phase(), advanced);
+        // Its contact plan follows the period in force: a touchdown comes sooner.
+        let (p, _) = fast.predict(0.0);
+        assert_eq!(p.period, fast.pattern().period);
+        // Clamped to its range; a non-finite rate counts as 1; a reset goes back to 1.
+        let mut s = run(100.0, 3.0);
+        assert_eq!(s.rate(), GAIT_RATE_RANGE.1);
+        s.reset();
+        assert_eq!(s.rate(), 1.0);
+        s.update(0.0, Gait::Walk);
+        assert_eq!(s.pattern().period, walk.period);
+        assert_eq!(run(0.0, 3.0).rate(), GAIT_RATE_RANGE.0);
+        assert_eq!(run(f64::NAN, 1.0).rate(), 1.0);
+        // A gait switch at the boundary takes the rate in force.
+        let mut s = GaitScheduler::new(4, 1.0);
+        s.set_rate(2.0);
+        s.update(0.0, Gait::Trot);
+        for k in 1..=100 {
+            s.update(k as f64 * dt, Gait::Pace);
+        }
+        assert_eq!(s.pattern().gait, Gait::Pace);
+        let pace = GaitPattern::new(Gait::Pace, 4).unwrap();
+        assert!((s.pattern().period - pace.period / 2.0).abs() < 1e-12);
     }
 
     #[test]

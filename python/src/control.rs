@@ -116,6 +116,24 @@ impl Controller {
         Ok(())
     }
 
+    /// Sets the rate of the gait clock: 1 runs every gait at its own period, 1.5 steps
+    /// every cycle in 1/1.5 of it; the clock follows at a bounded slew, the phase carries
+    /// on, and the rate is clamped to [0.25, 4] (a reset goes back to 1). A non-finite or
+    /// non-positive rate is an error.
+    fn set_gait_rate(&self, rate: f64) -> PyResult<()> {
+        if !(rate.is_finite() && rate > 0.0) {
+            return Err(error(format!("gait rate {rate}, expected a finite rate > 0")));
+        }
+        lock(&self.inner, "controller")?.controller.set_gait_rate(rate);
+        Ok(())
+    }
+
+    /// The rate the gait clock runs at now (`set_gait_rate`).
+    #[getter]
+    fn gait_rate(&self) -> PyResult<f64> {
+        Ok(lock(&self.inner, "controller")?.controller.gait_rate())
+    }
+
     /// One control step at time `t` (s) from state `(q, v)`, following the command (speeds in
     /// m/s and rad/s in the heading frame; `gait` one of `gaits`; a speed or yaw rate outside
     /// the gait's rating is clamped to it and counted in the status's `clamped_commands`);

@@ -87,6 +87,17 @@ def test_controller_errors():
     bad[0] = np.nan
     torques, _, status = c.tick(bad, v, 0.02)
     assert status["fallback"] == "PosturePd" and np.isfinite(torques[1:]).all()
+    # The gait clock's rate: followed at its slew (2 per second), refused when not a rate.
+    assert c.gait_rate == 1.0
+    c.set_gait_rate(1.5)
+    for k in range(3, 40):
+        c.tick(q, v, 0.01 * k, forward_velocity=0.3)
+    assert c.gait_rate == pytest.approx(1.5)
+    for bad in (float("nan"), 0.0, -1.0):
+        with pytest.raises(centaur.CentaurError, match="gait rate"):
+            c.set_gait_rate(bad)
+    c.reset()
+    assert c.gait_rate == 1.0
     with pytest.raises(centaur.CentaurError, match="unknown controller preset"):
         centaur.Controller(model, "cheetah")
     with pytest.raises(centaur.CentaurError):

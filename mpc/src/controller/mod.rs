@@ -160,6 +160,21 @@ impl LocomotionController {
         self.contacts.reset();
     }
 
+    /// Sets the rate of the gait clock: 1 runs every gait at its own period, above 1 the
+    /// gait steps faster (each cycle takes 1/rate of its period), below 1 slower. The clock
+    /// follows at a bounded slew and the phase carries on, so no contact jumps; clamped to
+    /// [`crate::GAIT_RATE_RANGE`], a non-finite rate counts as 1, and [`Self::reset`] goes
+    /// back to 1 ([`crate::GaitScheduler::set_rate`]). A hybrid's policy steers it
+    /// (`Steering::cadence` in `centaur`).
+    pub fn set_gait_rate(&mut self, rate: f64) {
+        self.gait.set_rate(rate);
+    }
+
+    /// The rate the gait clock runs at now ([`Self::set_gait_rate`]).
+    pub fn gait_rate(&self) -> f64 {
+        self.gait.rate()
+    }
+
     /// One control step at time `t` (s). Never panics on a non-finite state (it falls back
     /// to posture PD and says so in the status).
     ///
