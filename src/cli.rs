@@ -167,6 +167,11 @@ pub struct HybridArgs {
     /// own elsewhere]
     #[arg(long)]
     pub rated_speed: Option<f64>,
+    /// Multiplies the period of the hybrid's gait (and its controller-alone baseline's),
+    /// a factor in [0.25, 4]: below 1 the gait clock steps faster, so the hybrid's feet do
+    /// [default: the hybrid preset's: walker2d with PPO or A2C 0.6, 1 elsewhere]
+    #[arg(long)]
+    pub period_scale: Option<f64>,
     /// A safety fade as the body sinks: the policy's steering fades from full at a sag of
     /// START to none halfway to END, then its joint residual to none at END, the sag being
     /// the CoM's drop below the controller's height reference as a fraction of it (e.g.
@@ -239,6 +244,9 @@ impl HybridArgs {
             preset.bound_ramp = Some(BoundRamp { from, samples });
         }
         preset.warmup_with_policy |= self.warmup_with_policy;
+        if self.period_scale.is_some() {
+            preset.period_scale = self.period_scale;
+        }
         if self.rated_speed.is_some() {
             preset.rated_speed = self.rated_speed;
         }
@@ -501,6 +509,17 @@ mod tests {
         assert_eq!(steering(&["--steer-cadence", "0.5"]), Steering { cadence: 0.5, ..walker.steering });
         assert_eq!(steering(&["--steer-cadence", "0.5", "--parts", "residual"]), Steering::OFF);
         assert!(parse_hybrid(walker.clone(), &["--steer-cadence", "x"]).is_err());
+    }
+
+    #[test]
+    fn the_period_scale_is_the_presets_unless_given() {
+        let ant = residual_config("ant").unwrap();
+        let scale = |args: &[&str]| parse_hybrid(ant.clone(), args).unwrap().period_scale;
+        assert_eq!(scale(&[]), None);
+        assert_eq!(scale(&["--period-scale", "0.8"]), Some(0.8));
+        let with = ResidualConfig { period_scale: Some(0.7), ..ant.clone() };
+        assert_eq!(parse_hybrid(with.clone(), &[]).unwrap().period_scale, Some(0.7));
+        assert_eq!(parse_hybrid(with, &["--period-scale", "1"]).unwrap().period_scale, Some(1.0));
     }
 
     #[test]

@@ -323,10 +323,20 @@ pub struct ResidualConfig {
     /// recorded only where set, so the records of runs without it read as before).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bound_ramp: Option<BoundRamp>,
+    /// Multiplies the period of the command's gait under the hybrid (and its controller-alone
+    /// baseline), as [`ResidualConfig::rated_speed`] replaces its rating (`None`, the default:
+    /// the controller's own period; recorded only where set). A controller's gait clock
+    /// sets the hybrid's cadence: its residual changes how far each step reaches, not how
+    /// often the feet step. Walker2d's hybrid on its walk's own 0.8 s cycle ran at ≈ 2.9 m/s
+    /// with steps of ≈ 1.2 m, each foot touching down every 0.8 s, while pure PPO ran at
+    /// 3.6–4.4 m/s with strides of 0.36–0.66 s; steering the cadence ([`Steering::cadence`])
+    /// did not get it out (the policy kept the 0.8 s cycle), a faster clock did (README).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub period_scale: Option<f64>,
 }
 
-/// Every field as `derive(Debug)` writes it, but `fade`, `exploration_ramp` and `bound_ramp`
-/// only where set: runs record this text in their fingerprint
+/// Every field as `derive(Debug)` writes it, but `fade`, `exploration_ramp`, `bound_ramp`
+/// and `period_scale` only where set: runs record this text in their fingerprint
 /// ([`crate::experiment::ExperimentOptions::fingerprint`]), and a run without them keeps
 /// the fingerprint it had before they existed (so `centaur compare --resume` and
 /// `--pure-from` still take it).
@@ -344,6 +354,7 @@ impl std::fmt::Debug for ResidualConfig {
             rated_speed,
             fade,
             bound_ramp,
+            period_scale,
         } = self;
         let mut s = f.debug_struct("ResidualConfig");
         s.field("scale", scale)
@@ -363,6 +374,9 @@ impl std::fmt::Debug for ResidualConfig {
         if let Some(ramp) = bound_ramp {
             s.field("bound_ramp", ramp);
         }
+        if let Some(scale) = period_scale {
+            s.field("period_scale", scale);
+        }
         s.finish()
     }
 }
@@ -381,6 +395,7 @@ impl Default for ResidualConfig {
             rated_speed: None,
             fade: None,
             bound_ramp: None,
+            period_scale: None,
         }
     }
 }
@@ -455,6 +470,9 @@ impl ResidualConfig {
         if let Some(value) = self.rated_speed {
             check_rated_speed(value)?;
         }
+        if let Some(value) = self.period_scale {
+            check_period_scale(value)?;
+        }
         if let Some(f) = &self.fade {
             f.validate()?;
         }
@@ -465,8 +483,9 @@ impl ResidualConfig {
     }
 
     /// `config` with [`ResidualConfig::rated_speed`], if set, as the rating of the
-    /// command's gait: the controller the hybrid (and the controller-alone baseline beside
-    /// it) runs. The gait must be offered and not the stand, which has no speed rating. The
+    /// command's gait and [`ResidualConfig::period_scale`], if set, multiplying its period:
+    /// the controller the hybrid (and the controller-alone baseline beside it) runs. The
+    /// gait must be offered and not the stand, which has no speed rating and no period. The
     /// command (at zero steering) must then be within the rating, speed and turning, as
     /// `centaur control` requires: the controller would clamp one outside it, and the run
     /// would not be the one asked for. Steering may go beyond; the controller clamps it (see
@@ -547,21 +566,39 @@ impl ResidualConfig {
     }
 
     fn apply_rating(&self, config: &mut ControllerConfig) -> Result<(), HybridError> {
-        let Some(value) = self.rated_speed else { return Ok(()) };
-        check_rated_speed(value)?;
-        let gait = self.command.gait;
-        if gait == Gait::Stand {
-            return Err(HybridError::BadSetting {
-                part: "rated_speed",
-                value,
-                expected: "no rating: the stand has none",
-            });
+        if let Some(value) = self.rated_speed {
+            check_rated_speed(value)?;
+            let gait = self.offered_gait(config, "rated_speed", value, "no rating: the stand has none")?;
+            for o in config.gaits.iter_mut().filter(|o| o.gait == gait) {
+                o.max_speed = value;
+            }
         }
-        config.offer(gait)?;
-        for o in config.gaits.iter_mut().filter(|o| o.gait == gait) {
-            o.max_speed = value;
+        if let Some(value) = self.period_scale {
+            check_period_scale(value)?;
+            let expected = "a gait that steps: the stand has no period";
+            let gait = self.offered_gait(config, "period_scale", value, expected)?;
+            for o in config.gaits.iter_mut().filter(|o| o.gait == gait) {
+                o.period_scale *= value;
+            }
         }
         Ok(())
+    }
+
+    /// The command's gait, for `part` (set to `value`) to change in `config`: one it offers,
+    /// not the stand (`expected` says why not).
+    fn offered_gait(
+        &self,
+        config: &ControllerConfig,
+        part: &'static str,
+        value: f64,
+        expected: &'static str,
+    ) -> Result<Gait, HybridError> {
+        let gait = self.command.gait;
+        if gait == Gait::Stand {
+            return Err(HybridError::BadSetting { part, value, expected });
+        }
+        config.offer(gait)?;
+        Ok(gait)
     }
 }
 
@@ -582,6 +619,18 @@ pub const MAX_CADENCE: f64 = 0.9;
 /// larger ones (1e308) make the learner's first loss infinite.
 pub const MAX_EXPLORATION: f64 = 10.0;
 
+/// The range of [`ResidualConfig::period_scale`]: a quarter to four times the gait's period.
+pub const PERIOD_SCALE_RANGE: (f64, f64) = (0.25, 4.0);
+
+fn check_period_scale(value: f64) -> Result<(), HybridError> {
+    let (low, high) = PERIOD_SCALE_RANGE;
+    if value.is_finite() && (low..=high).contains(&value) {
+        Ok(())
+    } else {
+        Err(HybridError::BadSetting { part: "period_scale", value, expected: "a factor in [0.25, 4]" })
+    }
+}
+
 fn check_rated_speed(value: f64) -> Result<(), HybridError> {
     if value.is_finite() && value > 0.0 && value <= MAX_RATED_SPEED {
         Ok(())
@@ -594,7 +643,7 @@ fn check_rated_speed(value: f64) -> Result<(), HybridError> {
 /// with the scale resolved per action entry. See the module docs.
 ///
 /// The policy's action is `[r (the joint residual, one entry per robot action, if on) |
-/// c (the steering entries: speed, then yaw rate, those switched on)]`.
+/// c (the steering entries: speed, then yaw rate, then cadence, those switched on)]`.
 #[derive(Clone, Debug)]
 pub struct Residual {
     scale: Vec<f32>,
@@ -1247,6 +1296,37 @@ mod tests {
         assert!(text.contains("bound_ramp: BoundRamp { from: 0.01, samples: 100000 }"), "{text}");
         let back: ResidualConfig = serde_json::from_str(&serde_json::to_string(&config).unwrap()).unwrap();
         assert_eq!(back, config);
+    }
+
+    #[test]
+    fn a_period_scale_multiplies_the_gaits_period_and_bad_ones_are_refused() {
+        let preset = ControllerConfig::walker2d();
+        let walk = |c: &ControllerConfig| c.period_scales()[Gait::Walk.index()];
+        let scaled = |v: Option<f64>, gait: Gait| ResidualConfig {
+            period_scale: v,
+            command: Command::forward(0.5, gait),
+            ..ResidualConfig::default()
+        };
+        // None: the preset, untouched; a scale: the command's gait's period only.
+        let mut c = preset.clone();
+        scaled(None, Gait::Walk).rate_controller(&mut c).unwrap();
+        assert_eq!(c, preset);
+        scaled(Some(0.7), Gait::Walk).rate_controller(&mut c).unwrap();
+        assert_eq!(walk(&c), 0.7 * walk(&preset));
+        assert_eq!(c.period_scales()[Gait::Stand.index()], preset.period_scales()[Gait::Stand.index()]);
+        for bad in [0.0, 0.1, 5.0, f64::NAN, f64::INFINITY] {
+            let err = scaled(Some(bad), Gait::Walk).rate_controller(&mut preset.clone()).unwrap_err();
+            assert!(matches!(err, HybridError::BadSetting { part: "period_scale", .. }), "{bad}: {err}");
+            assert!(Residual::new(&scaled(Some(bad), Gait::Walk), 6).is_err(), "{bad}");
+        }
+        let err =
+            scaled(Some(0.7), Gait::Stand).rate_controller(&mut preset.clone()).unwrap_err().to_string();
+        assert!(err.contains("the stand has no period"), "{err}");
+        assert!(scaled(Some(0.7), Gait::Trot).rate_controller(&mut preset.clone()).is_err(), "not offered");
+        // Recorded only where set.
+        assert!(!format!("{:?}", scaled(None, Gait::Walk)).contains("period_scale"));
+        assert!(format!("{:?}", scaled(Some(0.7), Gait::Walk)).ends_with(", period_scale: 0.7 }"));
+        assert!(!serde_json::to_string(&scaled(None, Gait::Walk)).unwrap().contains("period_scale"));
     }
 
     #[test]

@@ -7,7 +7,7 @@
 //! | `pendulum` | Gymnasium's Pendulum-v1 ([`centaur_gym::pendulum::Pendulum`]) | — | — |
 //! | `minitaur`, `minitaur-fast`, `minitaur-deterministic` | PyBullet's MinitaurBulletEnv-v0 ([`centaur_envs::MinitaurEnv`]; `-fast`: 3.3 ms physics steps; `-deterministic`: no randomisation) | Minitaur | trot 2 m/s steered ±1.5 m/s (rated 3.5 m/s), scale 0.25, exploration σ 0.3 |
 //! | `ant`, `ant27` | Gymnasium Ant-v5 (`ant27`: the 27-d observation without contact forces) | Ant | trot 1 m/s steered ±0.5 m/s, scale 0.3, exploration σ 0.1 |
-//! | `walker2d` | Gymnasium Walker2d-v5 | Walker2d | walk 1.0 m/s steered ±0.5 m/s (rated 1.5 m/s), scale 1.0 rising from 1/30 of it over 100k samples, exploration σ 0.3 (SAC, TD3, DDPG: scale 0.1, no rise) |
+//! | `walker2d` | Gymnasium Walker2d-v5 | Walker2d | walk 1.0 m/s steered ±0.5 m/s (rated 1.5 m/s) at 0.6 of its period, scale 1.0 rising from 1/30 of it over 100k samples, exploration σ 0.3 (SAC, TD3, DDPG: the walk's own period, scale 0.1, no rise) |
 //! | `humanoid` | Gymnasium Humanoid-v5 | Humanoid | walk 0.3 m/s steered ±0.1 m/s, scale 0.1, exploration σ 0.1 |
 //! | `hopper`, `halfcheetah` | Gymnasium Hopper-, HalfCheetah-v5 | — | — |
 //! | `gecko`, `modular-ant`, `spider` | Revolve2's modular robots of those names ([`centaur_envs::ModularEnv`]) | — | — |
@@ -112,21 +112,26 @@ fn ant_residual(_: AlgoKind) -> ResidualConfig {
 /// the start, with a gentle start from a **rising bound**: the residual's bound starts at
 /// 1/30 of the scale (σ 0.3 × 0.033 = 0.01 action units, the gentle start of before) and
 /// rises log-linearly to the full 1.0 over the first 100k training samples
-/// ([`crate::hybrid::BoundRamp`]). The preset since 2026-11-29 (late), 5 seeds × 1M: 3,910.5
-/// with 0/50 falls, above the controller alone at every 100k budget; the rising exploration
-/// before it (σ 0.01 rising to 0.3 over 100k on the same bound, commit c58109b) scored
-/// 3,785.3 with 14/50 falls and fell below the controller at 200k–400k; σ 0.3 without a
-/// gentle start 3,964.7, its first episodes falling (README, "Walker2d: a residual that
-/// learns to run"). With the residual bounded at 10 % of the range the walk bounded the
-/// hybrid at ≈ 2,035 (1.0 m/s) and pure PPO, running at 2.6–4.4 m/s, passed it at 500k
-/// samples.
+/// ([`crate::hybrid::BoundRamp`]); and the walk's clock **at 0.6 of its period** (a 0.48 s
+/// cycle for the walk's 0.8 s; [`ResidualConfig::period_scale`]): the controller's clock sets
+/// the hybrid's cadence, and on the walk's own it ran at ≈ 2.9 m/s, every foot touching
+/// down each 0.8 s, where pure PPO runs at 3.6–4.4 m/s with strides of 0.36–0.66 s.
+/// 5 seeds × 1M (2026-11-29, night): 4,773.7 with 2/50 falls at 3.89 m/s, above pure PPO's
+/// 4,172.2 at every 100k budget; at 0.7 of the period 4,614.8, at 0.8 4,219.6 with 10/50
+/// falls, on the walk's own clock (the preset until then) 3,910.5 with 0/50, below pure PPO
+/// from 800k. The faster walk alone is weaker (1,604.0, 2/50 falls, against 1,786.3 without
+/// a fall on its own clock) and the hybrid falls below it at 100k–200k samples (README,
+/// "Walker2d: the controller's clock sets the cadence"). The rising exploration (σ 0.01
+/// rising to 0.3 over 100k on the same bound, commit c58109b) scored 3,785.3 with 14/50
+/// falls on the walk's own clock; with the residual bounded at 10 % of the range the walk
+/// bounded the hybrid at ≈ 2,035 (1.0 m/s).
 ///
 /// The off-policy learners (SAC, TD3, DDPG) take no gentle start from the exploration (they
 /// explore with their own noise: a warm-up, an entropy bonus) and keep the bound of 0.1
 /// (10 % of the range) without a rising bound: on `residual_sac_walker2d`'s 50k samples,
 /// seed 0, SAC scored 1,291.4 with 4/10 falls on it and 569.3 with 10/10 on 1.0 (the
-/// controller alone 1,786.6). Their preset is the walk, the steering and the rating above
-/// with that bound.
+/// controller alone 1,786.6). Their preset is the walk (on its own clock), the steering and
+/// the rating above with that bound.
 fn walker2d_residual(kind: AlgoKind) -> ResidualConfig {
     let walk = ResidualConfig {
         steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0 },
@@ -137,6 +142,7 @@ fn walker2d_residual(kind: AlgoKind) -> ResidualConfig {
         ResidualConfig {
             exploration: Some(Exploration { residual: 0.3, steering: 0.5 }),
             bound_ramp: Some(BoundRamp { from: 0.0333, samples: 100_000 }),
+            period_scale: Some(0.6),
             ..walk
         }
     } else {
@@ -632,21 +638,30 @@ mod tests {
     }
 
     /// Walker2d's hybrid differs by learner: PPO and A2C get the 1.0 bound rising from 1/30
-    /// of it, the off-policy learners the 0.1 bound without a rise (the walk, steering and
-    /// rating the same); every other robot's preset is the same for every learner, and
+    /// of it on the walk at 0.6 of its period, the off-policy learners the 0.1 bound without
+    /// a rise on the walk's own period (the walk, steering and rating the same); every other robot's preset is the same for every learner, and
     /// `residual_config` is PPO's.
     #[test]
     fn the_residual_preset_is_chosen_per_learner_where_it_differs() {
         let ppo = residual_config_for("walker2d", AlgoKind::Ppo).unwrap();
         assert_eq!(residual_config("walker2d").unwrap(), ppo);
         assert_eq!(residual_config_for("walker2d", AlgoKind::A2c).unwrap(), ppo);
-        assert_eq!((ppo.scale.clone(), ppo.bound_ramp.is_some()), (vec![1.0], true));
+        assert_eq!(
+            (ppo.scale.clone(), ppo.bound_ramp.is_some(), ppo.period_scale),
+            (vec![1.0], true, Some(0.6))
+        );
         for kind in [AlgoKind::Sac, AlgoKind::SacV1, AlgoKind::Td3, AlgoKind::Ddpg] {
             let off = residual_config_for("walker2d", kind).unwrap();
             let exploration = Some(Exploration { residual: 0.01, steering: 0.5 });
             assert_eq!(
                 off,
-                ResidualConfig { scale: vec![0.1], exploration, bound_ramp: None, ..ppo.clone() }
+                ResidualConfig {
+                    scale: vec![0.1],
+                    exploration,
+                    bound_ramp: None,
+                    period_scale: None,
+                    ..ppo.clone()
+                }
             );
             off.validate(6).unwrap();
         }

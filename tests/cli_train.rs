@@ -523,7 +523,8 @@ fn eval_one_episode(
 }
 
 /// A hybrid is trained on its learner's residual preset and evaluated on the same: Walker2d's
-/// residual is bounded at 1.0 for PPO (rising from 1/30 of it) and at 0.1 for the
+/// residual is bounded at 1.0 for PPO (rising from 1/30 of it, the walk at 0.6 of its
+/// period) and at 0.1 for the
 /// off-policy learners; the run and the checkpoint record it, and `centaur eval` rebuilds
 /// the hybrid from the checkpoint's learner (the other preset would be refused as a changed
 /// environment).
@@ -545,6 +546,9 @@ fn a_hybrid_is_trained_and_evaluated_on_its_learners_preset() {
         let built: serde_json::Value = serde_json::from_str(record.env_config.as_deref().unwrap()).unwrap();
         assert_eq!(built["residual"]["scale"], serde_json::json!([scale]), "{}", algo.name());
         assert_eq!(built["residual"].get("bound_ramp").is_some(), ramp, "{}", algo.name());
+        // PPO's walk runs at 0.6 of its period, the off-policy learners' on its own.
+        let period = if ramp { serde_json::json!(0.6) } else { serde_json::Value::Null };
+        assert_eq!(built["residual"]["period_scale"], period, "{}", algo.name());
         let report = eval_one_episode(&out, false);
         assert!(report.is_ok(), "{}: {}", algo.name(), report.unwrap_err());
         std::fs::remove_dir_all(&out).unwrap();

@@ -9,7 +9,8 @@ a bad value, raises `centaur.CentaurError` naming it.
 learner's residual preset, as `centaur train --algo sac` does; the default is PPO's. They
 differ on Walker2d: PPO's residual is bounded at 1.0, a bound that rises from 1/30 of it over
 the first 100k training samples the environment is told (`set_training_samples`; never
-told, it acts at the full bound), the off-policy learners' (SAC, TD3, DDPG) at 0.1.
+told, it acts at the full bound), on the walk at 0.6 of its period; the off-policy
+learners' (SAC, TD3, DDPG) at 0.1 on the walk's own period.
 """
 
 from __future__ import annotations

@@ -335,8 +335,9 @@ mod legacy {
                 rated_speed,
                 // Records of this form predate the fade: it can only be `None` here.
                 fade: _,
-                // ... and the rising bound.
+                // ... and the rising bound, and the period scale.
                 bound_ramp: _,
+                period_scale: _,
             } = self.r;
             let mut s = f.debug_struct("ResidualConfig");
             s.field("scale", scale)
