@@ -117,8 +117,8 @@ fn ant_residual(_: AlgoKind) -> ResidualConfig {
 /// the hybrid's cadence, and on the walk's own it ran at ≈ 2.9 m/s, every foot touching
 /// down each 0.8 s, where pure PPO runs at 3.6–4.4 m/s with strides of 0.36–0.66 s.
 /// 5 seeds × 1M (2026-11-29, night): 4,773.7 with 2/50 falls at 3.89 m/s, above pure PPO's
-/// 4,172.2 at every 100k budget; at 0.7 of the period 4,614.8, at 0.8 4,219.6 with 10/50
-/// falls, on the walk's own clock (the preset until then) 3,910.5 with 0/50, below pure PPO
+/// 4,172.2 at every 100k budget; at 0.5 of the period the same 4,773.8 but its walk alone
+/// falls in 13/50, at 0.7 4,614.8, at 0.8 4,219.6 with 10/50 falls, on the walk's own clock (the preset until then) 3,910.5 with 0/50, below pure PPO
 /// from 800k. The faster walk alone is weaker (1,604.0, 2/50 falls, against 1,786.3 without
 /// a fall on its own clock) and the hybrid falls below it at 100k–200k samples (README,
 /// "Walker2d: the controller's clock sets the cadence"). The rising exploration (σ 0.01
