@@ -416,6 +416,16 @@ fn the_deployed_stack_acts_exactly_like_the_residual_env_it_was_trained_in() {
     let (fa, fb) = both(&faded);
     assert!(fa == fb, "with a fade, the deployed stack diverged from the training environment");
     assert!(fa != a, "the fade changed nothing");
+    // With the policy steering the cadence on a faster clock, the stack runs the
+    // controller's clock as the env does.
+    let clocked = ResidualConfig {
+        steering: centaur::hybrid::Steering { cadence: 0.5, ..config.steering },
+        period_scale: Some(0.8),
+        ..config.clone()
+    };
+    let (ca, cb) = both(&clocked);
+    assert!(ca == cb, "with cadence steering, the deployed stack diverged from the training environment");
+    assert!(ca != a, "the cadence and the clock changed nothing");
     let mut env = make_robot_env("minitaur", None).unwrap();
     let mut obs = vec![0.0f32; env.observation_space().dim()];
     env.reset(Some(9), &mut obs).unwrap();
@@ -425,6 +435,12 @@ fn the_deployed_stack_acts_exactly_like_the_residual_env_it_was_trained_in() {
     let ctrl = controller_config("minitaur").unwrap();
     let stack = HybridStack::new(&Simulated { env: env.as_ref(), obs: &obs }, ctrl, None, rated).unwrap();
     assert_eq!(stack.controller().config().offer(Gait::Trot).unwrap().max_speed, 3.0);
+    // ... and so does its clock.
+    let trot = |c: &centaur_mpc::ControllerConfig| c.period_scales()[Gait::Trot.index()];
+    let plain = trot(&controller_config("minitaur").unwrap());
+    let ctrl = controller_config("minitaur").unwrap();
+    let stack = HybridStack::new(&Simulated { env: env.as_ref(), obs: &obs }, ctrl, None, clocked).unwrap();
+    assert_eq!(trot(stack.controller().config()), 0.8 * plain);
 }
 
 /// Undiscounted return of the controller alone (zero policy output) on `env_name`'s hybrid
