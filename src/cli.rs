@@ -114,7 +114,7 @@ pub struct HybridArgs {
     /// Span of the policy's yaw-rate steering, rad/s (0: off) [default: the robot's]
     #[arg(long)]
     pub steer_yaw_rate: Option<f64>,
-    /// Span of the policy's cadence steering, a fraction in [0, 0.9] (0: off): the gait
+    /// Span of the policy's cadence steering, a fraction in [0, 0.75] (0: off): the gait
     /// clock runs at 1 ± this times its rate, so the gait may step faster or slower
     /// [default: the robot's]
     #[arg(long)]

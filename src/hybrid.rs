@@ -87,7 +87,7 @@ pub struct Steering {
     pub speed: f64,
     /// Yaw-rate span (rad/s): `ω = ω₀ + yaw_rate · c`.
     pub yaw_rate: f64,
-    /// Cadence span, a fraction in [0, 0.9]: the gait clock runs at `1 + cadence · c` times
+    /// Cadence span, a fraction in [0, 0.75]: the gait clock runs at `1 + cadence · c` times
     /// its rate, each cycle (swing and stance) taking `1 / (1 + cadence · c)` of the gait's
     /// period ([`centaur_mpc::LocomotionController::set_gait_rate`]). A robot whose gait
     /// has a fixed clock steps at one cadence whatever its speed; steering it lets the
@@ -441,7 +441,7 @@ impl ResidualConfig {
             return Err(HybridError::BadSetting {
                 part: "steering.cadence",
                 value,
-                expected: "a fraction in [0, 0.9] (the clock's rate 1 ± cadence stays positive)",
+                expected: "a fraction in [0, 0.75] (the clock's rate 1 ± cadence within the controller's [0.25, 4])",
             });
         }
         if self.steering.yaw_rate > MAX_YAW_RATE {
@@ -611,8 +611,9 @@ pub const MAX_RATED_SPEED: f64 = 20.0;
 pub const MAX_YAW_RATE: f64 = 2.0 * std::f64::consts::PI;
 
 /// The widest cadence span ([`Steering::cadence`]): the gait clock's rate stays within
-/// [0.1, 1.9] times its own.
-pub const MAX_CADENCE: f64 = 0.9;
+/// [0.25, 1.75] times its own, inside the range the controller runs its clock at
+/// ([`centaur_mpc::GAIT_RATE_RANGE`]), so no steered rate is clamped.
+pub const MAX_CADENCE: f64 = 0.75;
 
 /// The largest initial exploration σ accepted ([`Exploration`]), in the policy's [−1, 1]
 /// units: at σ 10 nearly every sample already lands outside [−1, 1] and is clipped, and far
@@ -1078,8 +1079,8 @@ mod tests {
         assert_eq!(r.gait_rate(&[1.0, 1.0, 1.0, -1.0], 1.0), Some(0.5));
         let without = ResidualConfig { steering: Steering { speed: 0.5, ..Steering::OFF }, ..config.clone() };
         assert_eq!(Residual::new(&without, 3).unwrap().gait_rate(&[1.0; 4], 1.0), None);
-        // A span outside [0, 0.9] or not finite is refused.
-        for bad in [-0.1, 0.95, f64::NAN, f64::INFINITY] {
+        // A span outside [0, 0.75] or not finite is refused.
+        for bad in [-0.1, 0.8, 0.95, f64::NAN, f64::INFINITY] {
             let c = ResidualConfig { steering: Steering { cadence: bad, ..Steering::OFF }, ..config.clone() };
             assert!(
                 matches!(Residual::new(&c, 3), Err(HybridError::BadSetting { part: "steering.cadence", .. })),

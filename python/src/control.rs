@@ -3,7 +3,7 @@
 use std::sync::Mutex;
 
 use centaur_dynamics::RobotState;
-use centaur_mpc::{Command, ControllerConfig, Gait, LocomotionController};
+use centaur_mpc::{Command, ControllerConfig, GAIT_RATE_RANGE, Gait, LocomotionController};
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -117,12 +117,13 @@ impl Controller {
     }
 
     /// Sets the rate of the gait clock: 1 runs every gait at its own period, 1.5 steps
-    /// every cycle in 1/1.5 of it; the clock follows at a bounded slew, the phase carries
-    /// on, and the rate is clamped to [0.25, 4] (a reset goes back to 1). A non-finite or
-    /// non-positive rate is an error.
+    /// every cycle in 1/1.5 of it; the clock follows at a bounded slew and the phase
+    /// carries on (a reset goes back to 1). A rate outside [0.25, 4] (or not finite) is an
+    /// error.
     fn set_gait_rate(&self, rate: f64) -> PyResult<()> {
-        if !(rate.is_finite() && rate > 0.0) {
-            return Err(error(format!("gait rate {rate}, expected a finite rate > 0")));
+        let (low, high) = GAIT_RATE_RANGE;
+        if !(rate.is_finite() && (low..=high).contains(&rate)) {
+            return Err(error(format!("gait rate {rate}, expected a rate in [{low}, {high}]")));
         }
         lock(&self.inner, "controller")?.controller.set_gait_rate(rate);
         Ok(())

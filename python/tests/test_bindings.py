@@ -93,7 +93,7 @@ def test_controller_errors():
     for k in range(3, 40):
         c.tick(q, v, 0.01 * k, forward_velocity=0.3)
     assert c.gait_rate == pytest.approx(1.5)
-    for bad in (float("nan"), 0.0, -1.0):
+    for bad in (float("nan"), 0.0, -1.0, 0.2, 4.5):
         with pytest.raises(centaur.CentaurError, match="gait rate"):
             c.set_gait_rate(bad)
     c.reset()
