@@ -57,6 +57,23 @@ pub struct DirLock {
 /// holds it ([`Claim::Busy`]). On a file system without file locks (some network or FUSE
 /// mounts) the run goes on unlocked, as it did before locks existed, rather than not at all.
 pub fn lock_dir(dir: &Path) -> Result<DirLock, Claim> {
+    lock_with(dir, std::fs::File::try_lock)
+}
+
+/// Holds the existing run directory `dir` for reading ([`DirLock`], shared): any number of
+/// readers hold it together (two comparisons reusing one run's pure-RL agent at once); a
+/// writer ([`lock_dir`]) holds it alone, so a reader is refused ([`Claim::Busy`]) while one
+/// writes and a writer while any reads. As with [`lock_dir`], a file system without file
+/// locks leaves the directory unlocked.
+pub fn read_lock_dir(dir: &Path) -> Result<DirLock, Claim> {
+    lock_with(dir, std::fs::File::try_lock_shared)
+}
+
+/// Opens (creating it) `dir`'s [`LOCK_FILE`] and locks it with `try_lock`.
+fn lock_with(
+    dir: &Path,
+    try_lock: fn(&std::fs::File) -> Result<(), std::fs::TryLockError>,
+) -> Result<DirLock, Claim> {
     let path = dir.join(LOCK_FILE);
     let file = std::fs::OpenOptions::new()
         .create(true)
@@ -64,7 +81,7 @@ pub fn lock_dir(dir: &Path) -> Result<DirLock, Claim> {
         .write(true)
         .open(&path)
         .map_err(|e| Claim::Io(path.clone(), e))?;
-    match file.try_lock() {
+    match try_lock(&file) {
         Err(std::fs::TryLockError::WouldBlock) => Err(Claim::Busy),
         Ok(()) | Err(std::fs::TryLockError::Error(_)) => Ok(DirLock { _file: file }),
     }
@@ -144,6 +161,23 @@ mod tests {
         let left: Vec<_> = left.iter().filter(|f| *f != LOCK_FILE).collect();
         assert_eq!(left.len(), 1, "temporary files left: {left:?}");
         assert!(matches!(claim(&dir.join("notes.txt"), &files, true), Err(Claim::Io(..))));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn readers_share_a_directory_that_a_writer_holds_alone() {
+        let dir = std::env::temp_dir().join(format!("centaur-readers-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let first = read_lock_dir(&dir).unwrap();
+        let second = read_lock_dir(&dir).expect("a second reader was refused");
+        assert!(matches!(lock_dir(&dir), Err(Claim::Busy)), "a writer got a directory being read");
+        drop(first);
+        assert!(matches!(lock_dir(&dir), Err(Claim::Busy)), "one reader still holds it");
+        drop(second);
+        let writer = lock_dir(&dir).unwrap();
+        assert!(matches!(read_lock_dir(&dir), Err(Claim::Busy)), "a reader got a directory being written");
+        drop(writer);
+        read_lock_dir(&dir).unwrap();
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
