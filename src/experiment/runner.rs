@@ -470,15 +470,14 @@ pub(crate) fn check_pure_source(
 }
 
 /// Copies the pure-RL agent of the finished run in `from` into `opts.out` (its `pure_rl`
-/// files, with `from` held for reading meanwhile so that no other process rewrites it) after checking
-/// it ([`check_pure_source`]), evaluates the copy as the run evaluated it and refuses it if
-/// the figures differ (the environment or the code changed since), and returns its
-/// training as if it had just run here: the metrics, the evaluations during training, the
-/// recorded wall time and steps. Its final evaluation is made again by the caller.
+/// files, with `from` held for reading meanwhile: other comparisons may reuse it at the same
+/// time, no process may rewrite it) after checking it ([`check_pure_source`]), evaluates the
+/// copy as the run evaluated it and refuses it if the figures differ (the environment or the
+/// code changed since), and returns its training as if it had just run here: the metrics,
+/// the evaluations during training, the recorded wall time and steps. Its final evaluation
+/// is made again by the caller.
 fn reuse_pure(from: &Path, opts: &ExperimentOptions) -> Result<Trained, ExperimentError> {
-    // Held for reading: other comparisons may reuse it at the same time, no process may
-    // rewrite it meanwhile. A read-only source cannot be locked, and nothing can rewrite it
-    // either.
+    // A read-only source cannot be locked, and nothing can rewrite it either.
     let _source = match crate::rundir::read_lock_dir(from) {
         Ok(lock) => Some(lock),
         Err(Claim::Busy) => return Err(ExperimentError::PureRunBusy { from: from.to_path_buf() }),
