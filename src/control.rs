@@ -128,6 +128,10 @@ pub struct ControlOptions {
     /// controller on the robot does not know its motors' drawn strength, damping and battery
     /// voltage).
     pub drawn_motor: bool,
+    /// Multiplies the commanded gait's period, a factor in
+    /// [`crate::hybrid::PERIOD_SCALE_RANGE`]: below 1 the gait clock steps faster, as the
+    /// hybrid's `period_scale` makes it (default: 1, the gait's own period).
+    pub period_scale: f64,
 }
 
 impl Default for ControlOptions {
@@ -147,6 +151,7 @@ impl Default for ControlOptions {
             action_noise: 0.0,
             unrated: false,
             drawn_motor: false,
+            period_scale: 1.0,
         }
     }
 }
@@ -216,6 +221,8 @@ pub struct ControlSummary {
     pub action_noise: f64,
     /// Whether the run lifted the gait offers (`--unrated`).
     pub unrated: bool,
+    /// The factor the commanded gait's period was multiplied by (1: its own period).
+    pub period_scale: f64,
     /// The motor model the controller's torques became actions through, on a Minitaur
     /// (`nominal`, or `drawn` with `--drawn-motor`; `null`: a robot whose actions are torques).
     pub controller_motor: Option<MotorInverse>,
@@ -287,6 +294,18 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
             "a stand keeps its feet where they are: it takes speed 0 and yaw rate 0 (no speed schedule); \
              command a walking gait to move"
                 .into(),
+        ));
+    }
+    let (low, high) = crate::hybrid::PERIOD_SCALE_RANGE;
+    if !(opts.period_scale.is_finite() && (low..=high).contains(&opts.period_scale)) {
+        return Err(ControlError::Invalid(format!(
+            "period scale {}: expected a factor in [{low}, {high}] of the gait's period",
+            opts.period_scale
+        )));
+    }
+    if opts.gait == Gait::Stand && opts.period_scale != 1.0 {
+        return Err(ControlError::Invalid(
+            "a stand has no gait period to scale: command a walking gait with --period-scale".into(),
         ));
     }
     if let Some(p) = &opts.push {
@@ -370,6 +389,10 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     // what works.
     for v in std::iter::once(opts.speed).chain(opts.speed_schedule.iter().map(|p| p.1)) {
         config.check_command(opts.gait, v, opts.yaw_rate)?;
+    }
+    // The command's gait is offered here (checked above): scale its period.
+    for o in config.gaits.iter_mut().filter(|o| o.gait == opts.gait) {
+        o.period_scale *= opts.period_scale;
     }
     let mut ctrl = LocomotionController::new(env.model(), config)?;
     let mut mapping = ActionMapping::new(env.as_ref(), &ctrl)?;
@@ -521,6 +544,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         mean_forward_speed: if t > t0 { forward_path / (t - t0) } else { 0.0 },
         action_noise: opts.action_noise,
         unrated: opts.unrated,
+        period_scale: opts.period_scale,
         controller_motor: controller_motor(&opts.env, &settings),
         segments,
     })

@@ -5,7 +5,7 @@
 
 use std::process::Command as Process;
 
-use centaur::control::{ControlOptions, ControlSummary, Push, run_control};
+use centaur::control::{ControlError, ControlOptions, ControlSummary, Push, run_control};
 use centaur_mpc::Gait;
 
 fn run(env: &str, gait: Gait, speed: f64, measure_from: f64, push: Option<Push>) -> ControlSummary {
@@ -126,6 +126,37 @@ fn the_minitaur_trots_under_action_noise() {
     let s = run_control(&opts).unwrap();
     assert!(!s.fell, "fell after {:.2} s", s.seconds);
     assert!((s.mean_speed - 0.3).abs() < 0.045, "mean speed {:.3} m/s for 0.3", s.mean_speed);
+}
+
+/// `period_scale` runs the gait's clock faster or slower (as the hybrid's does): the trot on
+/// 0.7 of its period holds 1 m/s and is a different run from the trot on its own; a scale
+/// outside [0.25, 4], not finite, or on the stand (no period) is refused.
+#[test]
+fn the_minitaur_trots_on_a_scaled_period_and_bad_scales_are_refused() {
+    let trot = |period_scale: f64, gait: Gait| {
+        let opts = ControlOptions {
+            env: "minitaur".into(),
+            gait,
+            speed: if gait == Gait::Stand { 0.0 } else { 1.0 },
+            seconds: 4.0,
+            measure_from: 1.0,
+            period_scale,
+            ..ControlOptions::default()
+        };
+        run_control(&opts)
+    };
+    let own = trot(1.0, Gait::Trot).unwrap();
+    let faster = trot(0.7, Gait::Trot).unwrap();
+    assert_eq!((own.period_scale, faster.period_scale), (1.0, 0.7));
+    assert!(!faster.fell, "fell after {:.2} s", faster.seconds);
+    assert!((faster.mean_speed - 1.0).abs() < 0.15, "mean speed {:.3} m/s for 1.0", faster.mean_speed);
+    assert_ne!(own.distance.to_bits(), faster.distance.to_bits(), "the period scale changed nothing");
+    for (bad, gait) in [(0.1, Gait::Trot), (4.5, Gait::Trot), (f64::NAN, Gait::Trot), (0.7, Gait::Stand)] {
+        match trot(bad, gait) {
+            Err(e @ ControlError::Invalid(_)) => assert!(e.to_string().contains("period"), "{bad}: {e}"),
+            other => panic!("period scale {bad} on the {gait:?}: {other:?}"),
+        }
+    }
 }
 
 /// Speed steps within one run: 0 → 1.5 → 0 m/s; the robot reaches its speed and stops.
@@ -429,6 +460,30 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
     assert!((json["seconds"].as_f64().unwrap() - 1.0).abs() < 0.02);
     let stdout = String::from_utf8_lossy(&status.stdout);
     assert!(stdout.contains("minitaur trot at 0.3 m/s for 1.0 s: mean speed"), "{stdout}");
+    assert_eq!(json["period_scale"], 1.0);
+    let _ = std::fs::remove_dir_all(&out);
+    // A scaled period is said and recorded.
+    let o = Process::new(env!("CARGO_BIN_EXE_centaur"))
+        .args([
+            "control",
+            "--env",
+            "minitaur",
+            "--speed",
+            "0.3",
+            "--period-scale",
+            "0.7",
+            "--seconds",
+            "1",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("trot at 0.3 m/s (its period × 0.7) for 1.0 s"), "{stdout}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(json["period_scale"], 0.7);
     let _ = std::fs::remove_dir_all(&out);
     // A speed schedule reports each segment's command and mean speed, not the unused --speed.
     let o = Process::new(env!("CARGO_BIN_EXE_centaur"))

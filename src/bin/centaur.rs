@@ -430,6 +430,10 @@ struct ControlArgs {
     /// instead of the nominal one
     #[arg(long)]
     drawn_motor: bool,
+    /// Multiplies the gait's period, a factor in [0.25, 4]: below 1 the gait clock steps
+    /// faster (as the hybrid's `--period-scale`).
+    #[arg(long, default_value_t = 1.0)]
+    period_scale: f64,
 }
 
 /// `--speed-schedule`'s pairs (a newtype, so that clap takes the list as one value).
@@ -612,6 +616,7 @@ fn control(args: ControlArgs) -> ExitCode {
         action_noise: args.action_noise,
         unrated: args.unrated,
         drawn_motor: args.drawn_motor,
+        period_scale: args.period_scale,
     };
     let result = check_out_dir(&args.out)
         .and_then(|()| run_control(&opts))
@@ -642,6 +647,11 @@ fn control(args: ControlArgs) -> ExitCode {
                 "on its speed schedule".to_string()
             } else {
                 format!("at {} m/s", s.commanded_speed)
+            };
+            let command = if s.period_scale == 1.0 {
+                command
+            } else {
+                format!("{command} (its period × {})", s.period_scale)
             };
             let cot = s.cost_of_transport.map_or(String::new(), |c| format!(", cost of transport {c:.2}"));
             println!(
