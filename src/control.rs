@@ -296,13 +296,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
                 .into(),
         ));
     }
-    let (low, high) = crate::hybrid::PERIOD_SCALE_RANGE;
-    if !(opts.period_scale.is_finite() && (low..=high).contains(&opts.period_scale)) {
-        return Err(ControlError::Invalid(format!(
-            "period scale {}: expected a factor in [{low}, {high}] of the gait's period",
-            opts.period_scale
-        )));
-    }
+    crate::hybrid::check_period_scale(opts.period_scale)?;
     if opts.gait == Gait::Stand && opts.period_scale != 1.0 {
         return Err(ControlError::Invalid(
             "a stand has no gait period to scale: command a walking gait with --period-scale".into(),
@@ -390,10 +384,8 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     for v in std::iter::once(opts.speed).chain(opts.speed_schedule.iter().map(|p| p.1)) {
         config.check_command(opts.gait, v, opts.yaw_rate)?;
     }
-    // The command's gait is offered here (checked above): scale its period.
-    for o in config.gaits.iter_mut().filter(|o| o.gait == opts.gait) {
-        o.period_scale *= opts.period_scale;
-    }
+    // The command's gait is offered here (checked above).
+    config.scale_period(opts.gait, opts.period_scale);
     let mut ctrl = LocomotionController::new(env.model(), config)?;
     let mut mapping = ActionMapping::new(env.as_ref(), &ctrl)?;
     let mut obs = vec![0.0f32; env.observation_space().dim()];

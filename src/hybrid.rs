@@ -577,9 +577,7 @@ impl ResidualConfig {
             check_period_scale(value)?;
             let expected = "a gait that steps: the stand has no period";
             let gait = self.offered_gait(config, "period_scale", value, expected)?;
-            for o in config.gaits.iter_mut().filter(|o| o.gait == gait) {
-                o.period_scale *= value;
-            }
+            config.scale_period(gait, value);
         }
         Ok(())
     }
@@ -623,7 +621,8 @@ pub const MAX_EXPLORATION: f64 = 10.0;
 /// The range of [`ResidualConfig::period_scale`]: a quarter to four times the gait's period.
 pub const PERIOD_SCALE_RANGE: (f64, f64) = (0.25, 4.0);
 
-fn check_period_scale(value: f64) -> Result<(), HybridError> {
+/// Refuses a period scale outside [`PERIOD_SCALE_RANGE`] (here and in `centaur control`).
+pub(crate) fn check_period_scale(value: f64) -> Result<(), HybridError> {
     let (low, high) = PERIOD_SCALE_RANGE;
     if value.is_finite() && (low..=high).contains(&value) {
         Ok(())

@@ -151,11 +151,16 @@ fn the_minitaur_trots_on_a_scaled_period_and_bad_scales_are_refused() {
     assert!(!faster.fell, "fell after {:.2} s", faster.seconds);
     assert!((faster.mean_speed - 1.0).abs() < 0.15, "mean speed {:.3} m/s for 1.0", faster.mean_speed);
     assert_ne!(own.distance.to_bits(), faster.distance.to_bits(), "the period scale changed nothing");
-    for (bad, gait) in [(0.1, Gait::Trot), (4.5, Gait::Trot), (f64::NAN, Gait::Trot), (0.7, Gait::Stand)] {
-        match trot(bad, gait) {
-            Err(e @ ControlError::Invalid(_)) => assert!(e.to_string().contains("period"), "{bad}: {e}"),
-            other => panic!("period scale {bad} on the {gait:?}: {other:?}"),
+    // Out of range: the hybrid's own refusal; on the stand: the controller's.
+    for bad in [0.1, 4.5, f64::NAN] {
+        match trot(bad, Gait::Trot) {
+            Err(e @ ControlError::Hybrid(_)) => assert!(e.to_string().contains("period_scale"), "{bad}: {e}"),
+            other => panic!("period scale {bad}: {other:?}"),
         }
+    }
+    match trot(0.7, Gait::Stand) {
+        Err(e @ ControlError::Invalid(_)) => assert!(e.to_string().contains("no gait period"), "{e}"),
+        other => panic!("period scale 0.7 on the stand: {other:?}"),
     }
 }
 

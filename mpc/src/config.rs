@@ -886,6 +886,14 @@ impl ControllerConfig {
         self.gaits.iter().find(|o| o.gait == gait)
     }
 
+    /// Multiplies the period of `gait`'s offer by `factor` (below 1 its clock steps faster);
+    /// nothing for a gait not offered.
+    pub fn scale_period(&mut self, gait: Gait, factor: f64) {
+        for o in self.gaits.iter_mut().filter(|o| o.gait == gait) {
+            o.period_scale *= factor;
+        }
+    }
+
     /// Lifts the gait offers, to show why a gait is not offered: every gait defined for the
     /// robot's leg count, with the period scale, CoM height, stance fraction and weights of
     /// its offer (the table's and the configuration's when not offered), unrated.
