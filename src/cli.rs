@@ -119,6 +119,11 @@ pub struct HybridArgs {
     /// [default: the robot's]
     #[arg(long)]
     pub steer_cadence: Option<f64>,
+    /// Span of the policy's duty-factor steering, a fraction in [0, 0.3] (0: off): every
+    /// leg's stance fraction is its gait's own ± this, so the feet may leave the ground
+    /// sooner (a trot with flight phases) or later [default: the robot's]
+    #[arg(long)]
+    pub steer_duty: Option<f64>,
     /// Which parts of the hybrid's action are on: both (the default), residual (no
     /// steering) or command (steering only)
     #[arg(long, value_enum, default_value = "both")]
@@ -216,6 +221,9 @@ impl HybridArgs {
         }
         if let Some(s) = self.steer_cadence {
             preset.steering.cadence = s;
+        }
+        if let Some(s) = self.steer_duty {
+            preset.steering.duty = s;
         }
         match self.parts {
             HybridParts::Both => {}
@@ -502,13 +510,15 @@ mod tests {
     }
 
     #[test]
-    fn the_cadence_steering_is_the_presets_unless_given_and_off_with_the_steering() {
+    fn the_cadence_and_duty_steering_are_the_presets_unless_given_and_off_with_the_steering() {
         let walker = residual_config("walker2d").unwrap();
         let steering = |args: &[&str]| parse_hybrid(walker.clone(), args).unwrap().steering;
         assert_eq!(steering(&[]), walker.steering);
         assert_eq!(steering(&["--steer-cadence", "0.5"]), Steering { cadence: 0.5, ..walker.steering });
         assert_eq!(steering(&["--steer-cadence", "0.5", "--parts", "residual"]), Steering::OFF);
         assert!(parse_hybrid(walker.clone(), &["--steer-cadence", "x"]).is_err());
+        assert_eq!(steering(&["--steer-duty", "0.15"]), Steering { duty: 0.15, ..walker.steering });
+        assert_eq!(steering(&["--steer-duty", "0.15", "--parts", "residual"]), Steering::OFF);
     }
 
     #[test]

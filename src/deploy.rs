@@ -204,9 +204,7 @@ impl HybridStack {
                     &mut self.command,
                 );
                 self.steered = self.residual.steer(&self.config.command, &self.residual_out, g.steering);
-                if let Some(rate) = self.residual.gait_rate(&self.residual_out, g.steering) {
-                    self.controller.set_gait_rate(rate);
-                }
+                self.residual.steer_gait(&mut self.controller, &self.residual_out, g.steering);
             }
         }
         &self.command

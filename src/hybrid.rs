@@ -95,22 +95,32 @@ pub struct Steering {
     /// it read as before).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub cadence: f64,
+    /// Duty-factor span, a fraction in [0, 0.3]: every leg's stance fraction is its gait's
+    /// own plus `duty · c` ([`centaur_mpc::LocomotionController::set_gait_duty_shift`]), so
+    /// below its own a trot's feet leave the ground sooner, with flight phases, as a
+    /// running animal's do, and the stance sweeps a shorter stretch of ground at a given
+    /// speed (recorded only where set).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub duty: f64,
 }
 
 fn is_zero(x: &f64) -> bool {
     *x == 0.0
 }
 
-/// Every field as `derive(Debug)` writes it, but `cadence` only where set: runs record
-/// this text in their fingerprint, and a run without it keeps the fingerprint it had
-/// before it existed.
+/// Every field as `derive(Debug)` writes it, but `cadence` and `duty` only where set: runs
+/// record this text in their fingerprint, and a run without them keeps the fingerprint it
+/// had before they existed.
 impl std::fmt::Debug for Steering {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let Steering { speed, yaw_rate, cadence } = self;
+        let Steering { speed, yaw_rate, cadence, duty } = self;
         let mut s = f.debug_struct("Steering");
         s.field("speed", speed).field("yaw_rate", yaw_rate);
         if *cadence != 0.0 {
             s.field("cadence", cadence);
+        }
+        if *duty != 0.0 {
+            s.field("duty", duty);
         }
         s.finish()
     }
@@ -118,11 +128,23 @@ impl std::fmt::Debug for Steering {
 
 impl Steering {
     /// No steering: the command is fixed.
-    pub const OFF: Steering = Steering { speed: 0.0, yaw_rate: 0.0, cadence: 0.0 };
+    pub const OFF: Steering = Steering { speed: 0.0, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 };
 
     /// Number of action entries the steering adds.
     pub fn dim(&self) -> usize {
-        usize::from(self.speed != 0.0) + usize::from(self.yaw_rate != 0.0) + usize::from(self.cadence != 0.0)
+        self.spans().iter().filter(|&&s| s != 0.0).count()
+    }
+
+    /// The spans in the order of their action entries: speed, yaw rate, cadence, duty.
+    fn spans(&self) -> [f64; 4] {
+        [self.speed, self.yaw_rate, self.cadence, self.duty]
+    }
+
+    /// The index among the steering entries of the part whose span is `spans()[part]`, if
+    /// it is switched on.
+    fn entry(&self, part: usize) -> Option<usize> {
+        let spans = self.spans();
+        (spans[part] != 0.0).then(|| spans[..part].iter().filter(|&&s| s != 0.0).count())
     }
 }
 
@@ -444,6 +466,16 @@ impl ResidualConfig {
                 expected: "a fraction in [0, 0.75] (the clock's rate 1 ± cadence within the controller's [0.25, 4])",
             });
         }
+        if !(self.steering.duty.is_finite()
+            && (0.0..=centaur_mpc::MAX_DUTY_SHIFT).contains(&self.steering.duty))
+        {
+            let value = self.steering.duty;
+            return Err(HybridError::BadSetting {
+                part: "steering.duty",
+                value,
+                expected: "a fraction in [0, 0.3] (the controller's largest shift of the stance fractions)",
+            });
+        }
         if self.steering.yaw_rate > MAX_YAW_RATE {
             let value = self.steering.yaw_rate;
             return Err(HybridError::BadSetting {
@@ -643,7 +675,8 @@ fn check_rated_speed(value: f64) -> Result<(), HybridError> {
 /// with the scale resolved per action entry. See the module docs.
 ///
 /// The policy's action is `[r (the joint residual, one entry per robot action, if on) |
-/// c (the steering entries: speed, then yaw rate, then cadence, those switched on)]`.
+/// c (the steering entries: speed, then yaw rate, then cadence, then duty, those switched
+/// on)]`.
 #[derive(Clone, Debug)]
 pub struct Residual {
     scale: Vec<f32>,
@@ -759,16 +792,39 @@ impl Residual {
         cmd
     }
 
+    /// The steering entry `part` of [`Steering::spans`] (0 speed, 1 yaw rate, 2 cadence, 3
+    /// duty) as the policy's `output` gives it, `g · clip(c, −1, 1)` with `g` the
+    /// `authority` over the steering; `None` where that part is off.
+    fn steering_entry(&self, output: &[f32], authority: f32, part: usize) -> Option<f64> {
+        let k = self.joint_dim() + self.steering.entry(part)?;
+        Some((authority * output.get(k).copied().unwrap_or(0.0).clamp(-1.0, 1.0)) as f64)
+    }
+
     /// The gait clock's rate the policy's `output` steers to, `1 + cadence · g · clip(c, −1,
-    /// 1)` with `c` its cadence entry (the last steering entry) and `g` the `authority`
-    /// over the steering; `None` without cadence steering (the clock keeps its own rate).
+    /// 1)` with `c` its cadence entry and `g` the `authority` over the steering; `None`
+    /// without cadence steering (the clock keeps its own rate).
     pub fn gait_rate(&self, output: &[f32], authority: f32) -> Option<f64> {
-        if self.steering.cadence == 0.0 {
-            return None;
+        self.steering_entry(output, authority, 2).map(|c| 1.0 + self.steering.cadence * c)
+    }
+
+    /// The shift of the stance fractions the policy's `output` steers to, `duty · g ·
+    /// clip(c, −1, 1)` with `c` its duty entry (the last steering entry) and `g` the
+    /// `authority` over the steering; `None` without duty steering (the gaits keep their
+    /// own).
+    pub fn duty_shift(&self, output: &[f32], authority: f32) -> Option<f64> {
+        self.steering_entry(output, authority, 3).map(|c| self.steering.duty * c)
+    }
+
+    /// Steers `controller`'s gait as the policy's `output` says: its clock's rate
+    /// ([`Residual::gait_rate`]) and its stance fractions ([`Residual::duty_shift`]),
+    /// each only where the policy steers it.
+    pub fn steer_gait(&self, controller: &mut LocomotionController, output: &[f32], authority: f32) {
+        if let Some(rate) = self.gait_rate(output, authority) {
+            controller.set_gait_rate(rate);
         }
-        let k = self.joint_dim() + self.steering.dim() - 1;
-        let c = (authority * output.get(k).copied().unwrap_or(0.0).clamp(-1.0, 1.0)) as f64;
-        Some(1.0 + self.steering.cadence * c)
+        if let Some(shift) = self.duty_shift(output, authority) {
+            controller.set_gait_duty_shift(shift);
+        }
     }
 
     /// The policy's observation: the robot's observation, the gait phase
@@ -1038,7 +1094,7 @@ mod tests {
     fn steering_maps_the_policy_output_onto_the_command() {
         let base = Command::forward(2.0, Gait::Trot);
         let config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.2, cadence: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.2, cadence: 0.0, duty: 0.0 },
             ..ResidualConfig::new(0.25, base)
         };
         let r = Residual::new(&config, 3).unwrap();
@@ -1059,7 +1115,7 @@ mod tests {
     fn the_cadence_steers_the_gait_clock_last_and_is_checked_and_recorded_only_where_set() {
         let base = Command::forward(1.0, Gait::Walk);
         let config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4, duty: 0.0 },
             ..ResidualConfig::new(0.25, base)
         };
         let r = Residual::new(&config, 3).unwrap();
@@ -1098,6 +1154,50 @@ mod tests {
     }
 
     #[test]
+    fn the_duty_steers_the_stance_fractions_last_and_is_checked_and_recorded_only_where_set() {
+        let base = Command::forward(1.0, Gait::Trot);
+        let config = ResidualConfig {
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4, duty: 0.2 },
+            ..ResidualConfig::new(0.25, base)
+        };
+        let r = Residual::new(&config, 3).unwrap();
+        assert_eq!(r.policy_action_dim(), 6);
+        // [r₀ r₁ r₂ | c_speed c_cadence c_duty]
+        assert_eq!(r.duty_shift(&[0.0; 6], 1.0), Some(0.0));
+        let out = [0.0, 0.0, 0.0, 0.2, 0.5, -0.5];
+        assert!((r.duty_shift(&out, 1.0).unwrap() + 0.1).abs() < 1e-12);
+        assert!((r.gait_rate(&out, 1.0).unwrap() - 1.2).abs() < 1e-12);
+        assert!((r.steer(&base, &out, 1.0).forward_velocity - 1.1).abs() < 1e-6);
+        // Clipped to [−1, 1] and scaled by the authority.
+        assert!((r.duty_shift(&[0.0, 0.0, 0.0, 0.0, 0.0, 5.0], 0.5).unwrap() - 0.1).abs() < 1e-12);
+        // Alone, it is the only steering entry; off, there is none.
+        let alone = ResidualConfig { steering: Steering { duty: 0.3, ..Steering::OFF }, ..config.clone() };
+        let r = Residual::new(&alone, 3).unwrap();
+        assert_eq!((r.policy_action_dim(), r.gait_rate(&[1.0; 4], 1.0)), (4, None));
+        assert!((r.duty_shift(&[1.0, 1.0, 1.0, -1.0], 1.0).unwrap() + 0.3).abs() < 1e-12);
+        let without =
+            ResidualConfig { steering: Steering { duty: 0.0, ..config.steering }, ..config.clone() };
+        assert_eq!(Residual::new(&without, 3).unwrap().duty_shift(&[1.0; 5], 1.0), None);
+        for bad in [-0.1, 0.31, f64::NAN, f64::INFINITY] {
+            let c = ResidualConfig { steering: Steering { duty: bad, ..Steering::OFF }, ..config.clone() };
+            assert!(
+                matches!(Residual::new(&c, 3), Err(HybridError::BadSetting { part: "steering.duty", .. })),
+                "{bad}"
+            );
+        }
+        // Recorded (text and data) only where set.
+        assert_eq!(format!("{:?}", without.steering), "Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4 }");
+        assert_eq!(
+            format!("{:?}", config.steering),
+            "Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4, duty: 0.2 }"
+        );
+        let json = serde_json::to_string(&config.steering).unwrap();
+        assert_eq!(json, r#"{"speed":0.5,"yaw_rate":0.0,"cadence":0.4,"duty":0.2}"#);
+        assert_eq!(serde_json::from_str::<Steering>(&json).unwrap(), config.steering);
+        assert!(!serde_json::to_string(&without.steering).unwrap().contains("duty"));
+    }
+
+    #[test]
     fn the_fade_hands_the_robot_back_to_the_controller_as_the_body_sinks() {
         // Steering fades over [0.1, 0.15], then the residual over [0.15, 0.2].
         let fade = Fade { start: 0.1, end: 0.2 };
@@ -1119,7 +1219,7 @@ mod tests {
         // At authority g the residual and the steering are g times the policy's.
         let base = Command::forward(2.0, Gait::Trot);
         let config = ResidualConfig {
-            steering: Steering { speed: 1.0, yaw_rate: 0.0, cadence: 0.0 },
+            steering: Steering { speed: 1.0, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 },
             fade: Some(fade),
             ..ResidualConfig::new(0.25, base)
         };
@@ -1165,7 +1265,7 @@ mod tests {
         let base = Command::forward(1.0, Gait::Trot);
         let config = ResidualConfig {
             joint_residual: false,
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 },
             ..ResidualConfig::new(0.25, base)
         };
         let r = Residual::new(&config, 3).unwrap();
@@ -1181,7 +1281,7 @@ mod tests {
         let nothing = ResidualConfig { joint_residual: false, ..ResidualConfig::default() };
         assert!(matches!(Residual::new(&nothing, 3), Err(HybridError::NothingToLearn)));
         let negative = ResidualConfig {
-            steering: Steering { speed: -0.5, yaw_rate: 0.0, cadence: 0.0 },
+            steering: Steering { speed: -0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 },
             ..ResidualConfig::default()
         };
         assert!(matches!(
@@ -1189,7 +1289,7 @@ mod tests {
             Err(HybridError::BadSetting { part: "steering.speed", .. })
         ));
         let nan = ResidualConfig {
-            steering: Steering { speed: 0.0, yaw_rate: f64::NAN, cadence: 0.0 },
+            steering: Steering { speed: 0.0, yaw_rate: f64::NAN, cadence: 0.0, duty: 0.0 },
             ..ResidualConfig::default()
         };
         assert!(matches!(
@@ -1209,7 +1309,7 @@ mod tests {
     #[test]
     fn the_initial_exploration_follows_the_action_layout() {
         let mut config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 },
             exploration: Some(Exploration { residual: 0.2, steering: 0.7 }),
             ..ResidualConfig::default()
         };
@@ -1223,7 +1323,7 @@ mod tests {
     #[test]
     fn the_exploration_ramp_floors_the_residual_only_and_is_checked() {
         let config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 },
             exploration: Some(Exploration { residual: 0.01, steering: 0.5 }),
             exploration_ramp: Some(ExplorationRamp { residual: 0.3, samples: 100_000 }),
             ..ResidualConfig::default()
@@ -1276,7 +1376,7 @@ mod tests {
         };
         let steering_only = ResidualConfig {
             joint_residual: false,
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 },
             ..config.clone()
         };
         bad(steering_only, "bound_ramp.from");
@@ -1415,7 +1515,7 @@ mod tests {
         assert!(matches!(too_fast, Err(HybridError::BadSetting { part: "command.yaw_rate", .. })));
         assert!(bad(Command { body_height: Some(0.2), yaw_rate: -6.0, ..fwd }).is_ok());
         let steer_yaw = |yaw_rate: f64| ResidualConfig {
-            steering: Steering { speed: 0.0, yaw_rate, cadence: 0.0 },
+            steering: Steering { speed: 0.0, yaw_rate, cadence: 0.0, duty: 0.0 },
             ..ResidualConfig::default()
         };
         assert!(steer_yaw(6.0).validate(8).is_ok());

@@ -274,9 +274,7 @@ impl Env for ResidualEnv {
         let mut step = self.env.step(&self.applied, &mut self.env_obs)?;
         step.info.reward_terms[RESIDUAL_TERM] = (sq / self.applied.len().max(1) as f64).sqrt();
         self.command = self.residual.steer(&self.config.command, action, g.steering);
-        if let Some(rate) = self.residual.gait_rate(action, g.steering) {
-            self.controller.set_gait_rate(rate);
-        }
+        self.residual.steer_gait(&mut self.controller, action, g.steering);
         if !step.done() {
             self.update_reference();
         }

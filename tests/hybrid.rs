@@ -155,6 +155,41 @@ fn cadence_steering_runs_the_gait_clock_faster_or_slower() {
     }
 }
 
+/// Duty steering moves the trot's stance fractions by `duty · c`: at c = 0 the hybrid with
+/// it on is the controller alone to the bit; held at c = −1 the controller's shift reaches
+/// −duty at its slew (the Minitaur trots with flight phases), the robot's trajectory
+/// differs and it is still up after 1.5 s. The policy's last action entry is the duty.
+#[test]
+fn duty_steering_shifts_the_stance_fractions() {
+    use centaur::hybrid::Steering;
+    use centaur::mpc::DUTY_SHIFT_SLEW;
+    let preset = residual_config("minitaur").unwrap();
+    let config = ResidualConfig { steering: Steering { duty: 0.2, ..preset.steering }, ..preset.clone() };
+    let mut env = make_residual_env("minitaur", config.clone()).unwrap();
+    let n_env = env.inner().observation_space().dim();
+    assert_eq!(env.action_space().dim(), env.inner().action_space().dim() + 2, "speed and duty");
+    let reference = controller_alone("minitaur", config.command, 150);
+    assert_eq!(zero_output_trace(&mut env, 150), reference, "c = 0 is the controller alone");
+    assert_eq!(env.controller().gait_duty_shift(), 0.0);
+    let mut flying = vec![0.0f32; env.action_space().dim()];
+    *flying.last_mut().unwrap() = -1.0;
+    let steps = 150;
+    let t = trace(&mut env, &flying, n_env, steps, |s| assert!(!s.terminated, "fell"));
+    assert_eq!(t.len(), reference.len(), "ended early");
+    assert!(t != reference, "the duty changed nothing");
+    // 150 steps of 10 ms: far more than the 0.2 s the slew takes.
+    const { assert!(0.2 / DUTY_SHIFT_SLEW < 1.0) };
+    assert!(
+        (env.controller().gait_duty_shift() + 0.2).abs() < 1e-12,
+        "{}",
+        env.controller().gait_duty_shift()
+    );
+    // A reset hands the next episode the gaits' own fractions.
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    env.reset(Some(3), &mut obs).unwrap();
+    assert_eq!(env.controller().gait_duty_shift(), 0.0);
+}
+
 #[test]
 fn the_residual_is_bounded_by_its_scale_and_the_action_space() {
     let scale = 0.2;
@@ -416,16 +451,19 @@ fn the_deployed_stack_acts_exactly_like_the_residual_env_it_was_trained_in() {
     let (fa, fb) = both(&faded);
     assert!(fa == fb, "with a fade, the deployed stack diverged from the training environment");
     assert!(fa != a, "the fade changed nothing");
-    // With the policy steering the cadence on a faster clock, the stack runs the
-    // controller's clock as the env does.
+    // With the policy steering the cadence and the stance fractions on a faster clock, the
+    // stack runs the controller's gait as the env does.
     let clocked = ResidualConfig {
-        steering: centaur::hybrid::Steering { cadence: 0.5, ..config.steering },
+        steering: centaur::hybrid::Steering { cadence: 0.5, duty: 0.2, ..config.steering },
         period_scale: Some(0.8),
         ..config.clone()
     };
     let (ca, cb) = both(&clocked);
-    assert!(ca == cb, "with cadence steering, the deployed stack diverged from the training environment");
-    assert!(ca != a, "the cadence and the clock changed nothing");
+    assert!(
+        ca == cb,
+        "with cadence and duty steering, the deployed stack diverged from the training environment"
+    );
+    assert!(ca != a, "the cadence, the duty and the clock changed nothing");
     let mut env = make_robot_env("minitaur", None).unwrap();
     let mut obs = vec![0.0f32; env.observation_space().dim()];
     env.reset(Some(9), &mut obs).unwrap();

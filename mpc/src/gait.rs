@@ -30,6 +30,18 @@ pub const GAIT_RATE_RANGE: (f64, f64) = (0.25, 4.0);
 /// period do not jump from tick to tick.
 pub const GAIT_RATE_SLEW: f64 = 2.0;
 
+/// The largest shift of the stance fractions ([`GaitScheduler::set_duty_shift`]): a trot's
+/// ½ may go from 0.2 (a flying trot, both pairs in the air for 0.3 of the cycle) to 0.8.
+pub const MAX_DUTY_SHIFT: f64 = 0.3;
+
+/// The range a shifted stance fraction is held in ([`GaitScheduler::set_duty_shift`]).
+pub const DUTY_RANGE: (f64, f64) = (0.2, 0.9);
+
+/// How fast (per second) the stance fractions' shift follows its target
+/// ([`GaitScheduler::set_duty_shift`]): 0.5 → 0.35 takes 0.15 s, a noisy target moves every
+/// leg's lift-off by at most 0.01 of its cycle per 10 ms tick.
+pub const DUTY_SHIFT_SLEW: f64 = 1.0;
+
 /// A named gait (recorded as its lower-case [`Gait::name`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -258,6 +270,11 @@ pub struct GaitScheduler {
     rate: f64,
     /// The rate the clock moves towards at [`GAIT_RATE_SLEW`].
     rate_target: f64,
+    /// The shift of every stepping gait's stance fractions in force
+    /// ([`GaitScheduler::set_duty_shift`]; 0: the gaits' own).
+    duty_shift: f64,
+    /// The shift the stance fractions move towards at [`DUTY_SHIFT_SLEW`].
+    duty_shift_target: f64,
 }
 
 impl GaitScheduler {
@@ -299,6 +316,8 @@ impl GaitScheduler {
             last_t: None,
             rate: 1.0,
             rate_target: 1.0,
+            duty_shift: 0.0,
+            duty_shift_target: 0.0,
         }
     }
 
@@ -358,13 +377,59 @@ impl GaitScheduler {
         self.stagger_period_scale = if scale.is_finite() && scale > 0.0 { scale } else { 1.0 };
     }
 
-    /// `p` with the stagger in force and, if that staggers it, the staggered period.
+    /// `p` with the stagger in force and, if that staggers it, the staggered period, and
+    /// then the stance fractions' shift in force.
     fn turning(&self, p: GaitPattern) -> GaitPattern {
         let mut q = p.staggered(self.stagger);
         if q.stagger != 0.0 {
             q.period *= self.stagger_period_scale;
         }
-        q
+        self.shifted(q)
+    }
+
+    /// `p` with every leg's stance fraction moved by the shift in force and held in
+    /// [`DUTY_RANGE`]; the stand, and any pattern without a shift, unchanged.
+    fn shifted(&self, mut p: GaitPattern) -> GaitPattern {
+        if self.duty_shift != 0.0 && p.gait != Gait::Stand {
+            let (low, high) = DUTY_RANGE;
+            for d in &mut p.duty[..p.n_legs] {
+                *d = (*d + self.duty_shift).clamp(low, high);
+            }
+        }
+        p
+    }
+
+    /// Sets how far every stepping gait's stance fractions are moved from their own
+    /// (`d = d₀ + shift`, held in [`DUTY_RANGE`]): below 0 the feet leave the ground
+    /// sooner and a trot gets flight phases, as a running animal's do; above 0 they stay
+    /// longer. The shift follows at [`DUTY_SHIFT_SLEW`] and acts on the pattern in force at
+    /// once, each leg's phase carrying on, so a leg near the end of its stance may lift off
+    /// (or one just lifted touch down again) a little sooner than planned, but no swing or
+    /// stance restarts. Clamped to ±[`MAX_DUTY_SHIFT`]; a non-finite shift counts as 0, and a
+    /// reset goes back to 0. A staggered (turning) trot's fractions are shifted from the
+    /// stagger's. The stand has no stance fraction to move.
+    pub fn set_duty_shift(&mut self, shift: f64) {
+        self.duty_shift_target =
+            if shift.is_finite() { shift.clamp(-MAX_DUTY_SHIFT, MAX_DUTY_SHIFT) } else { 0.0 };
+    }
+
+    /// The shift of the stance fractions in force now ([`GaitScheduler::set_duty_shift`]).
+    pub fn duty_shift(&self) -> f64 {
+        self.duty_shift
+    }
+
+    /// Shifts the stance fractions by `shift` from now on: the pattern in force takes its
+    /// own fractions (its gait's as this scheduler runs it, staggered as it is) moved by
+    /// `shift`; a pending gait takes the shift when it starts.
+    fn apply_duty_shift(&mut self, shift: f64) {
+        self.duty_shift = shift;
+        if self.pattern.gait == Gait::Stand {
+            return;
+        }
+        if let Some(own) = self.table(self.pattern.gait) {
+            let own = own.staggered(self.pattern.stagger);
+            self.pattern.duty = self.shifted(own).duty;
+        }
     }
 
     /// The pattern the next cycle takes if it differs from the one in force: a pending gait,
@@ -424,6 +489,9 @@ impl GaitScheduler {
         self.last_t = Some(t);
         if self.rate != self.rate_target {
             self.apply_rate(ramp(self.rate, self.rate_target, GAIT_RATE_SLEW * dt));
+        }
+        if self.duty_shift != self.duty_shift_target {
+            self.apply_duty_shift(ramp(self.duty_shift, self.duty_shift_target, DUTY_SHIFT_SLEW * dt));
         }
         if gait != self.pattern.gait {
             if let Some(p) = self.table(gait) {
@@ -641,6 +709,91 @@ mod tests {
         assert_eq!(s.pattern().gait, Gait::Pace);
         let pace = GaitPattern::new(Gait::Pace, 4).unwrap();
         assert!((s.pattern().period - pace.period / 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_stance_fractions_shift_at_their_slew_and_the_phase_carries_on() {
+        let dt = 0.01;
+        let run = |shift: f64, ticks: usize| {
+            let mut s = GaitScheduler::new(4, 1.0);
+            s.set_duty_shift(shift);
+            s.update(0.0, Gait::Trot);
+            for k in 1..=ticks {
+                s.update(k as f64 * dt, Gait::Trot);
+            }
+            s
+        };
+        // No shift is the plain scheduler, to the bit.
+        let (zero, plain) = (run(0.0, 57), {
+            let mut s = GaitScheduler::new(4, 1.0);
+            s.update(0.0, Gait::Trot);
+            for k in 1..=57 {
+                s.update(k as f64 * dt, Gait::Trot);
+            }
+            s
+        });
+        assert_eq!((zero.phase(), *zero.pattern()), (plain.phase(), *plain.pattern()));
+        // −0.15 takes 0.15 s at DUTY_SHIFT_SLEW; the trot's ½ becomes 0.35 on every leg, the
+        // offsets, period and phase untouched (the clock does not depend on the shift).
+        let early = run(-0.15, 10);
+        assert!((early.duty_shift() + 0.1).abs() < 1e-12, "{}", early.duty_shift());
+        let flying = run(-0.15, 57);
+        assert!((flying.duty_shift() + 0.15).abs() < 1e-12);
+        let trot = GaitPattern::new(Gait::Trot, 4).unwrap();
+        for d in flying.pattern().duty {
+            assert!((d - 0.35).abs() < 1e-12, "{d}");
+        }
+        assert_eq!((flying.pattern().offsets, flying.pattern().period), (trot.offsets, trot.period));
+        assert_eq!(flying.phase(), plain.phase());
+        // Flight phases: at φ = 0.4 (after the first pair's 0.35, before the second's 0.5)
+        // no foot is down; the contact plan follows the fractions in force.
+        assert!((0..4).all(|l| !flying.pattern().in_stance(0.4, l)));
+        let mut out = [[false; 4]; 10];
+        flying.contact_schedule(0.03, &mut out);
+        let (p, phase) = flying.predict(0.0);
+        assert_eq!(out[0], [0, 1, 2, 3].map(|l| p.in_stance(phase, l)));
+        assert_eq!(p.duty, flying.pattern().duty);
+        // No switch at the boundary: the shifted trot is the one in force, and a new cycle
+        // keeps it.
+        assert_eq!(flying.pending(), None);
+        let mut s = run(-0.15, 57);
+        for k in 58..=200 {
+            assert!(!s.update(k as f64 * dt, Gait::Trot));
+        }
+        assert!((s.pattern().duty[0] - 0.35).abs() < 1e-12);
+        // Clamped to ±MAX_DUTY_SHIFT and the fractions to DUTY_RANGE (the walk's 0.75 + 0.3);
+        // a non-finite shift counts as 0; a reset goes back to 0.
+        assert!((run(-5.0, 100).duty_shift() + MAX_DUTY_SHIFT).abs() < 1e-12);
+        assert_eq!(run(f64::NAN, 100).duty_shift(), 0.0);
+        let mut w = GaitScheduler::new(4, 1.0);
+        w.set_duty_shift(0.3);
+        for k in 0..=30 {
+            w.update(k as f64 * dt, Gait::Walk);
+        }
+        assert_eq!(w.pattern().duty, [DUTY_RANGE.1; 4]);
+        w.reset();
+        assert_eq!(w.duty_shift(), 0.0);
+        w.update(0.0, Gait::Walk);
+        assert_eq!(w.pattern().duty, [0.75; 4]);
+        // The stand has no fraction to move; a gait it starts takes the shift in force.
+        let mut s = GaitScheduler::new(4, 1.0);
+        s.set_duty_shift(0.1);
+        for k in 0..=20 {
+            s.update(k as f64 * dt, Gait::Stand);
+        }
+        assert_eq!(s.pattern().duty, [1.0; 4]);
+        assert!((s.duty_shift() - 0.1).abs() < 1e-12);
+        s.update(0.21, Gait::Trot);
+        assert!((s.pattern().duty[0] - 0.6).abs() < 1e-12);
+        // A turning trot's fractions are shifted from the stagger's (0.5 − 0.1).
+        let mut s = GaitScheduler::new(4, 1.0);
+        s.set_stagger(0.1);
+        s.set_duty_shift(-0.1);
+        s.update(0.0, Gait::Trot);
+        for k in 1..=40 {
+            s.update(k as f64 * dt, Gait::Trot);
+        }
+        assert!((s.pattern().duty[0] - 0.3).abs() < 1e-12, "{:?}", s.pattern().duty);
     }
 
     #[test]

@@ -128,7 +128,10 @@ pub use controller::{
 pub use convex_mpc::{ConvexMpc, HardConstraints, MpcConfig, MpcInput, MpcSolver, NX, state_index};
 pub use error::ConfigError;
 pub use friction::FrictionModel;
-pub use gait::{GAIT_RATE_RANGE, GAIT_RATE_SLEW, Gait, GaitPattern, GaitScheduler, MAX_LEGS, MAX_STAGGER};
+pub use gait::{
+    DUTY_RANGE, DUTY_SHIFT_SLEW, GAIT_RATE_RANGE, GAIT_RATE_SLEW, Gait, GaitPattern, GaitScheduler,
+    MAX_DUTY_SHIFT, MAX_LEGS, MAX_STAGGER,
+};
 pub use qp::{DenseQp, DenseQpData, QpStatus};
 pub use robot::{BaseSpec, ContactSpec, LeggedRobot, LoopClosure, LoopClosureSpec, MAX_CONTACTS, RobotSpec};
 pub use wbc::{LimitedJoint, QpBackend, WbcConfig, WbcInput, WbcOutput, WholeBodyQp};

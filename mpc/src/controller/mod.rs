@@ -175,6 +175,21 @@ impl LocomotionController {
         self.gait.rate()
     }
 
+    /// Moves every stepping gait's stance fractions by `shift` from their own (below 0 the
+    /// feet lift off sooner: a trot with flight phases). The shift follows at a bounded
+    /// slew and each leg's phase carries on; clamped to ±[`crate::MAX_DUTY_SHIFT`], the
+    /// fractions held in [`crate::DUTY_RANGE`], a non-finite shift counts as 0, and
+    /// [`Self::reset`] goes back to 0 ([`crate::GaitScheduler::set_duty_shift`]). A hybrid's
+    /// policy steers it (`Steering::duty` in `centaur`).
+    pub fn set_gait_duty_shift(&mut self, shift: f64) {
+        self.gait.set_duty_shift(shift);
+    }
+
+    /// The shift of the stance fractions in force now ([`Self::set_gait_duty_shift`]).
+    pub fn gait_duty_shift(&self) -> f64 {
+        self.gait.duty_shift()
+    }
+
     /// One control step at time `t` (s). Never panics on a non-finite state (it falls back
     /// to posture PD and says so in the status).
     ///
