@@ -132,6 +132,12 @@ pub struct ControlOptions {
     /// [`crate::hybrid::PERIOD_SCALE_RANGE`]: below 1 the gait clock steps faster, as the
     /// hybrid's `period_scale` makes it (default: 1, the gait's own period).
     pub period_scale: f64,
+    /// Moves every leg's stance fraction by this much from its gait's own, in
+    /// ±[`centaur_mpc::MAX_DUTY_SHIFT`]: below 0 the feet lift off sooner (a trot with
+    /// flight phases), as a hybrid's duty steering (`Steering::duty`) makes it; the shift
+    /// reaches its value at the controller's slew in the first 0.3 s at most (default: 0,
+    /// the gait's own fractions).
+    pub duty_shift: f64,
 }
 
 impl Default for ControlOptions {
@@ -152,6 +158,7 @@ impl Default for ControlOptions {
             unrated: false,
             drawn_motor: false,
             period_scale: 1.0,
+            duty_shift: 0.0,
         }
     }
 }
@@ -223,6 +230,8 @@ pub struct ControlSummary {
     pub unrated: bool,
     /// The factor the commanded gait's period was multiplied by (1: its own period).
     pub period_scale: f64,
+    /// The shift of the stance fractions from the gait's own (0: none).
+    pub duty_shift: f64,
     /// The motor model the controller's torques became actions through, on a Minitaur
     /// (`nominal`, or `drawn` with `--drawn-motor`; `null`: a robot whose actions are torques).
     pub controller_motor: Option<MotorInverse>,
@@ -300,6 +309,18 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     if opts.gait == Gait::Stand && opts.period_scale != 1.0 {
         return Err(ControlError::Invalid(
             "a stand has no gait period to scale: command a walking gait with --period-scale".into(),
+        ));
+    }
+    let max_shift = centaur_mpc::MAX_DUTY_SHIFT;
+    if !(opts.duty_shift.is_finite() && opts.duty_shift.abs() <= max_shift) {
+        return Err(ControlError::Invalid(format!(
+            "duty shift {}: expected a fraction in [-{max_shift}, {max_shift}]",
+            opts.duty_shift
+        )));
+    }
+    if opts.gait == Gait::Stand && opts.duty_shift != 0.0 {
+        return Err(ControlError::Invalid(
+            "a stand keeps every foot down: command a walking gait with --duty-shift".into(),
         ));
     }
     if let Some(p) = &opts.push {
@@ -387,6 +408,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     // The command's gait is offered here (checked above).
     config.scale_period(opts.gait, opts.period_scale);
     let mut ctrl = LocomotionController::new(env.model(), config)?;
+    ctrl.set_gait_duty_shift(opts.duty_shift);
     let mut mapping = ActionMapping::new(env.as_ref(), &ctrl)?;
     let mut obs = vec![0.0f32; env.observation_space().dim()];
     let mut action = vec![0.0f32; env.action_space().dim()];
@@ -537,6 +559,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         action_noise: opts.action_noise,
         unrated: opts.unrated,
         period_scale: opts.period_scale,
+        duty_shift: opts.duty_shift,
         controller_motor: controller_motor(&opts.env, &settings),
         segments,
     })

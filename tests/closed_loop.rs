@@ -164,6 +164,42 @@ fn the_minitaur_trots_on_a_scaled_period_and_bad_scales_are_refused() {
     }
 }
 
+/// `centaur control --duty-shift`: the Minitaur's trot with its stance fractions moved
+/// (0.4 of the cycle, flight phases between the pairs' stances) still holds 1 m/s, on a
+/// different trajectory from its own fractions; a shift out of range, or on the stand, is
+/// refused.
+#[test]
+fn the_minitaur_trots_with_shifted_stance_fractions_and_bad_shifts_are_refused() {
+    let trot = |duty_shift: f64, gait: Gait| {
+        let opts = ControlOptions {
+            env: "minitaur".into(),
+            gait,
+            speed: if gait == Gait::Stand { 0.0 } else { 1.0 },
+            seconds: 4.0,
+            measure_from: 1.0,
+            duty_shift,
+            ..ControlOptions::default()
+        };
+        run_control(&opts)
+    };
+    let own = trot(0.0, Gait::Trot).unwrap();
+    let flying = trot(-0.1, Gait::Trot).unwrap();
+    assert_eq!((own.duty_shift, flying.duty_shift), (0.0, -0.1));
+    assert!(!flying.fell, "fell after {:.2} s", flying.seconds);
+    assert!((flying.mean_speed - 1.0).abs() < 0.15, "mean speed {:.3} m/s for 1.0", flying.mean_speed);
+    assert_ne!(own.distance.to_bits(), flying.distance.to_bits(), "the shift changed nothing");
+    for bad in [0.31, -0.5, f64::NAN] {
+        match trot(bad, Gait::Trot) {
+            Err(e @ ControlError::Invalid(_)) => assert!(e.to_string().contains("duty shift"), "{bad}: {e}"),
+            other => panic!("duty shift {bad}: {other:?}"),
+        }
+    }
+    match trot(-0.1, Gait::Stand) {
+        Err(e @ ControlError::Invalid(_)) => assert!(e.to_string().contains("--duty-shift"), "{e}"),
+        other => panic!("duty shift on the stand: {other:?}"),
+    }
+}
+
 /// Speed steps within one run: 0 → 1.5 → 0 m/s; the robot reaches its speed and stops.
 #[test]
 fn the_minitaur_speeds_up_to_its_rating_and_stops() {
@@ -465,7 +501,7 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
     assert!((json["seconds"].as_f64().unwrap() - 1.0).abs() < 0.02);
     let stdout = String::from_utf8_lossy(&status.stdout);
     assert!(stdout.contains("minitaur trot at 0.3 m/s for 1.0 s: mean speed"), "{stdout}");
-    assert_eq!(json["period_scale"], 1.0);
+    assert_eq!((json["period_scale"].as_f64(), json["duty_shift"].as_f64()), (Some(1.0), Some(0.0)));
     let _ = std::fs::remove_dir_all(&out);
     // A scaled period is said and recorded.
     let o = Process::new(env!("CARGO_BIN_EXE_centaur"))
@@ -477,6 +513,8 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
             "0.3",
             "--period-scale",
             "0.7",
+            "--duty-shift",
+            "-0.1",
             "--seconds",
             "1",
             "--out",
@@ -485,10 +523,13 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(stdout.contains("trot at 0.3 m/s (its period × 0.7) for 1.0 s"), "{stdout}");
+    assert!(
+        stdout.contains("trot at 0.3 m/s (its period × 0.7) (its stance fractions -0.1) for 1.0 s"),
+        "{stdout}"
+    );
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(json["period_scale"], 0.7);
+    assert_eq!((json["period_scale"].as_f64(), json["duty_shift"].as_f64()), (Some(0.7), Some(-0.1)));
     let _ = std::fs::remove_dir_all(&out);
     // A speed schedule reports each segment's command and mean speed, not the unused --speed.
     let o = Process::new(env!("CARGO_BIN_EXE_centaur"))

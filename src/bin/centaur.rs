@@ -434,6 +434,11 @@ struct ControlArgs {
     /// faster (as the hybrid's `--period-scale`).
     #[arg(long, default_value_t = 1.0)]
     period_scale: f64,
+    /// Moves every leg's stance fraction by this much from its gait's own, in [-0.3, 0.3]:
+    /// below 0 the feet lift off sooner, a trot with flight phases (as the hybrid's
+    /// `--steer-duty` lets its policy do)
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    duty_shift: f64,
 }
 
 /// `--speed-schedule`'s pairs (a newtype, so that clap takes the list as one value).
@@ -617,6 +622,7 @@ fn control(args: ControlArgs) -> ExitCode {
         unrated: args.unrated,
         drawn_motor: args.drawn_motor,
         period_scale: args.period_scale,
+        duty_shift: args.duty_shift,
     };
     let result = check_out_dir(&args.out)
         .and_then(|()| run_control(&opts))
@@ -652,6 +658,11 @@ fn control(args: ControlArgs) -> ExitCode {
                 command
             } else {
                 format!("{command} (its period × {})", s.period_scale)
+            };
+            let command = if s.duty_shift == 0.0 {
+                command
+            } else {
+                format!("{command} (its stance fractions {:+})", s.duty_shift)
             };
             let cot = s.cost_of_transport.map_or(String::new(), |c| format!(", cost of transport {c:.2}"));
             println!(
