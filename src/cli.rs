@@ -382,6 +382,7 @@ impl ExampleArgs {
             record: !self.no_record,
             eval_every: None,
             overwrite: self.overwrite,
+            hybrid_algo: None,
             env_settings,
             pure_from: None,
         })

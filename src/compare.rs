@@ -32,8 +32,12 @@ use crate::stats::{Interval, iqm_with_ci};
 pub struct CompareOptions {
     /// Robot environment.
     pub env: String,
-    /// Algorithm and hyperparameters of both agents (the seed is each run's).
+    /// Algorithm and hyperparameters of both agents (the seed is each run's), the hybrid's
+    /// unless `hybrid_algo` is set.
     pub algo: AlgoConfig,
+    /// The hybrid's own hyperparameters (see [`ExperimentOptions::hybrid_algo`]; `None`:
+    /// `algo`'s).
+    pub hybrid_algo: Option<AlgoConfig>,
     /// Number of seeds (0..seeds).
     pub seeds: u64,
     /// Training steps per agent and seed.
@@ -118,6 +122,10 @@ pub struct CompareSummary {
     /// pure-RL wall times are then that run's.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pure_from: Option<PathBuf>,
+    /// The hybrid's own hyperparameters ([`CompareOptions::hybrid_algo`]), as Rust's `Debug`
+    /// writes them; absent where the hybrid learnt with the pure-RL agent's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hybrid_learner: Option<String>,
 }
 
 /// Both learners at one training budget, across seeds.
@@ -331,6 +339,7 @@ pub fn run_compare(
         overwrite: opts.resume || opts.overwrite,
         env_settings: opts.env_settings.clone(),
         pure_from: opts.pure_from.as_ref().map(|dir| dir.join(format!("seed_{seed}"))),
+        hybrid_algo: opts.hybrid_algo.clone(),
     };
     // Every seed's pure-RL agent to reuse is checked before the first seed trains.
     for seed in 0..seeds {
@@ -381,6 +390,7 @@ pub fn run_compare(
         controller: aggregate(&runs, |r| &r.controller),
         budgets: budget_rows(&runs),
         pure_from: opts.pure_from.as_deref().map(crate::rundir::recorded_path),
+        hybrid_learner: opts.hybrid_algo.as_ref().map(|h| format!("{h:?}")),
     };
     let path = opts.out.join("compare.json");
     let text = serde_json::to_string_pretty(&summary)

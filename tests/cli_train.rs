@@ -716,6 +716,39 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
         assert!(record.contains("\"pure_from\""), "{record}");
     }
     assert!(ablation.join("seed_0").join("pure_rl.mcap").is_file());
+    // The hybrid at its own hyperparameters (`--hybrid-config`), pure RL's reused: the
+    // hybrid learns at its learning rate, pure RL's rows stay the first comparison's, and
+    // compare.json says what the hybrid learnt with. An [env] table there is refused.
+    let own = out_dir("compare-hybrid-config");
+    let hybrid_toml = out_dir("compare-hybrid.toml");
+    std::fs::write(&hybrid_toml, "n_steps = 64\nbatch_size = 64\nn_epochs = 2\nlearning_rate = 1e-3\n")
+        .unwrap();
+    let o = ablate(&["--hybrid-config", hybrid_toml.to_str().unwrap()], &own);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let with_own: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(own.join("compare.json")).unwrap()).unwrap();
+    assert_eq!(with_own["pure_rl"], json["pure_rl"]);
+    assert!(with_own["hybrid_learner"].as_str().unwrap().contains("learning_rate: 0.001"), "{with_own}");
+    assert!(reused.get("hybrid_learner").is_none());
+    let first_lr = |dir: &Path, agent: &str| -> f64 {
+        let text = std::fs::read_to_string(dir.join("seed_0").join(agent).join("metrics.csv")).unwrap();
+        let mut lines = text.lines();
+        let column = lines.next().unwrap().split(',').position(|c| c == "learning_rate").unwrap();
+        lines.next().unwrap().split(',').nth(column).unwrap().parse().unwrap()
+    };
+    let (hybrid_lr, pure_lr) = (first_lr(&own, "hybrid"), first_lr(&own, "pure_rl"));
+    assert!((hybrid_lr / pure_lr - 1e-3 / 3e-4).abs() < 1e-9, "{hybrid_lr} {pure_lr}");
+    std::fs::write(&hybrid_toml, "learning_rate = 1e-3\n[env]\nenergy_weight = 0.0\n").unwrap();
+    let refused_own = out_dir("compare-hybrid-config-env");
+    let o = ablate(&["--hybrid-config", hybrid_toml.to_str().unwrap()], &refused_own);
+    assert!(!o.status.success());
+    assert!(
+        String::from_utf8_lossy(&o.stderr)
+            .contains("--hybrid-config takes the hybrid's hyperparameters only")
+    );
+    assert!(!refused_own.exists());
+    std::fs::remove_dir_all(&own).unwrap();
+    std::fs::remove_file(&hybrid_toml).unwrap();
     // Refused before anything is written: pure RL trained with other options (another
     // number of envs), the output directory itself (left as it was), more seeds than the
     // source ran, a directory that holds no comparison.

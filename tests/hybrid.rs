@@ -296,10 +296,25 @@ fn bad_residuals_and_configs_are_refused() {
         overwrite: false,
         env_settings: Default::default(),
         pure_from: None,
+        hybrid_algo: None,
     };
     let err = centaur::compare::run_compare(&opts, &mut |_, _, _| {}).unwrap_err();
     assert!(err.to_string().contains("gamma"), "{err}");
     assert!(!out.exists(), "a refused comparison left {}", out.display());
+    // So are the hybrid's own hyperparameters, when bad or another algorithm's.
+    let ppo = centaur_rl::PpoConfig::default();
+    let bad_hybrid = centaur_rl::AlgoConfig::Ppo(centaur_rl::PpoConfig { gamma: 2.0, ..ppo.clone() });
+    let sac = centaur_rl::AlgoConfig::Sac(Default::default());
+    for (hybrid, says) in [(bad_hybrid, "gamma"), (sac, "the hybrid's hyperparameters are sac's")] {
+        let opts = centaur::compare::CompareOptions {
+            algo: centaur_rl::AlgoConfig::Ppo(ppo.clone()),
+            hybrid_algo: Some(hybrid),
+            ..opts.clone()
+        };
+        let err = centaur::compare::run_compare(&opts, &mut |_, _, _| {}).unwrap_err();
+        assert!(err.to_string().contains(says), "{err}");
+        assert!(!out.exists(), "a refused comparison left {}", out.display());
+    }
 }
 
 #[test]

@@ -478,6 +478,11 @@ struct CompareArgs {
     /// robot's settings over its preset for all three agents (as `centaur train` takes).
     #[arg(long)]
     config: Option<PathBuf>,
+    /// TOML file with the hybrid's own hyperparameters (no [env] table), replacing --config's
+    /// for the hybrid only: each agent at its own tuning. Pure RL keeps --config's, so
+    /// --pure-from may reuse the agents of a comparison run without it
+    #[arg(long, value_name = "FILE")]
+    hybrid_config: Option<PathBuf>,
     /// Parallel environments per agent (default: 4 for PPO and A2C, 1 otherwise).
     #[arg(long, allow_negative_numbers = true, value_parser = positive_count)]
     envs: Option<usize>,
@@ -533,10 +538,30 @@ fn compare(args: CompareArgs) -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
+    let hybrid_algo = match &args.hybrid_config {
+        Some(path) => {
+            match read_config_file(path).and_then(|text| parse_run_config(args.algo, &text, path)) {
+                Ok((h, settings)) if settings.is_empty() => Some(h),
+                Ok(_) => {
+                    eprintln!(
+                        "error: {}: --hybrid-config takes the hybrid's hyperparameters only; the robot's [env] settings go in --config, for all three agents",
+                        path.display()
+                    );
+                    return ExitCode::FAILURE;
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::FAILURE;
+                }
+            }
+        }
+        None => None,
+    };
     let on_policy = matches!(args.algo, AlgoKind::Ppo | AlgoKind::A2c);
     let opts = CompareOptions {
         env: args.env,
         algo,
+        hybrid_algo,
         seeds: args.seeds,
         steps: args.steps,
         out: args.out,

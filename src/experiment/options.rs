@@ -192,6 +192,16 @@ pub enum ExperimentError {
     /// A training stopped because the other agent's, running side by side, failed.
     #[error("stopped: the other agent's training failed")]
     Stopped,
+    /// The hybrid's own hyperparameters are for another algorithm than the run's.
+    #[error(
+        "the hybrid's hyperparameters are {hybrid}'s, but the run compares {algo}: give the same algorithm's"
+    )]
+    HybridLearnerKind {
+        /// The run's algorithm.
+        algo: &'static str,
+        /// The algorithm the hybrid's hyperparameters are for.
+        hybrid: &'static str,
+    },
 }
 
 pub(crate) fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> ExperimentError + '_ {
@@ -203,9 +213,13 @@ pub(crate) fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> ExperimentEr
 pub struct ExperimentOptions {
     /// Robot environment with a controller (see [`crate::registry::ROBOTS`]).
     pub env: String,
-    /// Algorithm and hyperparameters, the same for both agents (the seed is
+    /// Algorithm and hyperparameters, the same for both agents unless
+    /// [`ExperimentOptions::hybrid_algo`] sets the hybrid's (the seed is
     /// [`ExperimentOptions::seed`]; see [`crate::experiment::tuned_config`] for the presets).
     pub algo: AlgoConfig,
+    /// The hybrid's own hyperparameters, the same algorithm as `algo` (`None`: `algo`'s): each
+    /// agent may then be compared at its own tuning, as RL Zoo tunes each environment.
+    pub hybrid_algo: Option<AlgoConfig>,
     /// Training steps per agent.
     pub steps: u64,
     /// Seed (learners; evaluation seeds are `1_000_000 + seed + k`).
@@ -272,8 +286,20 @@ impl ExperimentOptions {
         let settings = EnvSettings { motor_inverse: None, ..self.env_settings.clone() };
         // Runs on the preset keep the fingerprint they had before settings existed.
         let with = if settings.is_empty() { base } else { format!("{base} with {settings:?}") };
+        // The hybrid's own hyperparameters, where set, are written after the rest, so that
+        // runs without them keep their fingerprint and the pure part leaves them out.
+        let with = match &self.hybrid_algo {
+            Some(h) => format!("{with}{HYBRID_LEARNER_MARK}{h:?}"),
+            None => with,
+        };
         let nominal = controller_motor(&self.env, &self.env_settings) == Some(MotorInverse::Nominal);
         if nominal { with + NOMINAL_MOTOR_MARK } else { with }
+    }
+
+    /// The hyperparameters the hybrid trains with: [`ExperimentOptions::hybrid_algo`], else
+    /// [`ExperimentOptions::algo`].
+    pub fn hybrid_learner(&self) -> &AlgoConfig {
+        self.hybrid_algo.as_ref().unwrap_or(&self.algo)
     }
 }
 
@@ -282,6 +308,11 @@ impl ExperimentOptions {
 /// those told the drawn motor, the default before then. Pure RL does not depend on it
 /// ([`pure_part`] leaves it out).
 pub(crate) const NOMINAL_MOTOR_MARK: &str = "; the controller told the nominal motor";
+
+/// Where a fingerprint writes the hybrid's own hyperparameters
+/// ([`ExperimentOptions::hybrid_algo`]), before the motor's mark: pure RL does not depend on
+/// them ([`pure_part`] leaves them out).
+pub(crate) const HYBRID_LEARNER_MARK: &str = "; the hybrid learning with ";
 
 /// Training curve of one agent: `(env steps, mean training episode return)` per update.
 pub type Curve = Vec<(u64, f64)>;
@@ -309,10 +340,12 @@ pub enum Phase {
 }
 
 /// A fingerprint without the hybrid's setup: what the pure-RL agent's results depend on
-/// (records of every age write the setup as one `ResidualConfig { … }`), nor the motor the
-/// controller is told ([`NOMINAL_MOTOR_MARK`]).
+/// (records of every age write the setup as one `ResidualConfig { … }`), nor the hybrid's own
+/// hyperparameters ([`HYBRID_LEARNER_MARK`]), nor the motor the controller is told
+/// ([`NOMINAL_MOTOR_MARK`]).
 pub(crate) fn pure_part(fingerprint: &str) -> String {
     let fingerprint = fingerprint.strip_suffix(NOMINAL_MOTOR_MARK).unwrap_or(fingerprint);
+    let fingerprint = fingerprint.find(HYBRID_LEARNER_MARK).map_or(fingerprint, |i| &fingerprint[..i]);
     match fingerprint.find("ResidualConfig {") {
         Some(_) => fingerprint.replacen(&residual_part(fingerprint), "ResidualConfig { .. }", 1),
         None => fingerprint.to_string(),

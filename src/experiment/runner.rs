@@ -61,7 +61,8 @@ fn train_one(
 ) -> Result<Trained, ExperimentError> {
     std::fs::create_dir_all(dir).map_err(io_err(dir))?;
     let pauses = budgets(opts);
-    let mut config = opts.algo.clone().with_seed(opts.seed);
+    let learner = if phase == Phase::TrainHybrid { opts.hybrid_learner() } else { &opts.algo };
+    let mut config = learner.clone().with_seed(opts.seed);
     if !pauses.is_empty() {
         // Chunks of training with the schedule of the whole budget.
         config = config.with_default_lr_decay_steps(opts.steps);
@@ -546,6 +547,15 @@ pub fn run_experiment(
     make_residual_env_with(&opts.env, opts.residual.clone(), &opts.env_settings)?;
     // And a learner configuration out of range (reliability probe: no empty run directory).
     opts.algo.validate()?;
+    if let Some(h) = &opts.hybrid_algo {
+        h.validate()?;
+        if h.kind() != opts.algo.kind() {
+            return Err(ExperimentError::HybridLearnerKind {
+                algo: opts.algo.kind().name(),
+                hybrid: h.kind().name(),
+            });
+        }
+    }
     if let Some(from) = &opts.pure_from {
         // Replacing this run would remove the files to be reused.
         if crate::rundir::same_path(from, &opts.out) {
@@ -974,6 +984,7 @@ mod tests {
             overwrite: false,
             env_settings: EnvSettings::default(),
             pure_from: None,
+            hybrid_algo: None,
         };
         let other_hybrid = ExperimentOptions {
             residual: ResidualConfig { rated_speed: Some(3.0), ..preset },
@@ -982,6 +993,14 @@ mod tests {
         };
         assert_ne!(opts.fingerprint(), other_hybrid.fingerprint());
         assert_eq!(opts.pure_fingerprint(), other_hybrid.pure_fingerprint());
+        // The hybrid's own hyperparameters are the hybrid's: the pure part leaves them out.
+        let lr = centaur_rl::PpoConfig { learning_rate: 1e-3, ..Default::default() };
+        let own_learner =
+            ExperimentOptions { hybrid_algo: Some(centaur_rl::AlgoConfig::Ppo(lr)), ..opts.clone() };
+        assert_ne!(opts.fingerprint(), own_learner.fingerprint());
+        assert_eq!(opts.pure_fingerprint(), own_learner.pure_fingerprint());
+        assert!(own_learner.fingerprint().ends_with(super::super::options::NOMINAL_MOTOR_MARK));
+        assert_eq!(own_learner.hybrid_learner().kind(), centaur_rl::AlgoKind::Ppo);
         for other_pure in [
             ExperimentOptions { steps: 2000, ..opts.clone() },
             ExperimentOptions { seed: 1, ..opts.clone() },
