@@ -131,7 +131,9 @@ pub struct CompareSummary {
 /// Both learners at one training budget, across seeds.
 #[derive(Clone, Debug, Serialize)]
 pub struct BudgetRow {
-    /// Training environment steps (per agent and seed).
+    /// Training environment steps (per agent and seed): the larger of the two agents' at
+    /// this evaluation (each pauses at its own rollout boundary, so with the hybrid's own
+    /// rollout length, [`CompareOptions::hybrid_algo`], they are up to a rollout apart).
     pub env_steps: u64,
     /// The hybrid's IQM over seeds of the mean evaluation return, and its 95 % CI.
     pub hybrid_iqm: f64,
