@@ -1394,3 +1394,30 @@ fn a_study_of_several_grids_runs_with_one_command() {
     std::fs::remove_dir_all(&out).unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The run files shipped in `configs/` (named `<robot>_<algo>_….toml`) parse for their
+/// algorithm, with no `[env]` table in the hybrid's own (`--hybrid-config` refuses one), and
+/// the hybrid's twice-the-updates settings are what the README says.
+#[test]
+fn the_shipped_run_files_parse() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_stem().unwrap().to_str().unwrap().to_string();
+        let algo = name.split('_').nth(1).unwrap();
+        let kind = match algo {
+            "ppo" => AlgoKind::Ppo,
+            other => panic!("{name}: a run file for {other}, not checked here"),
+        };
+        let text = std::fs::read_to_string(&path).unwrap();
+        let (config, settings) = centaur::train::parse_run_config(kind, &text, &path).unwrap();
+        if name.contains("hybrid") {
+            assert!(settings.is_empty(), "{name}: an [env] table");
+            let centaur_rl::AlgoConfig::Ppo(p) = config else { panic!("{name}") };
+            assert_eq!((p.n_steps, p.batch_size, p.n_epochs, p.learning_rate), (512, 128, 10, 5e-4));
+        }
+        seen += 1;
+    }
+    assert!(seen >= 2, "{seen} run files in {}", dir.display());
+}
