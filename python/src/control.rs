@@ -3,7 +3,7 @@
 use std::sync::Mutex;
 
 use centaur_dynamics::RobotState;
-use centaur_mpc::{Command, ControllerConfig, GAIT_RATE_RANGE, Gait, LocomotionController};
+use centaur_mpc::{Command, ControllerConfig, GAIT_RATE_RANGE, Gait, LocomotionController, MAX_DUTY_SHIFT};
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -133,6 +133,26 @@ impl Controller {
     #[getter]
     fn gait_rate(&self) -> PyResult<f64> {
         Ok(lock(&self.inner, "controller")?.controller.gait_rate())
+    }
+
+    /// Moves every stepping gait's stance fractions by `shift` from their own (below 0 the
+    /// feet lift off sooner: a trot with flight phases); followed at a bounded slew, each
+    /// leg's phase carrying on (a reset goes back to 0). A shift outside [-0.3, 0.3] (or not
+    /// finite) is an error.
+    fn set_gait_duty_shift(&self, shift: f64) -> PyResult<()> {
+        if !(shift.is_finite() && shift.abs() <= MAX_DUTY_SHIFT) {
+            return Err(error(format!(
+                "duty shift {shift}, expected a fraction in [-{MAX_DUTY_SHIFT}, {MAX_DUTY_SHIFT}]"
+            )));
+        }
+        lock(&self.inner, "controller")?.controller.set_gait_duty_shift(shift);
+        Ok(())
+    }
+
+    /// The shift of the stance fractions in force now (`set_gait_duty_shift`).
+    #[getter]
+    fn gait_duty_shift(&self) -> PyResult<f64> {
+        Ok(lock(&self.inner, "controller")?.controller.gait_duty_shift())
     }
 
     /// One control step at time `t` (s) from state `(q, v)`, following the command (speeds in

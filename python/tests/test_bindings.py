@@ -98,6 +98,17 @@ def test_controller_errors():
             c.set_gait_rate(bad)
     c.reset()
     assert c.gait_rate == 1.0
+    # The stance fractions' shift: followed at its slew (1 per second), refused out of range.
+    assert c.gait_duty_shift == 0.0
+    c.set_gait_duty_shift(-0.1)
+    for k in range(0, 40):
+        c.tick(q, v, 0.01 * k, forward_velocity=0.3)
+    assert c.gait_duty_shift == pytest.approx(-0.1)
+    for bad in (float("nan"), 0.31, -0.5):
+        with pytest.raises(centaur.CentaurError, match="duty shift"):
+            c.set_gait_duty_shift(bad)
+    c.reset()
+    assert c.gait_duty_shift == 0.0
     with pytest.raises(centaur.CentaurError, match="unknown controller preset"):
         centaur.Controller(model, "cheetah")
     with pytest.raises(centaur.CentaurError):
