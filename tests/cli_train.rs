@@ -1416,6 +1416,7 @@ fn the_shipped_run_files_parse() {
             assert!(settings.is_empty(), "{name}: an [env] table");
             let centaur_rl::AlgoConfig::Ppo(p) = config else { panic!("{name}") };
             assert_eq!((p.n_steps, p.batch_size, p.n_epochs, p.learning_rate), (512, 128, 10, 5e-4));
+            assert_eq!(p.anneal_lr, !name.ends_with("constant_lr"), "{name}");
         }
         seen += 1;
     }
