@@ -312,7 +312,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         ));
     }
     let max_shift = centaur_mpc::MAX_DUTY_SHIFT;
-    if !(opts.duty_shift.is_finite() && opts.duty_shift.abs() <= max_shift) {
+    if !centaur_mpc::duty_shift_in_range(opts.duty_shift) {
         return Err(ControlError::Invalid(format!(
             "duty shift {}: expected a fraction in [-{max_shift}, {max_shift}]",
             opts.duty_shift

@@ -135,13 +135,22 @@ impl Steering {
         self.spans().iter().filter(|&&s| s != 0.0).count()
     }
 
+    /// The speed's place in [`Steering::spans`] (and so among the steering entries).
+    pub const SPEED: usize = 0;
+    /// The yaw rate's place in [`Steering::spans`].
+    pub const YAW_RATE: usize = 1;
+    /// The cadence's place in [`Steering::spans`].
+    pub const CADENCE: usize = 2;
+    /// The duty's place in [`Steering::spans`].
+    pub const DUTY: usize = 3;
+
     /// The spans in the order of their action entries: speed, yaw rate, cadence, duty.
     fn spans(&self) -> [f64; 4] {
         [self.speed, self.yaw_rate, self.cadence, self.duty]
     }
 
-    /// The index among the steering entries of the part whose span is `spans()[part]`, if
-    /// it is switched on.
+    /// The index among the steering entries of `part` (its place in [`Steering::spans`]),
+    /// if it is switched on.
     fn entry(&self, part: usize) -> Option<usize> {
         let spans = self.spans();
         (spans[part] != 0.0).then(|| spans[..part].iter().filter(|&&s| s != 0.0).count())
@@ -466,9 +475,7 @@ impl ResidualConfig {
                 expected: "a fraction in [0, 0.75] (the clock's rate 1 ± cadence within the controller's [0.25, 4])",
             });
         }
-        if !(self.steering.duty.is_finite()
-            && (0.0..=centaur_mpc::MAX_DUTY_SHIFT).contains(&self.steering.duty))
-        {
+        if !(self.steering.duty >= 0.0 && centaur_mpc::duty_shift_in_range(self.steering.duty)) {
             let value = self.steering.duty;
             return Err(HybridError::BadSetting {
                 part: "steering.duty",
@@ -776,24 +783,18 @@ impl Residual {
     /// the policy's `authority` over the steering ([`Residual::authority`]; 1 without a
     /// fade), `base` itself without steering, for a zero output or at no authority.
     pub fn steer(&self, base: &Command, output: &[f32], authority: f32) -> Command {
-        let mut k = self.joint_dim();
-        let mut next = || {
-            let c = (authority * output.get(k).copied().unwrap_or(0.0).clamp(-1.0, 1.0)) as f64;
-            k += 1;
-            c
-        };
         let mut cmd = *base;
-        if self.steering.speed != 0.0 {
-            cmd.forward_velocity = base.forward_velocity + self.steering.speed * next();
+        if let Some(c) = self.steering_entry(output, authority, Steering::SPEED) {
+            cmd.forward_velocity = base.forward_velocity + self.steering.speed * c;
         }
-        if self.steering.yaw_rate != 0.0 {
-            cmd.yaw_rate = base.yaw_rate + self.steering.yaw_rate * next();
+        if let Some(c) = self.steering_entry(output, authority, Steering::YAW_RATE) {
+            cmd.yaw_rate = base.yaw_rate + self.steering.yaw_rate * c;
         }
         cmd
     }
 
-    /// The steering entry `part` of [`Steering::spans`] (0 speed, 1 yaw rate, 2 cadence, 3
-    /// duty) as the policy's `output` gives it, `g · clip(c, −1, 1)` with `g` the
+    /// The steering entry of `part` ([`Steering::SPEED`], [`Steering::YAW_RATE`],
+    /// [`Steering::CADENCE`] or [`Steering::DUTY`]) as the policy's `output` gives it, `g · clip(c, −1, 1)` with `g` the
     /// `authority` over the steering; `None` where that part is off.
     fn steering_entry(&self, output: &[f32], authority: f32, part: usize) -> Option<f64> {
         let k = self.joint_dim() + self.steering.entry(part)?;
@@ -804,7 +805,7 @@ impl Residual {
     /// 1)` with `c` its cadence entry and `g` the `authority` over the steering; `None`
     /// without cadence steering (the clock keeps its own rate).
     pub fn gait_rate(&self, output: &[f32], authority: f32) -> Option<f64> {
-        self.steering_entry(output, authority, 2).map(|c| 1.0 + self.steering.cadence * c)
+        self.steering_entry(output, authority, Steering::CADENCE).map(|c| 1.0 + self.steering.cadence * c)
     }
 
     /// The shift of the stance fractions the policy's `output` steers to, `duty · g ·
@@ -812,7 +813,7 @@ impl Residual {
     /// `authority` over the steering; `None` without duty steering (the gaits keep their
     /// own).
     pub fn duty_shift(&self, output: &[f32], authority: f32) -> Option<f64> {
-        self.steering_entry(output, authority, 3).map(|c| self.steering.duty * c)
+        self.steering_entry(output, authority, Steering::DUTY).map(|c| self.steering.duty * c)
     }
 
     /// Steers `controller`'s gait as the policy's `output` says: its clock's rate

@@ -128,22 +128,27 @@ fn the_minitaur_trots_under_action_noise() {
     assert!((s.mean_speed - 0.3).abs() < 0.045, "mean speed {:.3} m/s for 0.3", s.mean_speed);
 }
 
+/// The Minitaur for 4 s (measured from 1 s) on `gait`, at 1 m/s (0 on the stand), with the
+/// rest of `opts` as given.
+fn minitaur_for_4_s(gait: Gait, opts: ControlOptions) -> Result<ControlSummary, ControlError> {
+    let speed = if gait == Gait::Stand { 0.0 } else { 1.0 };
+    run_control(&ControlOptions {
+        env: "minitaur".into(),
+        gait,
+        speed,
+        seconds: 4.0,
+        measure_from: 1.0,
+        ..opts
+    })
+}
+
 /// `period_scale` runs the gait's clock faster or slower (as the hybrid's does): the trot on
 /// 0.7 of its period holds 1 m/s and is a different run from the trot on its own; a scale
 /// outside [0.25, 4], not finite, or on the stand (no period) is refused.
 #[test]
 fn the_minitaur_trots_on_a_scaled_period_and_bad_scales_are_refused() {
     let trot = |period_scale: f64, gait: Gait| {
-        let opts = ControlOptions {
-            env: "minitaur".into(),
-            gait,
-            speed: if gait == Gait::Stand { 0.0 } else { 1.0 },
-            seconds: 4.0,
-            measure_from: 1.0,
-            period_scale,
-            ..ControlOptions::default()
-        };
-        run_control(&opts)
+        minitaur_for_4_s(gait, ControlOptions { period_scale, ..ControlOptions::default() })
     };
     let own = trot(1.0, Gait::Trot).unwrap();
     let faster = trot(0.7, Gait::Trot).unwrap();
@@ -171,16 +176,7 @@ fn the_minitaur_trots_on_a_scaled_period_and_bad_scales_are_refused() {
 #[test]
 fn the_minitaur_trots_with_shifted_stance_fractions_and_bad_shifts_are_refused() {
     let trot = |duty_shift: f64, gait: Gait| {
-        let opts = ControlOptions {
-            env: "minitaur".into(),
-            gait,
-            speed: if gait == Gait::Stand { 0.0 } else { 1.0 },
-            seconds: 4.0,
-            measure_from: 1.0,
-            duty_shift,
-            ..ControlOptions::default()
-        };
-        run_control(&opts)
+        minitaur_for_4_s(gait, ControlOptions { duty_shift, ..ControlOptions::default() })
     };
     let own = trot(0.0, Gait::Trot).unwrap();
     let flying = trot(-0.1, Gait::Trot).unwrap();

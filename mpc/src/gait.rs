@@ -34,6 +34,14 @@ pub const GAIT_RATE_SLEW: f64 = 2.0;
 /// ½ may go from 0.2 (a flying trot, both pairs in the air for 0.3 of the cycle) to 0.8.
 pub const MAX_DUTY_SHIFT: f64 = 0.3;
 
+/// Whether `shift` is a shift of the stance fractions the controller takes as given: finite
+/// and within ±[`MAX_DUTY_SHIFT`] ([`GaitScheduler::set_duty_shift`] clamps any other). The
+/// callers that refuse a bad one instead (`centaur control`, a hybrid's duty span, Python)
+/// check with it.
+pub fn duty_shift_in_range(shift: f64) -> bool {
+    shift.is_finite() && shift.abs() <= MAX_DUTY_SHIFT
+}
+
 /// The range a shifted stance fraction is held in ([`GaitScheduler::set_duty_shift`]).
 pub const DUTY_RANGE: (f64, f64) = (0.2, 0.9);
 

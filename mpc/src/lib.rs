@@ -130,7 +130,7 @@ pub use error::ConfigError;
 pub use friction::FrictionModel;
 pub use gait::{
     DUTY_RANGE, DUTY_SHIFT_SLEW, GAIT_RATE_RANGE, GAIT_RATE_SLEW, Gait, GaitPattern, GaitScheduler,
-    MAX_DUTY_SHIFT, MAX_LEGS, MAX_STAGGER,
+    MAX_DUTY_SHIFT, MAX_LEGS, MAX_STAGGER, duty_shift_in_range,
 };
 pub use qp::{DenseQp, DenseQpData, QpStatus};
 pub use robot::{BaseSpec, ContactSpec, LeggedRobot, LoopClosure, LoopClosureSpec, MAX_CONTACTS, RobotSpec};

@@ -3,7 +3,10 @@
 use std::sync::Mutex;
 
 use centaur_dynamics::RobotState;
-use centaur_mpc::{Command, ControllerConfig, GAIT_RATE_RANGE, Gait, LocomotionController, MAX_DUTY_SHIFT};
+use centaur_mpc::{
+    Command, ControllerConfig, GAIT_RATE_RANGE, Gait, LocomotionController, MAX_DUTY_SHIFT,
+    duty_shift_in_range,
+};
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -140,7 +143,7 @@ impl Controller {
     /// leg's phase carrying on (a reset goes back to 0). A shift outside [-0.3, 0.3] (or not
     /// finite) is an error.
     fn set_gait_duty_shift(&self, shift: f64) -> PyResult<()> {
-        if !(shift.is_finite() && shift.abs() <= MAX_DUTY_SHIFT) {
+        if !duty_shift_in_range(shift) {
             return Err(error(format!(
                 "duty shift {shift}, expected a fraction in [-{MAX_DUTY_SHIFT}, {MAX_DUTY_SHIFT}]"
             )));
