@@ -135,13 +135,14 @@ impl Steering {
         self.spans().iter().filter(|&&s| s != 0.0).count()
     }
 
-    /// The speed's place in [`Steering::spans`] (and so among the steering entries).
+    /// The speed's place in the order of the steering entries (speed, yaw rate, cadence,
+    /// duty): the first where it is on.
     pub const SPEED: usize = 0;
-    /// The yaw rate's place in [`Steering::spans`].
+    /// The yaw rate's place in the order of the steering entries.
     pub const YAW_RATE: usize = 1;
-    /// The cadence's place in [`Steering::spans`].
+    /// The cadence's place in the order of the steering entries.
     pub const CADENCE: usize = 2;
-    /// The duty's place in [`Steering::spans`].
+    /// The duty's place in the order of the steering entries: the last.
     pub const DUTY: usize = 3;
 
     /// The spans in the order of their action entries: speed, yaw rate, cadence, duty.
