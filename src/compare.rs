@@ -133,8 +133,13 @@ pub struct CompareSummary {
 pub struct BudgetRow {
     /// Training environment steps (per agent and seed): the larger of the two agents' at
     /// this evaluation (each pauses at its own rollout boundary, so with the hybrid's own
-    /// rollout length, [`CompareOptions::hybrid_algo`], they are up to a rollout apart).
+    /// rollout length, [`CompareOptions::hybrid_algo`], they are up to a rollout apart; each
+    /// agent's own count is `hybrid_env_steps` and `pure_env_steps`).
     pub env_steps: u64,
+    /// The hybrid's training environment steps at this evaluation (per seed).
+    pub hybrid_env_steps: u64,
+    /// Pure RL's training environment steps at this evaluation (per seed).
+    pub pure_env_steps: u64,
     /// The hybrid's IQM over seeds of the mean evaluation return, and its 95 % CI.
     pub hybrid_iqm: f64,
     /// See `hybrid_iqm`.
@@ -167,6 +172,8 @@ fn budget_rows(runs: &[ExperimentSummary]) -> Vec<BudgetRow> {
                 |v: &[&BudgetEval]| (v.iter().map(|b| b.falls).sum(), v.iter().map(|b| b.episodes).sum());
             BudgetRow {
                 env_steps: h[0].env_steps.max(p[0].env_steps),
+                hybrid_env_steps: h[0].env_steps,
+                pure_env_steps: p[0].env_steps,
                 hybrid_iqm,
                 hybrid_ci95,
                 pure_iqm,
@@ -190,9 +197,14 @@ impl CompareSummary {
             "| samples | hybrid IQM [95 % CI] | pure RL IQM [95 % CI] | hybrid falls | pure falls | hybrid / pure wall (s) |\n|---:|---:|---:|---:|---:|---:|\n",
         );
         for b in &self.budgets {
+            let samples = if b.hybrid_env_steps == b.pure_env_steps {
+                b.env_steps.to_string()
+            } else {
+                format!("{} (hybrid) / {} (pure)", b.hybrid_env_steps, b.pure_env_steps)
+            };
             t += &format!(
                 "| {} | {:.2} {} | {:.2} {} | {}/{} | {}/{} | {:.0} / {:.0} |\n",
-                b.env_steps,
+                samples,
                 b.hybrid_iqm,
                 ci(b.hybrid_ci95),
                 b.pure_iqm,
@@ -472,5 +484,49 @@ mod tests {
         assert!((s.y[0] - 2.5).abs() < 1e-12 && (s.y[1] - 15.0).abs() < 1e-12);
         let lower = s.lower.unwrap();
         assert!((lower[0] - 0.0).abs() < 1e-12 && (lower[1] - 10.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn each_budget_row_keeps_both_agents_sample_counts() {
+        // The hybrid at its own rollout (512 samples) pauses before pure RL (1024) does.
+        let eval = |env_steps, return_mean| BudgetEval {
+            env_steps,
+            return_mean,
+            episodes: 10,
+            ..Default::default()
+        };
+        let run = |h: f64, p: f64| ExperimentSummary {
+            hybrid: AgentStats::default(),
+            pure_rl: AgentStats::default(),
+            controller: AgentStats::default(),
+            hybrid_budgets: vec![eval(100_352, h), eval(200_704, h + 1.0)],
+            pure_budgets: vec![eval(102_400, p), eval(200_704, p + 1.0)],
+        };
+        let rows = budget_rows(&[run(20.0, 5.0), run(22.0, 7.0)]);
+        assert_eq!(rows.len(), 2);
+        assert_eq!(
+            (rows[0].env_steps, rows[0].hybrid_env_steps, rows[0].pure_env_steps),
+            (102_400, 100_352, 102_400)
+        );
+        assert_eq!(
+            (rows[1].env_steps, rows[1].hybrid_env_steps, rows[1].pure_env_steps),
+            (200_704, 200_704, 200_704)
+        );
+        assert!((rows[0].hybrid_iqm - 21.0).abs() < 1e-12 && (rows[1].pure_iqm - 7.0).abs() < 1e-12);
+        let summary = CompareSummary {
+            env: "minitaur".into(),
+            algo: "ppo".into(),
+            seeds: 2,
+            steps: 200_000,
+            hybrid: Aggregate::default(),
+            pure_rl: Aggregate::default(),
+            controller: Aggregate::default(),
+            budgets: rows,
+            pure_from: None,
+            hybrid_learner: None,
+        };
+        let table = summary.budget_table();
+        assert!(table.contains("| 100352 (hybrid) / 102400 (pure) |"), "{table}");
+        assert!(table.contains("| 200704 |"), "{table}");
     }
 }

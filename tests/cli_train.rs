@@ -651,6 +651,10 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     // Evaluations at 256 steps and at the end; the last is the final evaluation.
     let budgets = json["budgets"].as_array().unwrap();
     assert_eq!(budgets.iter().map(|b| b["env_steps"].as_u64().unwrap()).collect::<Vec<_>>(), [256, 512]);
+    for b in budgets {
+        assert_eq!(b["hybrid_env_steps"], b["env_steps"], "{b}");
+        assert_eq!(b["pure_env_steps"], b["env_steps"], "{b}");
+    }
     assert_eq!(budgets[1]["hybrid_iqm"].as_f64(), json["hybrid"]["return_iqm"].as_f64());
     assert!(out.join("eval_curves.png").is_file() && out.join("eval_curves_wall.png").is_file());
     for seed in ["seed_0", "seed_1"] {
