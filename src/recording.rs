@@ -10,7 +10,7 @@
 //! | `/contacts` | `foxglove.SceneUpdate` | one arrow per foot in contact: the ground reaction force (1 cm per N / robot weight scale) |
 //! | `/plan` | `foxglove.SceneUpdate` | the controller's planned centre-of-mass trajectory (line) and foot targets (spheres) |
 //! | `/residual` | `centaur.Residual` | residual RMS, and the reference, residual and applied actions |
-//! | `/metrics` | `centaur.Metrics` | reward, forward velocity, energy, base height |
+//! | `/metrics` | `centaur.Metrics` | reward, forward velocity, energy, base height; in controller and hybrid runs also the controller's command ([`CommandFrame`]: the commanded forward speed and yaw rate, the gait clock's rate and the stance fractions' shift, as a hybrid's policy steers them) |
 //!
 //! Link poses come from forward kinematics of the dynamics model on the recorded
 //! [`RobotState`], so a robot's estimator output can be recorded the same way. Foxglove
@@ -48,6 +48,36 @@ pub enum RecordError {
     },
 }
 
+/// The controller's command at a control step, as the hybrid's policy steers it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CommandFrame {
+    /// Commanded forward speed (m/s): the target, before the controller's acceleration ramp.
+    pub forward_speed: f64,
+    /// Commanded yaw rate (rad/s).
+    pub yaw_rate: f64,
+    /// Rate of the gait clock (1: the gait's own period; see
+    /// [`centaur_mpc::LocomotionController::gait_rate`]).
+    pub gait_rate: f64,
+    /// Shift of the stance fractions from the gait's own (see
+    /// [`centaur_mpc::LocomotionController::gait_duty_shift`]).
+    pub duty_shift: f64,
+}
+
+impl CommandFrame {
+    /// The command `command` and the gait clock of `controller` now.
+    pub fn of(
+        command: &centaur_mpc::Command,
+        controller: &centaur_mpc::LocomotionController,
+    ) -> CommandFrame {
+        CommandFrame {
+            forward_speed: command.forward_velocity,
+            yaw_rate: command.yaw_rate,
+            gait_rate: controller.gait_rate(),
+            duty_shift: controller.gait_duty_shift(),
+        }
+    }
+}
+
 /// What one control step shows.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Frame<'a> {
@@ -73,6 +103,8 @@ pub struct Frame<'a> {
     pub forward_velocity: f64,
     /// Energy of the step (J).
     pub energy: f64,
+    /// The controller's command (controller and hybrid runs; `None` for pure RL).
+    pub command: Option<CommandFrame>,
 }
 
 /// A shape to draw, attached to a joint's body.
@@ -231,7 +263,9 @@ pub mod schemas {
     pub fn metrics() -> Value {
         json!({"title": "centaur.Metrics", "type": "object", "properties": {
             "timestamp": time(), "reward": {"type": "number"}, "forward_velocity": {"type": "number"},
-            "energy": {"type": "number"}, "base_height": {"type": "number"}}})
+            "energy": {"type": "number"}, "base_height": {"type": "number"},
+            "commanded_speed": {"type": "number"}, "commanded_yaw_rate": {"type": "number"},
+            "gait_rate": {"type": "number"}, "duty_shift": {"type": "number"}}})
     }
 }
 
@@ -421,12 +455,15 @@ impl Recorder {
         };
         self.write(4, t, &json!({"timestamp": ts, "rms": rms, "reference": frame.reference, "residual": frame.residual, "applied": frame.applied}))?;
         let height = frame.state.map_or(0.0, |s| s.base_position().z);
-        self.write(
-            5,
-            t,
-            &json!({"timestamp": ts, "reward": frame.reward, "forward_velocity": frame.forward_velocity,
-            "energy": frame.energy, "base_height": height}),
-        )?;
+        let mut metrics = json!({"timestamp": ts, "reward": frame.reward, "forward_velocity": frame.forward_velocity,
+            "energy": frame.energy, "base_height": height});
+        if let Some(c) = frame.command {
+            metrics["commanded_speed"] = json!(c.forward_speed);
+            metrics["commanded_yaw_rate"] = json!(c.yaw_rate);
+            metrics["gait_rate"] = json!(c.gait_rate);
+            metrics["duty_shift"] = json!(c.duty_shift);
+        }
+        self.write(5, t, &metrics)?;
         self.seq = self.seq.wrapping_add(1);
         Ok(())
     }

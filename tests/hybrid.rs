@@ -1,7 +1,7 @@
 //! The residual (hybrid) environment and the MCAP recordings.
 
 use centaur::hybrid::{ActionMapping, Authority, Fade, HybridError, ResidualConfig};
-use centaur::recording::{Frame, Recorder, TOPICS};
+use centaur::recording::{CommandFrame, Frame, Recorder, TOPICS};
 use centaur::registry::{
     RegistryError, controller_config, make_residual_env, make_robot_env, residual_config,
 };
@@ -345,6 +345,7 @@ fn mcap_recordings_have_foxglove_schemas_and_one_message_per_step() {
             reward: s.reward,
             forward_velocity: s.info.forward_velocity,
             energy: s.info.energy,
+            command: Some(CommandFrame::of(env.command(), env.controller())),
         })
         .unwrap();
         // Regression (reliability probe, data loss 5): nothing bears the name before the
@@ -385,7 +386,11 @@ fn mcap_recordings_have_foxglove_schemas_and_one_message_per_step() {
         assert_eq!(per_topic.get(topic), Some(&(steps as u64)), "{topic}");
     }
     // The robot moves: the base link's transform changes between the first and last message.
+    // The metrics carry the controller's command: the preset's speed at zero output, the gait
+    // clock at its own rate.
+    let preset = ResidualConfig::default().command;
     let mut base = Vec::new();
+    let mut commands = 0;
     for m in mcap::MessageStream::new(&bytes).unwrap() {
         let m = m.unwrap();
         if m.channel.topic == "/tf" {
@@ -400,7 +405,15 @@ fn mcap_recordings_have_foxglove_schemas_and_one_message_per_step() {
             let n = e["cubes"].as_array().unwrap().len() + e["cylinders"].as_array().unwrap().len();
             assert!(n >= 17, "every link drawn ({n} primitives)");
         }
+        if m.channel.topic == "/metrics" {
+            let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+            assert_eq!(v["commanded_speed"].as_f64(), Some(preset.forward_velocity), "{v}");
+            assert_eq!(v["commanded_yaw_rate"].as_f64(), Some(preset.yaw_rate), "{v}");
+            assert_eq!((v["gait_rate"].as_f64(), v["duty_shift"].as_f64()), (Some(1.0), Some(0.0)), "{v}");
+            commands += 1;
+        }
     }
+    assert_eq!(commands, steps);
     assert_eq!(base.len(), steps);
     assert!(base.iter().any(|z| (z - base[0]).abs() > 1e-5), "the base never moved");
     std::fs::remove_dir_all(&dir).ok();

@@ -12,7 +12,7 @@ use centaur_rl::Policy;
 use super::options::ExperimentError;
 use super::summary::AgentStats;
 use crate::hybrid::{ActionMapping, Fade, HybridError, ResidualConfig};
-use crate::recording::{Frame, Recorder};
+use crate::recording::{CommandFrame, Frame, Recorder};
 use crate::registry::{EnvSource, make_residual_env_with, make_robot_env_with, residual_config_for, robot};
 use crate::residual::ResidualEnv;
 
@@ -141,6 +141,7 @@ impl Driver {
                 rec.planned_com.extend_from_slice(&controller.status().planned_com);
                 rec.foot_targets.clear();
                 rec.foot_targets.extend_from_slice(&controller.status().foot_targets);
+                rec.command = Some(CommandFrame::of(command, controller));
                 env.step(action, obs)?
             }
             Driver::Pure { env, policy } => {
@@ -156,6 +157,8 @@ impl Driver {
                 rec.foot_targets.clear();
                 rec.foot_targets.extend_from_slice(&env.controller().status().foot_targets);
                 let s = env.step(action, obs)?;
+                // The command as the policy steered it at this step (for the next tick).
+                rec.command = Some(CommandFrame::of(env.command(), env.controller()));
                 rec.applied.clone_from_slice(env.applied());
                 for k in 0..rec.residual.len() {
                     rec.residual[k] = rec.applied[k] - rec.reference[k];
@@ -174,6 +177,7 @@ struct StepRecord {
     applied: Vec<f32>,
     planned_com: Vec<[f64; 3]>,
     foot_targets: Vec<[f64; 3]>,
+    command: Option<CommandFrame>,
 }
 
 /// Base x position of a floating or planar robot.
@@ -270,6 +274,7 @@ pub(crate) fn evaluate_pushed(
                     reward: s.reward,
                     forward_velocity: s.info.forward_velocity,
                     energy: s.info.energy,
+                    command: rec.command,
                 })?;
             }
             if s.done() {
