@@ -177,6 +177,12 @@ pub struct HybridArgs {
     /// [default: the hybrid preset's: walker2d with PPO or A2C 0.6, 1 elsewhere]
     #[arg(long)]
     pub period_scale: Option<f64>,
+    /// The controller's command ramp under the hybrid (and its controller-alone
+    /// baseline's), m/s² in (0, 20], replacing the controller's own: how fast the start and
+    /// every steered speed reach the controller [default: the controller's own: minitaur 3,
+    /// ant 1, walker2d 1, humanoid 0.3]
+    #[arg(long)]
+    pub max_acceleration: Option<f64>,
     /// A safety fade as the body sinks: the policy's steering fades from full at a sag of
     /// START to none halfway to END, then its joint residual to none at END, the sag being
     /// the CoM's drop below the controller's height reference as a fraction of it (e.g.
@@ -257,6 +263,9 @@ impl HybridArgs {
         }
         if self.rated_speed.is_some() {
             preset.rated_speed = self.rated_speed;
+        }
+        if self.max_acceleration.is_some() {
+            preset.max_acceleration = self.max_acceleration;
         }
         if let Some([start, end]) = self.fade.as_deref() {
             preset.fade = Some(Fade { start: *start, end: *end });
@@ -531,6 +540,15 @@ mod tests {
         let with = ResidualConfig { period_scale: Some(0.7), ..ant.clone() };
         assert_eq!(parse_hybrid(with.clone(), &[]).unwrap().period_scale, Some(0.7));
         assert_eq!(parse_hybrid(with, &["--period-scale", "1"]).unwrap().period_scale, Some(1.0));
+    }
+
+    #[test]
+    fn the_command_ramp_is_the_controllers_unless_given() {
+        let minitaur = residual_config("minitaur").unwrap();
+        let ramp = |args: &[&str]| parse_hybrid(minitaur.clone(), args).unwrap().max_acceleration;
+        assert_eq!(ramp(&[]), None);
+        assert_eq!(ramp(&["--max-acceleration", "6"]), Some(6.0));
+        assert!(parse_hybrid(minitaur.clone(), &["--max-acceleration", "x"]).is_err());
     }
 
     #[test]

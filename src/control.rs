@@ -138,6 +138,9 @@ pub struct ControlOptions {
     /// reaches its value at the controller's slew in the first 0.3 s at most (default: 0,
     /// the gait's own fractions).
     pub duty_shift: f64,
+    /// The command ramp (m/s², in (0, 20]) replacing the controller's own `max_acceleration`,
+    /// as the hybrid's `max_acceleration` does (default: `None`, the controller's own).
+    pub max_acceleration: Option<f64>,
 }
 
 impl Default for ControlOptions {
@@ -159,6 +162,7 @@ impl Default for ControlOptions {
             drawn_motor: false,
             period_scale: 1.0,
             duty_shift: 0.0,
+            max_acceleration: None,
         }
     }
 }
@@ -232,6 +236,8 @@ pub struct ControlSummary {
     pub period_scale: f64,
     /// The shift of the stance fractions from the gait's own (0: none).
     pub duty_shift: f64,
+    /// The command ramp the controller ran with (m/s²): its own, or `--max-acceleration`.
+    pub max_acceleration: f64,
     /// The motor model the controller's torques became actions through, on a Minitaur
     /// (`nominal`, or `drawn` with `--drawn-motor`; `null`: a robot whose actions are torques).
     pub controller_motor: Option<MotorInverse>,
@@ -323,6 +329,9 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
             "a stand keeps every foot down: command a walking gait with --duty-shift".into(),
         ));
     }
+    if let Some(a) = opts.max_acceleration {
+        crate::hybrid::check_max_acceleration(a)?;
+    }
     if let Some(p) = &opts.push {
         let magnitude = p.force.iter().map(|f| f * f).sum::<f64>().sqrt();
         if !(magnitude.is_finite() && magnitude <= MAX_PUSH_FORCE) {
@@ -407,6 +416,10 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     }
     // The command's gait is offered here (checked above).
     config.scale_period(opts.gait, opts.period_scale);
+    if let Some(a) = opts.max_acceleration {
+        config.max_acceleration = a;
+    }
+    let max_acceleration = config.max_acceleration;
     let mut ctrl = LocomotionController::new(env.model(), config)?;
     ctrl.set_gait_duty_shift(opts.duty_shift);
     let mut mapping = ActionMapping::new(env.as_ref(), &ctrl)?;
@@ -560,6 +573,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         unrated: opts.unrated,
         period_scale: opts.period_scale,
         duty_shift: opts.duty_shift,
+        max_acceleration,
         controller_motor: controller_motor(&opts.env, &settings),
         segments,
     })

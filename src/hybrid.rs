@@ -365,10 +365,18 @@ pub struct ResidualConfig {
     /// did not get it out (the policy kept the 0.8 s cycle), a faster clock did (README).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub period_scale: Option<f64>,
+    /// The controller's command ramp under the hybrid (and its controller-alone baseline),
+    /// m/s², replacing the controller's own `max_acceleration` (`None`, the default: the
+    /// controller's own; recorded only where set). Every command, the steered ones too,
+    /// reaches the controller through this ramp: at the Minitaur's 3 m/s² a start to
+    /// 3.7 m/s takes 1.2 s of a 10 s episode, and a steered speed changes by at most
+    /// 0.03 m/s per control step.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_acceleration: Option<f64>,
 }
 
-/// Every field as `derive(Debug)` writes it, but `fade`, `exploration_ramp`, `bound_ramp`
-/// and `period_scale` only where set: runs record this text in their fingerprint
+/// Every field as `derive(Debug)` writes it, but `fade`, `exploration_ramp`, `bound_ramp`,
+/// `period_scale` and `max_acceleration` only where set: runs record this text in their fingerprint
 /// ([`crate::experiment::ExperimentOptions::fingerprint`]), and a run without them keeps
 /// the fingerprint it had before they existed (so `centaur compare --resume` and
 /// `--pure-from` still take it).
@@ -387,6 +395,7 @@ impl std::fmt::Debug for ResidualConfig {
             fade,
             bound_ramp,
             period_scale,
+            max_acceleration,
         } = self;
         let mut s = f.debug_struct("ResidualConfig");
         s.field("scale", scale)
@@ -409,6 +418,9 @@ impl std::fmt::Debug for ResidualConfig {
         if let Some(scale) = period_scale {
             s.field("period_scale", scale);
         }
+        if let Some(a) = max_acceleration {
+            s.field("max_acceleration", a);
+        }
         s.finish()
     }
 }
@@ -428,6 +440,7 @@ impl Default for ResidualConfig {
             fade: None,
             bound_ramp: None,
             period_scale: None,
+            max_acceleration: None,
         }
     }
 }
@@ -513,6 +526,9 @@ impl ResidualConfig {
         if let Some(value) = self.period_scale {
             check_period_scale(value)?;
         }
+        if let Some(value) = self.max_acceleration {
+            check_max_acceleration(value)?;
+        }
         if let Some(f) = &self.fade {
             f.validate()?;
         }
@@ -523,7 +539,8 @@ impl ResidualConfig {
     }
 
     /// `config` with [`ResidualConfig::rated_speed`], if set, as the rating of the
-    /// command's gait and [`ResidualConfig::period_scale`], if set, multiplying its period:
+    /// command's gait, [`ResidualConfig::period_scale`], if set, multiplying its period and
+    /// [`ResidualConfig::max_acceleration`], if set, as its command ramp:
     /// the controller the hybrid (and the controller-alone baseline beside it) runs. The
     /// gait must be offered and not the stand, which has no speed rating and no period. The
     /// command (at zero steering) must then be within the rating, speed and turning, as
@@ -619,6 +636,10 @@ impl ResidualConfig {
             let gait = self.offered_gait(config, "period_scale", value, expected)?;
             config.scale_period(gait, value);
         }
+        if let Some(value) = self.max_acceleration {
+            check_max_acceleration(value)?;
+            config.max_acceleration = value;
+        }
         Ok(())
     }
 
@@ -668,6 +689,22 @@ pub(crate) fn check_period_scale(value: f64) -> Result<(), HybridError> {
         Ok(())
     } else {
         Err(HybridError::BadSetting { part: "period_scale", value, expected: "a factor in [0.25, 4]" })
+    }
+}
+
+/// The largest [`ResidualConfig::max_acceleration`] accepted (m/s²): twice gravity, beyond
+/// what feet on the ground can push.
+pub const MAX_COMMAND_ACCELERATION: f64 = 20.0;
+
+pub(crate) fn check_max_acceleration(value: f64) -> Result<(), HybridError> {
+    if value.is_finite() && value > 0.0 && value <= MAX_COMMAND_ACCELERATION {
+        Ok(())
+    } else {
+        Err(HybridError::BadSetting {
+            part: "max_acceleration",
+            value,
+            expected: "an acceleration in (0, 20] m/s²",
+        })
     }
 }
 
@@ -1429,6 +1466,31 @@ mod tests {
         assert!(!format!("{:?}", scaled(None, Gait::Walk)).contains("period_scale"));
         assert!(format!("{:?}", scaled(Some(0.7), Gait::Walk)).ends_with(", period_scale: 0.7 }"));
         assert!(!serde_json::to_string(&scaled(None, Gait::Walk)).unwrap().contains("period_scale"));
+    }
+
+    #[test]
+    fn a_max_acceleration_replaces_the_controllers_ramp_and_bad_ones_are_refused() {
+        let preset = ControllerConfig::minitaur();
+        let ramped = |v: Option<f64>| ResidualConfig {
+            max_acceleration: v,
+            command: Command::forward(2.0, Gait::Trot),
+            ..ResidualConfig::default()
+        };
+        let mut c = preset.clone();
+        ramped(None).rate_controller(&mut c).unwrap();
+        assert_eq!(c, preset);
+        ramped(Some(6.0)).rate_controller(&mut c).unwrap();
+        assert_eq!(c.max_acceleration, 6.0);
+        assert_eq!(ControllerConfig { max_acceleration: preset.max_acceleration, ..c }, preset);
+        for bad in [0.0, -1.0, 20.5, f64::NAN, f64::INFINITY] {
+            let err = ramped(Some(bad)).rate_controller(&mut preset.clone()).unwrap_err();
+            assert!(matches!(err, HybridError::BadSetting { part: "max_acceleration", .. }), "{bad}: {err}");
+            assert!(Residual::new(&ramped(Some(bad)), 8).is_err(), "{bad}");
+        }
+        // Recorded only where set.
+        assert!(!format!("{:?}", ramped(None)).contains("max_acceleration"));
+        assert!(format!("{:?}", ramped(Some(6.0))).ends_with(", max_acceleration: 6.0 }"));
+        assert!(!serde_json::to_string(&ramped(None)).unwrap().contains("max_acceleration"));
     }
 
     #[test]

@@ -599,8 +599,18 @@ mod tests {
         let env =
             make_residual_env("minitaur", ResidualConfig { rated_speed: None, ..preset.clone() }).unwrap();
         assert_eq!(env.controller().config().offer(centaur_mpc::Gait::Trot).unwrap().max_speed, 2.5);
-        let bad = make_residual_env("minitaur", ResidualConfig { rated_speed: Some(f64::NAN), ..preset });
+        let bad =
+            make_residual_env("minitaur", ResidualConfig { rated_speed: Some(f64::NAN), ..preset.clone() });
         assert!(bad.is_err_and(|e| e.to_string().contains("rated_speed")));
+        // The command ramp too.
+        let env =
+            make_residual_env("minitaur", ResidualConfig { max_acceleration: Some(6.0), ..preset.clone() })
+                .unwrap();
+        assert_eq!(env.controller().config().max_acceleration, 6.0);
+        assert_eq!(
+            make_residual_env("minitaur", preset).unwrap().controller().config().max_acceleration,
+            3.0
+        );
     }
 
     /// The motor each robot's controller is told comes from its own preset with the

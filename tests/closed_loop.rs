@@ -196,6 +196,38 @@ fn the_minitaur_trots_with_shifted_stance_fractions_and_bad_shifts_are_refused()
     }
 }
 
+/// `centaur control --max-acceleration`: the Minitaur's command ramp at 6 m/s² instead of
+/// its own 3 reaches 2 m/s sooner, so it covers more ground in 1 s, and still trots; a ramp
+/// out of (0, 20] m/s² is refused.
+#[test]
+fn a_faster_command_ramp_gets_the_minitaur_up_to_speed_sooner_and_bad_ramps_are_refused() {
+    let run = |max_acceleration: Option<f64>, seconds: f64| {
+        run_control(&ControlOptions {
+            env: "minitaur".into(),
+            speed: 2.0,
+            seconds,
+            max_acceleration,
+            ..ControlOptions::default()
+        })
+    };
+    let (own, fast) = (run(None, 1.0).unwrap(), run(Some(6.0), 1.0).unwrap());
+    assert_eq!((own.max_acceleration, fast.max_acceleration), (3.0, 6.0));
+    assert!(
+        fast.distance > own.distance + 0.2,
+        "{:.3} m against {:.3} m in 1 s",
+        fast.distance,
+        own.distance
+    );
+    let on = run(Some(6.0), 4.0).unwrap();
+    assert!(!on.fell, "fell after {:.2} s", on.seconds);
+    for bad in [0.0, -3.0, 25.0, f64::NAN] {
+        match run(Some(bad), 1.0) {
+            Err(e) => assert!(e.to_string().contains("max_acceleration"), "{bad}: {e}"),
+            other => panic!("ramp {bad}: {other:?}"),
+        }
+    }
+}
+
 /// Speed steps within one run: 0 → 1.5 → 0 m/s; the robot reaches its speed and stops.
 #[test]
 fn the_minitaur_speeds_up_to_its_rating_and_stops() {
@@ -498,6 +530,7 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
     let stdout = String::from_utf8_lossy(&status.stdout);
     assert!(stdout.contains("minitaur trot at 0.3 m/s for 1.0 s: mean speed"), "{stdout}");
     assert_eq!((json["period_scale"].as_f64(), json["duty_shift"].as_f64()), (Some(1.0), Some(0.0)));
+    assert_eq!(json["max_acceleration"].as_f64(), Some(3.0));
     let _ = std::fs::remove_dir_all(&out);
     // A scaled period is said and recorded.
     let o = Process::new(env!("CARGO_BIN_EXE_centaur"))
@@ -511,6 +544,8 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
             "0.7",
             "--duty-shift",
             "-0.1",
+            "--max-acceleration",
+            "5",
             "--seconds",
             "1",
             "--out",
@@ -526,6 +561,7 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!((json["period_scale"].as_f64(), json["duty_shift"].as_f64()), (Some(0.7), Some(-0.1)));
+    assert_eq!(json["max_acceleration"].as_f64(), Some(5.0));
     let _ = std::fs::remove_dir_all(&out);
     // A speed schedule reports each segment's command and mean speed, not the unused --speed.
     let o = Process::new(env!("CARGO_BIN_EXE_centaur"))

@@ -439,6 +439,11 @@ struct ControlArgs {
     /// `--steer-duty` lets its policy do)
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     duty_shift: f64,
+    /// The command ramp, m/s² in (0, 20], replacing the controller's own (as the hybrid's
+    /// `--max-acceleration`) [default: the controller's own: minitaur 3, ant 1, walker2d 1,
+    /// humanoid 0.3]
+    #[arg(long, allow_negative_numbers = true)]
+    max_acceleration: Option<f64>,
 }
 
 /// `--speed-schedule`'s pairs (a newtype, so that clap takes the list as one value).
@@ -648,6 +653,7 @@ fn control(args: ControlArgs) -> ExitCode {
         drawn_motor: args.drawn_motor,
         period_scale: args.period_scale,
         duty_shift: args.duty_shift,
+        max_acceleration: args.max_acceleration,
     };
     let result = check_out_dir(&args.out)
         .and_then(|()| run_control(&opts))

@@ -296,6 +296,17 @@ mod legacy {
     /// Whether `fingerprint` holds `residual` (with no rating when it is the controller's
     /// own, which is `own_rating`) in one of the old forms.
     pub(super) fn matches(fingerprint: &str, residual: &ResidualConfig, own_rating: Option<f64>) -> bool {
+        // The old forms predate these parts: a setup with any of them set is not one of them.
+        let newer = residual.exploration_ramp.is_some()
+            || residual.fade.is_some()
+            || residual.bound_ramp.is_some()
+            || residual.period_scale.is_some()
+            || residual.max_acceleration.is_some()
+            || residual.steering.cadence != 0.0
+            || residual.steering.duty != 0.0;
+        if newer {
+            return false;
+        }
         let mut candidates = vec![residual.clone()];
         if residual.rated_speed.is_none() && own_rating.is_some() {
             // A run may also have recorded the controller's own rating explicitly.
@@ -336,9 +347,10 @@ mod legacy {
                 rated_speed,
                 // Records of this form predate the fade: it can only be `None` here.
                 fade: _,
-                // ... and the rising bound, and the period scale.
+                // ... and the rising bound, the period scale and the command ramp.
                 bound_ramp: _,
                 period_scale: _,
+                max_acceleration: _,
             } = self.r;
             let mut s = f.debug_struct("ResidualConfig");
             s.field("scale", scale)
@@ -945,9 +957,24 @@ mod tests {
         ));
         let slower = ResidualConfig {
             steering: crate::hybrid::Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 },
-            ..preset
+            ..preset.clone()
         };
         assert!(matches!(check_trained_with(&dir, &slower), Err(ExperimentError::SetupMismatch { .. })));
+        // Parts newer than the old forms: a setup with one set was not trained there.
+        let newer = [
+            ResidualConfig { max_acceleration: Some(6.0), ..preset.clone() },
+            ResidualConfig { period_scale: Some(0.7), ..preset.clone() },
+            ResidualConfig {
+                steering: crate::hybrid::Steering { cadence: 0.5, ..preset.steering },
+                ..preset.clone()
+            },
+        ];
+        for r in &newer {
+            assert!(
+                matches!(check_trained_with(&dir, r), Err(ExperimentError::SetupMismatch { .. })),
+                "{r:?}"
+            );
+        }
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
