@@ -1401,8 +1401,8 @@ fn a_study_of_several_grids_runs_with_one_command() {
 
 /// The run files shipped in `configs/` (named `<robot>_<algo>_….toml`) parse for their
 /// algorithm, with no `[env]` table in the hybrid's own (`--hybrid-config` refuses one), and
-/// the hybrid's twice-the-updates settings (and the faster critic's rate) are what the
-/// README says.
+/// the hybrid's twice-the-updates settings (and the faster critic's rate, the critic's
+/// burn-in) are what the README says.
 #[test]
 fn the_shipped_run_files_parse() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
@@ -1422,8 +1422,10 @@ fn the_shipped_run_files_parse() {
             let centaur_rl::AlgoConfig::Ppo(p) = config else { panic!("{name}") };
             assert_eq!((p.n_steps, p.batch_size, p.n_epochs, p.learning_rate), (512, 128, 10, 5e-4));
             assert_eq!(p.anneal_lr, !name.ends_with("constant_lr"), "{name}");
-            let critic_lr = if name.ends_with("critic_lr") { Some(1e-3) } else { None };
+            let burn_in = name.ends_with("burn_in");
+            let critic_lr = if name.ends_with("critic_lr") || burn_in { Some(1e-3) } else { None };
             assert_eq!(p.critic_learning_rate, critic_lr, "{name}");
+            assert_eq!(p.actor_burn_in_steps, if burn_in { 20_480 } else { 0 }, "{name}");
         }
         seen += 1;
     }

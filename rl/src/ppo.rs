@@ -10,6 +10,7 @@
 //! | orthogonal init, gains √2 / 0.01 (policy) / 1 (value), zero biases | `ortho_init` |
 //! | Adam with ε = 10⁻⁵ | `adam_eps` |
 //! | linear learning-rate annealing to 0 | `anneal_lr` |
+//! | a critic-only burn-in before the actor learns (residual RL; not in the 37 details) | `actor_burn_in_steps` |
 //! | GAE(λ) (Schulman et al. 2016, eq. 16) | `gae` (off: Monte-Carlo n-step returns) |
 //! | minibatch updates over `n_epochs` shuffled epochs | `n_epochs`, `batch_size` |
 //! | advantage normalisation per minibatch | `norm_adv` |
@@ -92,6 +93,14 @@ pub struct PpoConfig {
     /// trunk, which itself learns at `learning_rate`), annealed alike; unset: the same as
     /// `learning_rate` (default: unset).
     pub critic_learning_rate: Option<f64>,
+    /// Critic burn-in: for the first this many environment steps only the critic learns;
+    /// the actor, its log-std (and a shared trunk) keep their parameters and their
+    /// optimisers do not step (logged learning rate 0). For a policy that starts at a good
+    /// controller's gait (residual RL), whose first updates would otherwise follow the
+    /// advantages of a critic that has not yet learnt that gait's value (Silver et al.
+    /// 2018, "Residual Policy Learning", arXiv:1812.06298, section 4). Must be below the
+    /// learning-rate horizon (default: 0, no burn-in).
+    pub actor_burn_in_steps: u64,
     /// Anneal the learning rate linearly to 0 (default: true).
     pub anneal_lr: bool,
     /// Environment steps over which the learning rate anneals; unset means the
@@ -170,6 +179,7 @@ impl Default for PpoConfig {
             n_epochs: 10,
             learning_rate: 3e-4,
             critic_learning_rate: None,
+            actor_burn_in_steps: 0,
             anneal_lr: true,
             lr_decay_steps: None,
             adam_eps: 1e-5,
@@ -243,6 +253,13 @@ impl PpoConfig {
         )?;
         check_critic_lr(A, self.critic_learning_rate)?;
         check(self.lr_decay_steps != Some(0), A, "lr_decay_steps", self.lr_decay_steps, "must be positive")?;
+        check(
+            self.lr_decay_steps.is_none_or(|h| self.actor_burn_in_steps < h),
+            A,
+            "actor_burn_in_steps",
+            self.actor_burn_in_steps,
+            "must be below `lr_decay_steps`",
+        )?;
         check(
             self.adam_eps.is_finite() && self.adam_eps > 0.0,
             A,
@@ -707,8 +724,15 @@ impl Ppo {
         }
     }
 
-    /// `n_epochs` passes of minibatch gradient steps; fills the loss metrics.
-    fn update(&mut self, lr: f32, lr_critic: f32, m: &mut UpdateMetrics) -> Result<(), RlError> {
+    /// `n_epochs` passes of minibatch gradient steps; fills the loss metrics. Without
+    /// `train_actor` (the critic's burn-in) only the critic's optimiser steps.
+    fn update(
+        &mut self,
+        lr: f32,
+        lr_critic: f32,
+        train_actor: bool,
+        m: &mut UpdateMetrics,
+    ) -> Result<(), RlError> {
         let (od, ad) = (self.obs_space.dim(), self.act_space.dim());
         let len = self.rollout.len();
         let bs = self.config.batch_size.min(len);
@@ -754,10 +778,12 @@ impl Ppo {
                         self.config.max_grad_norm as f32,
                     );
                 }
-                self.opt_actor.step(&mut self.actor.params, &self.actor.grads, lr);
-                self.opt_log_std.step(&mut self.log_std, &self.log_std_grad, lr);
+                if train_actor {
+                    self.opt_actor.step(&mut self.actor.params, &self.actor.grads, lr);
+                    self.opt_log_std.step(&mut self.log_std, &self.log_std_grad, lr);
+                }
                 self.opt_critic.step(&mut self.critic.params, &self.critic.grads, lr_critic);
-                if let Some(t) = &mut self.trunk {
+                if let (Some(t), true) = (&mut self.trunk, train_actor) {
                     self.opt_trunk.step(&mut t.params, &t.grads, lr);
                 }
 
@@ -777,8 +803,11 @@ impl Ppo {
             }
         }
         if self.config.kl_penalty {
-            // Section 4's rule, with the KL measured over the last epoch.
             m.kl_coef = self.kl_coef;
+        }
+        if self.config.kl_penalty && train_actor {
+            // Section 4's rule, with the KL measured over the last epoch (not while the
+            // actor does not move: its KL is zero then).
             let target = self.config.kl_target;
             if last_epoch_kl < target / 1.5 {
                 self.kl_coef /= 2.0;
@@ -873,7 +902,20 @@ impl Algorithm for Ppo {
         callback: &mut dyn FnMut(&UpdateMetrics) -> ControlFlow<()>,
     ) -> Result<(), RlError> {
         self.check_env(env)?;
-        let horizon = *self.lr_horizon.get_or_insert(total_steps.max(1));
+        let horizon = self.lr_horizon.unwrap_or(total_steps.max(1));
+        if self.config.actor_burn_in_steps >= horizon {
+            // The actor would never learn (or only at a learning rate annealed to 0).
+            return Err(RlError::InvalidConfig {
+                algo: "ppo",
+                field: "actor_burn_in_steps",
+                value: format!(
+                    "{} (learning-rate horizon: {horizon} steps)",
+                    self.config.actor_burn_in_steps
+                ),
+                reason: "must be below the learning-rate horizon (`lr_decay_steps`, or the first `learn` call's total steps)",
+            });
+        }
+        self.lr_horizon = Some(horizon);
         // Continue a live VecEnv, or reset a fresh one.
         let settings = self.rollout_settings();
         let seed = self.config.seed.wrapping_add(self.steps_done);
@@ -884,7 +926,8 @@ impl Algorithm for Ppo {
             let steps_before = self.steps_done;
             let (c, done) = (&self.config, self.steps_done);
             let anneal = |lr0: f64| if c.anneal_lr { linear_decay(lr0, done, horizon) } else { lr0 };
-            let lr = anneal(c.learning_rate);
+            let train_actor = done >= c.actor_burn_in_steps;
+            let lr = if train_actor { anneal(c.learning_rate) } else { 0.0 };
             let lr_critic = anneal(c.critic_learning_rate.unwrap_or(c.learning_rate));
             if let Some(floor) = &self.exploration_floor {
                 floor.apply(&mut self.log_std, self.steps_done);
@@ -896,7 +939,7 @@ impl Algorithm for Ppo {
             m.explained_variance = self.explained_variance();
             m.value_mean = self.rollout.mean_value();
             m.reward_mean = self.work.collector.take_reward_mean();
-            self.update(lr as f32, lr_critic as f32, &mut m)?;
+            self.update(lr as f32, lr_critic as f32, train_actor, &mut m)?;
             self.updates += 1;
             let dt = t0.elapsed().as_secs_f64();
             self.wall_time += dt;

@@ -84,6 +84,49 @@ fn ppo_critic_learning_rate_moves_only_the_critic() {
     assert!(PpoConfig { critic_learning_rate: Some(-1.0), ..base }.validate().is_err());
 }
 
+/// The critic's burn-in: for its steps the actor and log-std keep their initial parameters
+/// bit for bit (logged learning rate 0) while the critic learns at its own rate; after it
+/// the actor learns. A burn-in at or past the learning-rate horizon is refused, naming the
+/// field, by `validate` (against `lr_decay_steps`) and by `learn` (against its total).
+#[test]
+fn ppo_actor_burn_in_trains_only_the_critic_first() {
+    let base = small_ppo();
+    let init = {
+        let env = pendulums(2);
+        Ppo::for_env(base.clone(), &env).unwrap()
+    };
+    // 256 steps per update (128 × 2 envs): two updates of burn-in, then two of both.
+    let mut env = pendulums(2);
+    let mut p = Ppo::for_env(
+        PpoConfig { actor_burn_in_steps: 512, lr_decay_steps: Some(1024), ..base.clone() },
+        &env,
+    )
+    .unwrap();
+    let rows = learn(&mut p, &mut env, 512);
+    assert_eq!(rows.len(), 2);
+    assert!(rows.iter().all(|m| m.learning_rate == 0.0 && m.critic_learning_rate > 0.0), "{rows:?}");
+    assert_eq!(blob(&p, "actor"), blob(&init, "actor"));
+    assert_eq!(blob(&p, "log_std"), blob(&init, "log_std"));
+    assert_ne!(blob(&p, "critic"), blob(&init, "critic"));
+    let rows = learn(&mut p, &mut env, 1024);
+    assert_eq!(rows.len(), 2);
+    assert!(rows.iter().all(|m| m.learning_rate > 0.0), "{rows:?}");
+    assert_ne!(blob(&p, "actor"), blob(&init, "actor"));
+    // Without burn-in the same seed's actor moves in the first update.
+    let mut env = pendulums(2);
+    let mut q = Ppo::for_env(base.clone(), &env).unwrap();
+    learn(&mut q, &mut env, 256);
+    assert_ne!(blob(&q, "actor"), blob(&init, "actor"));
+
+    let bad = PpoConfig { actor_burn_in_steps: 1000, lr_decay_steps: Some(1000), ..base.clone() };
+    let e = bad.validate().unwrap_err().to_string();
+    assert!(e.contains("actor_burn_in_steps"), "{e}");
+    let mut env = pendulums(2);
+    let mut r = Ppo::for_env(PpoConfig { actor_burn_in_steps: 1024, ..base }, &env).unwrap();
+    let e = r.learn(&mut env, 1024, &mut |_| ControlFlow::Continue(())).unwrap_err().to_string();
+    assert!(e.contains("actor_burn_in_steps") && e.contains("horizon"), "{e}");
+}
+
 /// Every other learner: the critic's rate is its own (the default is the shared rate, bit
 /// for bit) and a bad one is refused naming the field.
 #[test]

@@ -279,6 +279,9 @@ impl ExperimentOptions {
                 self.eval_every
             )
         );
+        // Learner settings added after runs were made are left out at their defaults, so that
+        // those runs keep their fingerprint (`--resume`, `--pure-from`).
+        let base = strip_new_defaults(base);
         // The motor the Minitaur's controller is told is written as a mark at the end, not
         // as a setting: its default changed on 2026-11-27 from the drawn motor to the
         // nominal one, and runs before then (no mark) are the runs told the drawn motor,
@@ -289,7 +292,7 @@ impl ExperimentOptions {
         // The hybrid's own hyperparameters, where set, are written after the rest, so that
         // runs without them keep their fingerprint and the pure part leaves them out.
         let with = match &self.hybrid_algo {
-            Some(h) => format!("{with}{HYBRID_LEARNER_MARK}{h:?}"),
+            Some(h) => format!("{with}{HYBRID_LEARNER_MARK}{}", strip_new_defaults(format!("{h:?}"))),
             None => with,
         };
         let nominal = controller_motor(&self.env, &self.env_settings) == Some(MotorInverse::Nominal);
@@ -301,6 +304,17 @@ impl ExperimentOptions {
     pub fn hybrid_learner(&self) -> &AlgoConfig {
         self.hybrid_algo.as_ref().unwrap_or(&self.algo)
     }
+}
+
+/// Learner settings added after runs were made, as `Debug` writes them at their defaults:
+/// a fingerprint leaves them out (PPO's critic burn-in, 2026-11-30).
+const NEW_DEFAULTS: [&str; 1] = [", actor_burn_in_steps: 0"];
+
+fn strip_new_defaults(mut fingerprint: String) -> String {
+    for d in NEW_DEFAULTS {
+        fingerprint = fingerprint.replace(d, "");
+    }
+    fingerprint
 }
 
 /// The end of the fingerprint of a run whose Minitaur controller is told the nominal motor

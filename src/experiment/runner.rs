@@ -1028,6 +1028,17 @@ mod tests {
         assert_eq!(opts.pure_fingerprint(), own_learner.pure_fingerprint());
         assert!(own_learner.fingerprint().ends_with(super::super::options::NOMINAL_MOTOR_MARK));
         assert_eq!(own_learner.hybrid_learner().kind(), centaur_rl::AlgoKind::Ppo);
+        // PPO's critic burn-in (added 2026-11-30) is left out at its default, so runs made
+        // before it keep their fingerprint; set, it is the hybrid's and marks it.
+        assert!(!own_learner.fingerprint().contains("actor_burn_in_steps"));
+        assert!(own_learner.fingerprint().contains("critic_learning_rate: None, anneal_lr"));
+        let burn_in = centaur_rl::PpoConfig { actor_burn_in_steps: 2048, ..Default::default() };
+        let burnt =
+            ExperimentOptions { hybrid_algo: Some(centaur_rl::AlgoConfig::Ppo(burn_in)), ..opts.clone() };
+        assert!(
+            burnt.fingerprint().contains("critic_learning_rate: None, actor_burn_in_steps: 2048, anneal_lr")
+        );
+        assert_eq!(opts.pure_fingerprint(), burnt.pure_fingerprint());
         for other_pure in [
             ExperimentOptions { steps: 2000, ..opts.clone() },
             ExperimentOptions { seed: 1, ..opts.clone() },
