@@ -95,7 +95,8 @@ pub struct PpoConfig {
     pub critic_learning_rate: Option<f64>,
     /// Critic burn-in: for the first this many environment steps only the critic learns;
     /// the actor, its log-std (and a shared trunk) keep their parameters and their
-    /// optimisers do not step (logged learning rate 0). For a policy that starts at a good
+    /// optimisers do not step (logged learning rate 0; an exploration floor still raises
+    /// the log-std). For a policy that starts at a good
     /// controller's gait (residual RL), whose first updates would otherwise follow the
     /// advantages of a critic that has not yet learnt that gait's value (Silver et al.
     /// 2018, "Residual Policy Learning", arXiv:1812.06298, section 4). Must be below the
