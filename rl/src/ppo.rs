@@ -96,7 +96,8 @@ pub struct PpoConfig {
     /// Critic burn-in: for the first this many environment steps only the critic learns;
     /// the actor, its log-std (and a shared trunk) keep their parameters and their
     /// optimisers do not step (logged learning rate 0; an exploration floor still raises
-    /// the log-std). For a policy that starts at a good
+    /// the log-std; the actor's gradients are still computed, then dropped, and count in
+    /// the global gradient-norm clip, as after the burn-in). For a policy that starts at a good
     /// controller's gait (residual RL), whose first updates would otherwise follow the
     /// advantages of a critic that has not yet learnt that gait's value (Silver et al.
     /// 2018, "Residual Policy Learning", arXiv:1812.06298, section 4). Must be below the
