@@ -183,6 +183,11 @@ pub struct HybridArgs {
     /// ant 1, walker2d 1, humanoid 0.3]
     #[arg(long)]
     pub max_acceleration: Option<f64>,
+    /// The hybrid's policy also observes the controller's measured body state: the CoM's
+    /// velocity in the heading frame and its height (4 entries after the reference
+    /// action), which the robot's own observation may lack (the Minitaur's does)
+    #[arg(long)]
+    pub observe_state: bool,
     /// A safety fade as the body sinks: the policy's steering fades from full at a sag of
     /// START to none halfway to END, then its joint residual to none at END, the sag being
     /// the CoM's drop below the controller's height reference as a fraction of it (e.g.
@@ -267,6 +272,7 @@ impl HybridArgs {
         if self.max_acceleration.is_some() {
             preset.max_acceleration = self.max_acceleration;
         }
+        preset.include_state |= self.observe_state;
         if let Some([start, end]) = self.fade.as_deref() {
             preset.fade = Some(Fade { start: *start, end: *end });
         }
@@ -549,6 +555,14 @@ mod tests {
         assert_eq!(ramp(&[]), None);
         assert_eq!(ramp(&["--max-acceleration", "6"]), Some(6.0));
         assert!(parse_hybrid(minitaur.clone(), &["--max-acceleration", "x"]).is_err());
+    }
+
+    #[test]
+    fn the_body_state_is_observed_only_when_asked() {
+        let minitaur = residual_config("minitaur").unwrap();
+        assert!(!minitaur.include_state);
+        assert!(!parse_hybrid(minitaur.clone(), &[]).unwrap().include_state);
+        assert!(parse_hybrid(minitaur, &["--observe-state"]).unwrap().include_state);
     }
 
     #[test]

@@ -17,7 +17,7 @@ use centaur_gym::BoxSpace;
 use centaur_mpc::{Command, ControllerConfig, LocomotionController};
 use centaur_rl::Policy;
 
-use crate::hybrid::{CommandTorques, ContactMap, HybridError, Residual, ResidualConfig};
+use crate::hybrid::{CommandTorques, ContactMap, HybridError, Residual, ResidualConfig, observed_state};
 
 /// What a robot (or its simulation) provides to the locomotion stack.
 pub trait RobotInterface {
@@ -184,12 +184,14 @@ impl HybridStack {
             None => self.command.copy_from_slice(&self.reference),
             Some(policy) => {
                 robot.sensors(&mut self.sensors);
-                let phase = self.controller.status().phase;
+                let status = self.controller.status();
+                let state = observed_state(status);
                 self.residual.observation(
                     &self.sensors,
-                    phase,
+                    status.phase,
                     &self.steered,
                     &self.reference,
+                    &state,
                     &mut self.obs,
                 );
                 policy.act(&self.obs, &mut self.residual_out);

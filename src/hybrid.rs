@@ -14,7 +14,9 @@
 
 use centaur_dynamics::{Model, RobotState};
 use centaur_envs::{RobotEnv, Servo};
-use centaur_mpc::{Command, ConfigError, ControllerConfig, Gait, JointCommand, LocomotionController};
+use centaur_mpc::{
+    Command, ConfigError, ControllerConfig, ControllerStatus, Gait, JointCommand, LocomotionController,
+};
 
 /// What the hybrid's pieces refuse.
 #[derive(Debug, thiserror::Error)]
@@ -336,6 +338,17 @@ pub struct ResidualConfig {
     pub warmup_with_policy: bool,
     /// Append the reference action to the observation (default: true).
     pub include_reference: bool,
+    /// Append the controller's measured body state to the observation (default: false;
+    /// recorded only where set, so the records of runs without it read as before): the
+    /// CoM's velocity in the heading frame (forward, lateral, vertical, m/s) and its
+    /// height (m), [`observed_state`] of the controller's last tick. The controller
+    /// estimates these for itself every tick (in simulation: the simulator's base state,
+    /// on a robot: its state estimator), so the hybrid's policy sees what its controller
+    /// sees; the robot's own observation may lack them (the Minitaur's, PyBullet's, holds
+    /// joint angles, velocities, torques and the base orientation, not the body's
+    /// velocity, and pure RL on it does not see them either).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub include_state: bool,
     /// The command the controller follows (default: trot at 0.3 m/s); with steering, the
     /// command at zero steering output.
     pub command: Command,
@@ -376,7 +389,7 @@ pub struct ResidualConfig {
 }
 
 /// Every field as `derive(Debug)` writes it, but `fade`, `exploration_ramp`, `bound_ramp`,
-/// `period_scale` and `max_acceleration` only where set: runs record this text in their fingerprint
+/// `period_scale`, `max_acceleration` and `include_state` only where set: runs record this text in their fingerprint
 /// ([`crate::experiment::ExperimentOptions::fingerprint`]), and a run without them keeps
 /// the fingerprint it had before they existed (so `centaur compare --resume` and
 /// `--pure-from` still take it).
@@ -390,6 +403,7 @@ impl std::fmt::Debug for ResidualConfig {
             exploration_ramp,
             warmup_with_policy,
             include_reference,
+            include_state,
             command,
             rated_speed,
             fade,
@@ -405,10 +419,11 @@ impl std::fmt::Debug for ResidualConfig {
         if let Some(ramp) = exploration_ramp {
             s.field("exploration_ramp", ramp);
         }
-        s.field("warmup_with_policy", warmup_with_policy)
-            .field("include_reference", include_reference)
-            .field("command", command)
-            .field("rated_speed", rated_speed);
+        s.field("warmup_with_policy", warmup_with_policy).field("include_reference", include_reference);
+        if *include_state {
+            s.field("include_state", include_state);
+        }
+        s.field("command", command).field("rated_speed", rated_speed);
         if let Some(fade) = fade {
             s.field("fade", fade);
         }
@@ -435,6 +450,7 @@ impl Default for ResidualConfig {
             exploration_ramp: None,
             warmup_with_policy: false,
             include_reference: true,
+            include_state: false,
             command: Command::forward(0.3, Gait::Trot),
             rated_speed: None,
             fade: None,
@@ -728,7 +744,27 @@ pub struct Residual {
     joint: bool,
     steering: Steering,
     include_reference: bool,
+    include_state: bool,
     fade: Option<Fade>,
+}
+
+/// Entries of [`observed_state`].
+pub const OBSERVED_STATE_DIM: usize = 4;
+
+/// The body state a hybrid's policy observes with [`ResidualConfig::include_state`], from
+/// the controller's last tick: the CoM's velocity turned into the heading frame (the
+/// body's yaw; forward, lateral, vertical, m/s) and the CoM's height (m). Non-finite
+/// values (a controller that never ticked on a valid state) read as 0.
+pub fn observed_state(status: &ControllerStatus) -> [f32; OBSERVED_STATE_DIM] {
+    heading_state(status.com, status.com_velocity, status.rpy[2])
+}
+
+/// [`observed_state`] of a CoM at `com` moving at `velocity` (world) under a heading `yaw`.
+fn heading_state(com: [f64; 3], velocity: [f64; 3], yaw: f64) -> [f32; OBSERVED_STATE_DIM] {
+    let [vx, vy, vz] = velocity;
+    let (s, c) = yaw.sin_cos();
+    let finite = |x: f64| if x.is_finite() { x as f32 } else { 0.0 };
+    [finite(c * vx + s * vy), finite(-s * vx + c * vy), finite(vz), finite(com[2])]
 }
 
 impl Residual {
@@ -742,6 +778,7 @@ impl Residual {
             joint: config.joint_residual,
             steering: config.steering,
             include_reference: config.include_reference,
+            include_state: config.include_state,
             fade: config.fade,
         })
     }
@@ -771,12 +808,20 @@ impl Residual {
 
     /// Dimension of the policy's observation over a robot observation of `robot_obs_dim`.
     pub fn obs_dim(&self, robot_obs_dim: usize) -> usize {
-        robot_obs_dim + 5 + if self.include_reference { self.scale.len() } else { 0 }
+        robot_obs_dim
+            + 5
+            + if self.include_reference { self.scale.len() } else { 0 }
+            + if self.include_state { OBSERVED_STATE_DIM } else { 0 }
     }
 
     /// Whether the reference action is part of the observation.
     pub fn includes_reference(&self) -> bool {
         self.include_reference
+    }
+
+    /// Whether the controller's body state ([`observed_state`]) is part of the observation.
+    pub fn includes_state(&self) -> bool {
+        self.include_state
     }
 
     /// `applied = clip(reference + g · scale ⊙ clip(r, −1, 1), low, high)`, per entry, with
@@ -867,8 +912,9 @@ impl Residual {
     }
 
     /// The policy's observation: the robot's observation, the gait phase
-    /// `(sin 2πφ, cos 2πφ)`, the command `(v_x, v_y, ω_z)` and (if included) the reference
-    /// action.
+    /// `(sin 2πφ, cos 2πφ)`, the command `(v_x, v_y, ω_z)`, (if included) the reference
+    /// action and (if included) the controller's body `state` ([`observed_state`]; ignored
+    /// where not included).
     #[track_caller]
     pub fn observation(
         &self,
@@ -876,6 +922,7 @@ impl Residual {
         phase: f64,
         command: &Command,
         reference: &[f32],
+        state: &[f32; OBSERVED_STATE_DIM],
         out: &mut [f32],
     ) {
         let n = robot_obs.len();
@@ -894,8 +941,13 @@ impl Residual {
             command.lateral_velocity as f32,
             command.yaw_rate as f32,
         ]);
+        let mut k = n + 5;
         if self.include_reference {
-            out[n + 5..].copy_from_slice(reference);
+            out[k..k + self.scale.len()].copy_from_slice(reference);
+            k += self.scale.len();
+        }
+        if self.include_state {
+            out[k..].copy_from_slice(state);
         }
     }
 }
@@ -1116,17 +1168,71 @@ mod tests {
         assert_eq!(Residual::new(&per_entry, 3).unwrap().robot_action_dim(), 3);
     }
 
+    /// `r`'s observation of a 3-entry robot observation `[1, 2, 3]` at `phase` under a 0.5 m/s
+    /// trot, with the reference `[0.7, −0.7]` and the body `state`.
+    fn observe(r: &Residual, phase: f64, state: &[f32; OBSERVED_STATE_DIM]) -> Vec<f32> {
+        let mut out = vec![0.0f32; r.obs_dim(3)];
+        r.observation(
+            &[1.0, 2.0, 3.0],
+            phase,
+            &Command::forward(0.5, Gait::Trot),
+            &[0.7, -0.7],
+            state,
+            &mut out,
+        );
+        out
+    }
+
     #[test]
     fn the_observation_appends_phase_command_and_reference() {
         let r = Residual::new(&ResidualConfig::new(0.3, Command::forward(0.5, Gait::Trot)), 2).unwrap();
-        let mut out = vec![0.0f32; r.obs_dim(3)];
-        r.observation(&[1.0, 2.0, 3.0], 0.25, &Command::forward(0.5, Gait::Trot), &[0.7, -0.7], &mut out);
+        let out = observe(&r, 0.25, &[9.0; OBSERVED_STATE_DIM]);
         // φ = 1/4: (sin π/2, cos π/2) = (1, 0).
         assert_eq!(out.len(), 3 + 5 + 2);
         assert_eq!(&out[..3], &[1.0, 2.0, 3.0]);
         assert!((out[3] - 1.0).abs() < 1e-7 && out[4].abs() < 1e-7);
         assert_eq!(&out[5..8], &[0.5, 0.0, 0.0]);
         assert_eq!(&out[8..], &[0.7, -0.7]);
+    }
+
+    #[test]
+    fn the_observation_appends_the_body_state_last_and_only_where_asked() {
+        let config = ResidualConfig {
+            include_state: true,
+            ..ResidualConfig::new(0.3, Command::forward(0.5, Gait::Trot))
+        };
+        let r = Residual::new(&config, 2).unwrap();
+        assert!(r.includes_state());
+        let state = [1.5, -0.25, 0.125, 0.2];
+        let out = observe(&r, 0.0, &state);
+        assert_eq!(out.len(), 3 + 5 + 2 + OBSERVED_STATE_DIM);
+        assert_eq!(&out[8..10], &[0.7, -0.7]);
+        assert_eq!(&out[10..], &state);
+        // Without the reference, the state follows the command.
+        let bare = Residual::new(&ResidualConfig { include_reference: false, ..config.clone() }, 2).unwrap();
+        assert_eq!(&observe(&bare, 0.0, &state)[8..], &state);
+        // Off (the default), nothing is appended and the records read as before.
+        let off = ResidualConfig::default();
+        assert!(!Residual::new(&off, 2).unwrap().includes_state());
+        assert!(!format!("{off:?}").contains("include_state"));
+        assert!(!serde_json::to_string(&off).unwrap().contains("include_state"));
+        assert!(format!("{config:?}").contains("include_state: true"));
+        let text = serde_json::to_string(&config).unwrap();
+        assert!(text.contains("\"include_state\":true"), "{text}");
+        assert_eq!(serde_json::from_str::<ResidualConfig>(&text).unwrap(), config);
+    }
+
+    #[test]
+    fn the_observed_state_turns_the_velocity_into_the_heading_frame() {
+        // Heading along +y: the world's +y is forward, the world's +x is to the right.
+        let yaw = std::f64::consts::FRAC_PI_2;
+        let com = [4.0, 5.0, 0.19];
+        let [f, l, v, h] = heading_state(com, [0.0, 2.0, -0.1], yaw);
+        assert!((f - 2.0).abs() < 1e-6 && l.abs() < 1e-6, "({f}, {l})");
+        assert_eq!((v, h), (-0.1, 0.19));
+        let [f, l, ..] = heading_state(com, [1.0, 0.0, 0.0], yaw);
+        assert!(f.abs() < 1e-6 && (l + 1.0).abs() < 1e-6, "({f}, {l})");
+        assert_eq!(heading_state(com, [f64::NAN, 0.0, 0.0], yaw)[0], 0.0);
     }
 
     #[test]

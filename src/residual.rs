@@ -10,7 +10,8 @@
 //! [`crate::hybrid::ActionMapping`]); the law and the observation layout are
 //! [`crate::hybrid::Residual`]'s, the ones deployment uses. The policy observes the environment's observation,
 //! the gait phase `(sin 2πφ, cos 2πφ)`, the command `(v_x, v_y, ω_z)` and, optionally, the
-//! reference action itself. The reward is the environment's, unchanged, so pure RL and the
+//! reference action itself and the controller's measured body state
+//! ([`crate::hybrid::observed_state`]). The reward is the environment's, unchanged, so pure RL and the
 //! hybrid are judged on the same benchmark.
 //!
 //! With a policy whose mean output is zero the hybrid acts exactly like the controller
@@ -29,7 +30,9 @@ use centaur_gym::{BoxSpace, Env, EnvError, MAX_REWARD_TERMS, Step, check_action,
 use centaur_mpc::{Command, LocomotionController};
 use centaur_rl::{AlgoKind, Algorithm, RlError};
 
-use crate::hybrid::{ActionMapping, HybridError, Residual, ResidualConfig};
+use crate::hybrid::{
+    ActionMapping, HybridError, OBSERVED_STATE_DIM, Residual, ResidualConfig, observed_state,
+};
 
 /// Makes a freshly built learner of kind `kind` start a hybrid as its controller: its mean
 /// output zero (the untrained hybrid acts exactly like the controller) and, for learners
@@ -120,6 +123,10 @@ impl ResidualEnv {
             low.extend(env.action_space().low.iter());
             high.extend(env.action_space().high.iter());
         }
+        if residual.includes_state() {
+            low.extend([f32::NEG_INFINITY; OBSERVED_STATE_DIM]);
+            high.extend([f32::INFINITY; OBSERVED_STATE_DIM]);
+        }
         debug_assert_eq!(low.len(), residual.obs_dim(base.dim()));
         let name = format!("{}-residual", env.name());
         Ok(ResidualEnv {
@@ -183,8 +190,9 @@ impl ResidualEnv {
     }
 
     fn write_obs(&self, obs: &mut [f32]) {
-        let phase = self.controller.status().phase;
-        self.residual.observation(&self.env_obs, phase, &self.command, &self.reference, obs);
+        let status = self.controller.status();
+        let state = observed_state(status);
+        self.residual.observation(&self.env_obs, status.phase, &self.command, &self.reference, &state, obs);
     }
 }
 

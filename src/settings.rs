@@ -21,7 +21,7 @@
 //! |---|---|---|---|
 //! | `max_episode_steps`, `frame_skip` (the Minitaur's `action_repeat`) | ✓ | ✓ | ✓ |
 //! | `joint_history`, `drop_base_orientation` (observation) | ✓ | ✓ | ✓ |
-//! | `distance_weight`, `energy_weight`, `drift_weight`, `shake_weight`, `distance_limit`, `randomize`, `motor_strength`, `motor_inverse`, `latency`, `observation_noise_std` | ✓ | | |
+//! | `distance_weight`, `energy_weight`, `drift_weight`, `shake_weight`, `distance_limit`, `randomize`, `motor_strength`, `motor_inverse`, `latency`, `observation_noise_std`, `observe_body_state` | ✓ | | |
 //! | `forward_reward_weight`, `contact_cost_weight`, `healthy_reward`, `terminate_when_unhealthy`, `healthy_z_range`, `healthy_angle_range` | | ✓ | |
 //! | `ctrl_cost_weight`, `reset_noise_scale` | | ✓ | ✓ |
 //! | `observation` (`"full"`, `"hinges_orientation"`, `"hinges"`) | | | ✓ |
@@ -89,6 +89,11 @@ pub struct EnvSettings {
     /// Minitaur: observation noise, σ as a fraction of each entry's bound.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub observation_noise_std: Option<f64>,
+    /// Minitaur: append the body state to the observation (the CoM's velocity in the
+    /// heading frame and its height; `MinitaurConfig::observe_body_state`), what a hybrid's
+    /// policy observes with `--observe-state`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub observe_body_state: Option<bool>,
     /// Gymnasium robots: weight of the forward velocity.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub forward_reward_weight: Option<f64>,
@@ -153,7 +158,7 @@ pub struct NotApplicable {
 
 const COMMON: [&str; 5] =
     ["max_episode_steps", "frame_skip", "joint_history", "drop_base_orientation", "pushes"];
-const MINITAUR: [&str; 10] = [
+const MINITAUR: [&str; 11] = [
     "distance_weight",
     "energy_weight",
     "drift_weight",
@@ -164,6 +169,7 @@ const MINITAUR: [&str; 10] = [
     "motor_inverse",
     "latency",
     "observation_noise_std",
+    "observe_body_state",
 ];
 const LOCOMOTION: [&str; 8] = [
     "forward_reward_weight",
@@ -201,6 +207,7 @@ impl EnvSettings {
             ("motor_inverse", s.motor_inverse.is_some()),
             ("latency", s.latency.is_some()),
             ("observation_noise_std", s.observation_noise_std.is_some()),
+            ("observe_body_state", s.observe_body_state.is_some()),
             ("forward_reward_weight", s.forward_reward_weight.is_some()),
             ("ctrl_cost_weight", s.ctrl_cost_weight.is_some()),
             ("contact_cost_weight", s.contact_cost_weight.is_some()),
@@ -251,6 +258,7 @@ impl EnvSettings {
         set(&mut c.distance_limit, s.distance_limit);
         set(&mut c.latency, s.latency);
         set(&mut c.observation_noise_std, s.observation_noise_std);
+        set(&mut c.observe_body_state, s.observe_body_state);
         set(&mut c.pushes, s.pushes.map(Some));
         set(&mut c.motor_inverse, s.motor_inverse);
         match s.randomize {
@@ -377,6 +385,15 @@ mod tests {
         assert_eq!(s.task_keys(), ["motor_inverse"]);
         assert_eq!(s.locomotion(LocomotionConfig::ant()).unwrap_err().key, "motor_inverse");
         assert!(split_run_toml("[env]\nmotor_inverse = \"exact\"\n").unwrap_err().contains("exact"));
+        // The body state in the observation: the Minitaur's only, a task key (it changes
+        // what the policy observes), recorded in the env's config only where on.
+        let (s, _) = split_run_toml("[env]\nobserve_body_state = true\n").unwrap();
+        let m = s.minitaur(MinitaurConfig::default()).unwrap();
+        assert!(m.observe_body_state);
+        assert!(serde_json::to_string(&m).unwrap().contains("\"observe_body_state\":true"));
+        assert!(!serde_json::to_string(&MinitaurConfig::default()).unwrap().contains("observe_body_state"));
+        assert_eq!(s.task_keys(), ["observe_body_state"]);
+        assert_eq!(s.locomotion(LocomotionConfig::ant()).unwrap_err().key, "observe_body_state");
         // Every training-only key is a key some robot has.
         for k in TRAINING_ONLY {
             assert!(COMMON.contains(&k) || MINITAUR.contains(&k), "{k}");

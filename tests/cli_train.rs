@@ -1426,6 +1426,13 @@ fn the_shipped_run_files_parse() {
             let critic_lr = if name.ends_with("critic_lr") || burn_in { Some(1e-3) } else { None };
             assert_eq!(p.critic_learning_rate, critic_lr, "{name}");
             assert_eq!(p.actor_burn_in_steps, if burn_in { 20_480 } else { 0 }, "{name}");
+        } else {
+            // The pure agents' files: the fast settings, the body state observed where named.
+            let centaur_rl::AlgoConfig::Ppo(p) = config else { panic!("{name}") };
+            assert_eq!((p.n_steps, p.batch_size, p.n_epochs, p.learning_rate), (1024, 256, 10, 5e-4));
+            let observed = name.ends_with("body_state");
+            assert_eq!(settings.observe_body_state, observed.then_some(true), "{name}");
+            assert_eq!(settings.given().len(), usize::from(observed), "{name}");
         }
         seen += 1;
     }

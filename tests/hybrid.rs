@@ -253,6 +253,37 @@ fn the_observation_carries_phase_command_and_reference() {
 }
 
 #[test]
+fn the_observation_can_carry_the_controllers_body_state() {
+    use centaur::hybrid::{OBSERVED_STATE_DIM, observed_state};
+    let config = ResidualConfig { include_state: true, ..residual_config("minitaur").unwrap() };
+    let mut env = make_residual_env("minitaur", config).unwrap();
+    let n_env = env.inner().observation_space().dim();
+    let m = env.inner().action_space().dim();
+    let dim = env.observation_space().dim();
+    assert_eq!(dim, n_env + 5 + m + OBSERVED_STATE_DIM);
+    let mut obs = vec![0.0f32; dim];
+    env.reset(Some(3), &mut obs).unwrap();
+    let zero = vec![0.0f32; env.action_space().dim()];
+    let mut forward = 0.0;
+    for step in 0..150 {
+        env.step(&zero, &mut obs).unwrap();
+        // The reference action stays where it was, the state follows it.
+        assert_eq!(&obs[n_env + 5..n_env + 5 + m], env.reference());
+        let state = observed_state(env.controller().status());
+        assert_eq!(&obs[dim - OBSERVED_STATE_DIM..], &state);
+        let [vx, vy, _, h] = state;
+        assert!(h > 0.1 && h < 0.3, "step {step}: a CoM height of {h} m");
+        if step >= 100 {
+            forward += vx / 50.0;
+            assert!(vy.abs() < 1.0, "step {step}: sideways at {vy} m/s");
+        }
+    }
+    // The preset trots forward at its command: the state the policy sees says so.
+    let commanded = obs[n_env + 2];
+    assert!(forward > 0.5 * commanded && forward < 1.5 * commanded, "{forward} m/s under {commanded}");
+}
+
+#[test]
 fn bad_residuals_and_configs_are_refused() {
     let mut env = make_residual_env("walker2d", walker_walk()).unwrap();
     let mut obs = vec![0.0f32; env.observation_space().dim()];
@@ -492,6 +523,15 @@ fn the_deployed_stack_acts_exactly_like_the_residual_env_it_was_trained_in() {
         "with cadence and duty steering, the deployed stack diverged from the training environment"
     );
     assert!(ca != a, "the cadence, the duty and the clock changed nothing");
+    // With the controller's body state in the observation, the stack observes it as the env
+    // does (the policy's outputs, so the robot's path, depend on it).
+    let observing = ResidualConfig { include_state: true, ..config.clone() };
+    let (sa, sb) = both(&observing);
+    assert!(
+        sa == sb,
+        "with the body state observed, the deployed stack diverged from the training environment"
+    );
+    assert!(sa != a, "the observed body state changed nothing");
     let mut env = make_robot_env("minitaur", None).unwrap();
     let mut obs = vec![0.0f32; env.observation_space().dim()];
     env.reset(Some(9), &mut obs).unwrap();

@@ -232,6 +232,61 @@ fn observation_options_add_joint_history_and_drop_orientation() {
     assert_eq!(walker.qpos()[3] as f32, wobs[1], "the torso angle (qpos[2]) is gone");
 }
 
+#[test]
+fn the_minitaur_can_observe_its_body_state() {
+    use centaur_dynamics::{Data, center_of_mass};
+    let config = MinitaurConfig {
+        observe_body_state: true,
+        obs: ObsOptions { joint_history: 1, drop_base_orientation: false },
+        ..MinitaurConfig::deterministic()
+    };
+    let mut env = MinitaurEnv::new(config).unwrap();
+    assert_eq!(env.observation_space().dim(), 28 + 8 + 4);
+    let mut obs = vec![0.0f32; 40];
+    env.reset(Some(2), &mut obs).unwrap();
+    // The CoM of the nominal model (the deterministic robot's own) at the env's state.
+    let model = env.model().clone();
+    let mut data = Data::new(&model);
+    let mut com = |env: &MinitaurEnv| center_of_mass(&model, &mut data, env.robot_state().q.as_slice());
+    let dt = env.dt();
+    let mut start = com(&env);
+    assert!((obs[39] as f64 - start.z).abs() < 1e-6, "height {} against {}", obs[39], start.z);
+    // A walking pattern of actions: the body moves and rocks.
+    let mut velocity = obs[36..39].to_vec();
+    let mut travelled = [0.0f64; 3];
+    let mut rng = Rng::seed_from_u64(5);
+    for step in 0..60 {
+        let action: Vec<f32> = (0..8)
+            .map(|k| 0.6 * ((step as f32 * 0.4 + k as f32).sin()) + 0.05 * rng.normal() as f32)
+            .collect();
+        env.step(&action, &mut obs).unwrap();
+        let now = com(&env);
+        assert!((obs[39] as f64 - now.z).abs() < 1e-6, "step {step}: height");
+        // The heading stays near the start's (yaw ≈ 0 on this short run), so the heading
+        // frame is close to the world's: trapezoid-integrate the observed velocity.
+        for i in 0..3 {
+            travelled[i] += 0.5 * (velocity[i] + obs[36 + i]) as f64 * dt;
+        }
+        velocity.copy_from_slice(&obs[36..39]);
+        if step == 19 {
+            // Compare the integral with the CoM's displacement from here on (the first
+            // steps settle from the reset pose).
+            start = now;
+            travelled = [0.0; 3];
+        }
+    }
+    let moved = com(&env) - start;
+    for i in 0..3 {
+        assert!(
+            (travelled[i] - moved[i]).abs() < 0.01 + 0.1 * moved[i].abs(),
+            "axis {i}: the observed velocity integrates to {} m, the CoM moved {} m",
+            travelled[i],
+            moved[i]
+        );
+    }
+    assert!(moved.norm() > 0.01, "the body did not move ({} m)", moved.norm());
+}
+
 /// Every numeric setting out of range is refused before anything is built, with an error
 /// that names the field and its value (reliability probe: a NaN healthy reward, an inverted
 /// z range were accepted; a huge history or latency aborted on allocation; a huge frame

@@ -302,6 +302,7 @@ mod legacy {
             || residual.bound_ramp.is_some()
             || residual.period_scale.is_some()
             || residual.max_acceleration.is_some()
+            || residual.include_state
             || residual.steering.cadence != 0.0
             || residual.steering.duty != 0.0;
         if newer {
@@ -351,6 +352,8 @@ mod legacy {
                 bound_ramp: _,
                 period_scale: _,
                 max_acceleration: _,
+                // ... and the body state in the observation: it can only be off here.
+                include_state: _,
             } = self.r;
             let mut s = f.debug_struct("ResidualConfig");
             s.field("scale", scale)

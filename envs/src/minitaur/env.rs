@@ -1,7 +1,7 @@
 //! [`MinitaurEnv`]: the environment, its configuration and randomisation.
 
 use centaur_dynamics::nalgebra::Vector3;
-use centaur_dynamics::{Inertia, Model, RobotState};
+use centaur_dynamics::{Data, Inertia, Model, RobotState, jacobian_center_of_mass};
 use centaur_gym::{BoxSpace, Env, EnvError, Rng, Step, StepInfo};
 use centaur_gym::{check_action, check_observation};
 
@@ -121,6 +121,14 @@ pub struct MinitaurConfig {
     /// recorded; a recorded configuration without it was written before it existed, with
     /// the drawn motor ([`MotorInverse::legacy`]).
     pub motor_inverse: MotorInverse,
+    /// Append the body state to the observation (default: false; recorded only where set):
+    /// the centre of mass's velocity in the heading frame (forward, lateral, vertical,
+    /// m/s) and its height (m), of the nominal robot's mass distribution, undelayed and
+    /// without noise — what a hybrid's controller measures every tick and its policy may
+    /// observe (`include_state` of the root crate's residual setup), so pure RL can be
+    /// given the same information. Not part of `MinitaurBulletEnv-v0`'s observation.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub observe_body_state: bool,
 }
 
 /// The motor model a controller's torques are turned into actions with
@@ -167,6 +175,7 @@ impl Default for MinitaurConfig {
             obs: ObsOptions::default(),
             pushes: None,
             motor_inverse: MotorInverse::Nominal,
+            observe_body_state: false,
         }
     }
 }
@@ -271,6 +280,8 @@ pub struct MinitaurEnv {
     base_obs: [f32; 28],
     push: Push,
     episode_time: f64,
+    /// Buffers for the body state in the observation ([`MinitaurConfig::observe_body_state`]).
+    com_data: Option<Data>,
 }
 
 impl MinitaurEnv {
@@ -301,6 +312,9 @@ impl MinitaurEnv {
             high.extend(std::iter::repeat_n(b + OBSERVATION_EPS, n));
         }
         high.extend(std::iter::repeat_n(OBS_BOUNDS[0] + OBSERVATION_EPS, 8 * config.obs.joint_history));
+        if config.observe_body_state {
+            high.extend([f32::INFINITY; BODY_STATE_DIM]);
+        }
         let low = high.iter().map(|h| -h).collect();
         let motor = match &config.motor_control {
             MotorControl::Accurate(m) => m.clone(),
@@ -337,7 +351,11 @@ impl MinitaurEnv {
             base_obs: [0.0; 28],
             push: Push::new(pushes, false),
             episode_time: 0.0,
+            com_data: None,
         };
+        if env.config.observe_body_state {
+            env.com_data = Some(Data::new(&env.nominal));
+        }
         env.index_feet();
         Ok(env)
     }
@@ -457,6 +475,10 @@ impl MinitaurEnv {
         obs[..n].copy_from_slice(&base[..n]);
         self.history.push(&base[..8]);
         self.history.write(&mut obs[n..n + self.history.len()]);
+        if let Some(data) = self.com_data.as_mut() {
+            let k = n + self.history.len();
+            obs[k..k + BODY_STATE_DIM].copy_from_slice(&body_state(&self.nominal, data, &self.state));
+        }
     }
 
     fn update_contacts(&mut self) {
@@ -500,7 +522,28 @@ impl MinitaurEnv {
 }
 
 fn observation_dim(config: &MinitaurConfig) -> usize {
-    (if config.obs.drop_base_orientation { 24 } else { 28 }) + 8 * config.obs.joint_history
+    (if config.obs.drop_base_orientation { 24 } else { 28 })
+        + 8 * config.obs.joint_history
+        + if config.observe_body_state { BODY_STATE_DIM } else { 0 }
+}
+
+/// Entries of the body state ([`MinitaurConfig::observe_body_state`]).
+const BODY_STATE_DIM: usize = 4;
+
+/// The centre of mass's velocity in the heading frame (the base's yaw) and its height, at
+/// `state` of a robot of `model`'s masses; non-finite values read as 0.
+fn body_state(model: &Model, data: &mut Data, state: &RobotState) -> [f32; BODY_STATE_DIM] {
+    let q = state.q.as_slice();
+    let jc = jacobian_center_of_mass(model, data, q);
+    let mut v = Vector3::zeros();
+    for (k, vk) in state.v.iter().enumerate() {
+        v += jc.column(k) * *vk;
+    }
+    let height = data.com[0].z;
+    let (_, _, yaw) = state.base_orientation().euler_angles();
+    let (s, c) = yaw.sin_cos();
+    let finite = |x: f64| if x.is_finite() { x as f32 } else { 0.0 };
+    [finite(c * v.x + s * v.y), finite(-s * v.x + c * v.y), finite(v.z), finite(height)]
 }
 
 fn build_sim(model: &Model, config: &MinitaurConfig, foot_friction: f64) -> Result<Sim, RobotEnvError> {
