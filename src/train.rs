@@ -10,7 +10,7 @@
 //! | `metrics.csv` | one [`UpdateMetrics`] row per update / log interval; flushed and `fsync`ed at every checkpoint |
 //! | `episodes.csv` | every finished training episode: the run's step at its end, env index, return, length, terminated, each reward term summed over it |
 //! | `checkpoint` | the learner ([`centaur_rl::Checkpoint`] format, plus the env name under `env`): act with `Policy::load`, resume with `centaur train --resume DIR`; rewritten atomically every `checkpoint_every` steps and at the end |
-//! | `evaluations.csv` | with `eval_every`: `step,return_mean,return_std,length_mean,episodes`, the deterministic evaluation of the checkpoint taken every `eval_every` steps (the same episodes as the final one, which is its last row) |
+//! | `evaluations.csv` | with `eval_every`: `step,return_mean,return_std,length_mean,episodes`, the deterministic evaluation of the checkpoint taken every `eval_every` steps, at the end of the rollout that crosses each multiple (its `step`; the same episodes as the final one, which is its last row) |
 //! | `summary.json` | `{"env", "algo", "seed", "steps", "wall_seconds", "steps_per_second", "final_return_mean", "final_return_std"}`, written (atomically) before the plots |
 //! | `learning_curve.svg`, `learning_curve.png` | mean training episode return (± std band) against environment steps |
 //! | `metrics.svg`, `metrics.png` | every logged metric the learner has (return, length, losses, entropy, KL, clip fraction, explained variance, Q, α, learning rate, speed) against environment steps |
@@ -810,11 +810,21 @@ fn run_segments(
     };
     targets.push(record.steps);
     let evals_path = dir.join("evaluations.csv");
-    let due = |step: u64| {
-        record.eval_every > 0 && step > 0 && step < record.steps && step.is_multiple_of(record.eval_every)
+    // Whether the checkpoint of the segment that ran to `target` (a multiple of
+    // `checkpoint_every`, or the run's end) is evaluated. A learner finishes the rollout
+    // that crosses a target, so its checkpoint (and the evaluation's row) may come a few
+    // steps after it: the target decides, not the steps done (until 2026-12-06 the steps
+    // done did, and a rollout that did not divide `eval_every` silently evaluated nothing).
+    let due = |target: u64| {
+        record.eval_every > 0
+            && target > 0
+            && target < record.steps
+            && target.is_multiple_of(record.eval_every)
     };
     let resumed_at = algo.steps_done();
-    if due(resumed_at) && ckpt.exists() && !logs.evaluations.iter().any(|e| e.step == resumed_at) {
+    // The target whose segment wrote the checkpoint resumed from.
+    let resumed_target = if every > 0 { resumed_at / every * every } else { 0 };
+    if due(resumed_target) && ckpt.exists() && !logs.evaluations.iter().any(|e| e.step == resumed_at) {
         // Killed between the checkpoint and its evaluation.
         let stats = evaluate_checkpoint(&ckpt, source, record)?;
         logs.evaluations.push(Evaluation::new(resumed_at, &stats));
@@ -853,7 +863,7 @@ fn run_segments(
         logs.csv.sync().map_err(io_err(&csv_path))?;
         logs.episodes.sync().map_err(io_err(&logs.episodes.path))?;
         write_checkpoint(algo.as_ref(), record, &ckpt, &logs)?;
-        if due(algo.steps_done()) {
+        if due(target) {
             let stats = evaluate_checkpoint(&ckpt, source, record)?;
             logs.evaluations.push(Evaluation::new(algo.steps_done(), &stats));
             write_evaluations(&evals_path, &logs.evaluations).map_err(io_err(&evals_path))?;

@@ -213,6 +213,36 @@ fn summary_bits(dir: &std::path::Path) -> (u64, u64, u64, u64) {
     (s.seed, s.steps, s.final_return_mean.to_bits(), s.final_return_std.to_bits())
 }
 
+/// `--eval-every` that the learner's rollout does not divide: each checkpoint that comes
+/// due is evaluated, at the steps the rollout ended on (until 2026-12-06 none was: the
+/// steps done, 4,096 past each 4,000, were never a multiple of it).
+#[test]
+fn evaluations_come_due_where_the_rollout_does_not_divide_the_interval() {
+    let config = small_ppo_config("uneven.toml", "seed = 4\n");
+    let out = out_dir("uneven");
+    let opts = TrainOptions {
+        env: "pendulum".into(),
+        algo: AlgoKind::Ppo,
+        steps: 12_000,
+        seed: None,
+        out: out.clone(),
+        config: Some(config),
+        threads: 1,
+        n_envs: 2,
+        eval_episodes: 10,
+        checkpoint_every: 4_000,
+        eval_every: 4_000,
+        overwrite: false,
+    };
+    let summary = train(&opts, &mut |_| {}).unwrap();
+    let evals = centaur::train::read_evaluations(&out.join("evaluations.csv")).unwrap();
+    // Rollouts of 2 × 256 = 512 steps: the segments end at 4,096, 8,192 and 12,288.
+    let steps: Vec<u64> = evals.iter().map(|e| e.step).collect();
+    assert_eq!(steps, [4_096, 8_192, 12_288]);
+    assert_eq!(evals.last().unwrap().return_mean, summary.final_return_mean);
+    std::fs::remove_dir_all(&out).ok();
+}
+
 /// Reliability probe, data loss 1 and 2: a run directory is never reused silently, and a
 /// run killed with SIGKILL mid-training resumes (`centaur train --resume`) to the metrics,
 /// evaluation and learner state of the uninterrupted run, bit for bit, on another number
