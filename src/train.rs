@@ -823,7 +823,7 @@ fn run_segments(
     };
     let resumed_at = algo.steps_done();
     // The target whose segment wrote the checkpoint resumed from.
-    let resumed_target = if every > 0 { resumed_at / every * every } else { 0 };
+    let resumed_target = resumed_at.checked_div(every).map_or(0, |k| k * every);
     if due(resumed_target) && ckpt.exists() && !logs.evaluations.iter().any(|e| e.step == resumed_at) {
         // Killed between the checkpoint and its evaluation.
         let stats = evaluate_checkpoint(&ckpt, source, record)?;
