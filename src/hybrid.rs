@@ -749,22 +749,15 @@ pub struct Residual {
 }
 
 /// Entries of [`observed_state`].
-pub const OBSERVED_STATE_DIM: usize = 4;
+pub const OBSERVED_STATE_DIM: usize = centaur_envs::BODY_STATE_DIM;
 
 /// The body state a hybrid's policy observes with [`ResidualConfig::include_state`], from
 /// the controller's last tick: the CoM's velocity turned into the heading frame (the
-/// body's yaw; forward, lateral, vertical, m/s) and the CoM's height (m). Non-finite
-/// values (a controller that never ticked on a valid state) read as 0.
+/// body's yaw; forward, lateral, vertical, m/s) and the CoM's height (m), by
+/// [`centaur_envs::heading_body_state`], the law pure RL's `observe_body_state` uses.
+/// Non-finite values (a controller that never ticked on a valid state) read as 0.
 pub fn observed_state(status: &ControllerStatus) -> [f32; OBSERVED_STATE_DIM] {
-    heading_state(status.com, status.com_velocity, status.rpy[2])
-}
-
-/// [`observed_state`] of a CoM at `com` moving at `velocity` (world) under a heading `yaw`.
-fn heading_state(com: [f64; 3], velocity: [f64; 3], yaw: f64) -> [f32; OBSERVED_STATE_DIM] {
-    let [vx, vy, vz] = velocity;
-    let (s, c) = yaw.sin_cos();
-    let finite = |x: f64| if x.is_finite() { x as f32 } else { 0.0 };
-    [finite(c * vx + s * vy), finite(-s * vx + c * vy), finite(vz), finite(com[2])]
+    centaur_envs::heading_body_state(status.com, status.com_velocity, status.rpy[2])
 }
 
 impl Residual {
@@ -1227,12 +1220,12 @@ mod tests {
         // Heading along +y: the world's +y is forward, the world's +x is to the right.
         let yaw = std::f64::consts::FRAC_PI_2;
         let com = [4.0, 5.0, 0.19];
-        let [f, l, v, h] = heading_state(com, [0.0, 2.0, -0.1], yaw);
+        let [f, l, v, h] = centaur_envs::heading_body_state(com, [0.0, 2.0, -0.1], yaw);
         assert!((f - 2.0).abs() < 1e-6 && l.abs() < 1e-6, "({f}, {l})");
         assert_eq!((v, h), (-0.1, 0.19));
-        let [f, l, ..] = heading_state(com, [1.0, 0.0, 0.0], yaw);
+        let [f, l, ..] = centaur_envs::heading_body_state(com, [1.0, 0.0, 0.0], yaw);
         assert!(f.abs() < 1e-6 && (l + 1.0).abs() < 1e-6, "({f}, {l})");
-        assert_eq!(heading_state(com, [f64::NAN, 0.0, 0.0], yaw)[0], 0.0);
+        assert_eq!(centaur_envs::heading_body_state(com, [f64::NAN, 0.0, 0.0], yaw)[0], 0.0);
     }
 
     #[test]

@@ -22,5 +22,5 @@ pub use modular::{
     Body, Face, ModularConfig, ModularEnv, ModularError, ModularObservation, ModularReward, ModuleId,
     ModuleKind, ModuleSpecs,
 };
-pub use robot::{FootContact, ObsOptions, PushSchedule, RobotEnv, Servo};
+pub use robot::{BODY_STATE_DIM, FootContact, ObsOptions, PushSchedule, RobotEnv, Servo, heading_body_state};
 pub use sim::{ColliderSpec, LoopClosure, Sim, SimConfig, SimError};

@@ -230,3 +230,19 @@ impl JointHistory {
         self.k * self.n
     }
 }
+
+/// Entries of [`heading_body_state`].
+pub const BODY_STATE_DIM: usize = 4;
+
+/// The body state a policy may observe: the CoM's `velocity` (world) turned into the
+/// heading frame of `yaw` (forward, lateral, vertical, m/s) and the height of the CoM at
+/// `com` (m); non-finite values read as 0. The hybrid's policy observes it from its
+/// controller's last tick (the root crate's `hybrid::observed_state`), pure RL on the
+/// Minitaur from the simulator ([`crate::MinitaurConfig::observe_body_state`]): one law for
+/// both, so the two see the same numbers.
+pub fn heading_body_state(com: [f64; 3], velocity: [f64; 3], yaw: f64) -> [f32; BODY_STATE_DIM] {
+    let [vx, vy, vz] = velocity;
+    let (s, c) = yaw.sin_cos();
+    let finite = |x: f64| if x.is_finite() { x as f32 } else { 0.0 };
+    [finite(c * vx + s * vy), finite(-s * vx + c * vy), finite(vz), finite(com[2])]
+}

@@ -12,7 +12,9 @@ use super::model::{
 use super::motor::MotorModel;
 use crate::checks::{Fields, MAX_FRAME_SKIP};
 use crate::error::RobotEnvError;
-use crate::robot::{FootContact, JointHistory, ObsOptions, Push, PushSchedule, RobotEnv};
+use crate::robot::{
+    BODY_STATE_DIM, FootContact, JointHistory, ObsOptions, Push, PushSchedule, RobotEnv, heading_body_state,
+};
 use crate::sim::{ColliderSpec, LoopClosure, Sim, SimConfig};
 
 /// Observation bounds: angle, velocity (V / Kt), observed torque, quaternion.
@@ -527,23 +529,17 @@ fn observation_dim(config: &MinitaurConfig) -> usize {
         + if config.observe_body_state { BODY_STATE_DIM } else { 0 }
 }
 
-/// Entries of the body state ([`MinitaurConfig::observe_body_state`]).
-const BODY_STATE_DIM: usize = 4;
-
-/// The centre of mass's velocity in the heading frame (the base's yaw) and its height, at
-/// `state` of a robot of `model`'s masses; non-finite values read as 0.
+/// [`heading_body_state`] of the CoM at `state` of a robot of `model`'s masses, under the
+/// base's yaw.
 fn body_state(model: &Model, data: &mut Data, state: &RobotState) -> [f32; BODY_STATE_DIM] {
-    let q = state.q.as_slice();
-    let jc = jacobian_center_of_mass(model, data, q);
+    let jc = jacobian_center_of_mass(model, data, state.q.as_slice());
     let mut v = Vector3::zeros();
     for (k, vk) in state.v.iter().enumerate() {
         v += jc.column(k) * *vk;
     }
-    let height = data.com[0].z;
+    let com = data.com[0];
     let (_, _, yaw) = state.base_orientation().euler_angles();
-    let (s, c) = yaw.sin_cos();
-    let finite = |x: f64| if x.is_finite() { x as f32 } else { 0.0 };
-    [finite(c * v.x + s * v.y), finite(-s * v.x + c * v.y), finite(v.z), finite(height)]
+    heading_body_state([com.x, com.y, com.z], [v.x, v.y, v.z], yaw)
 }
 
 fn build_sim(model: &Model, config: &MinitaurConfig, foot_friction: f64) -> Result<Sim, RobotEnvError> {
