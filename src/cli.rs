@@ -183,6 +183,12 @@ pub struct HybridArgs {
     /// ant 1, walker2d 1, humanoid 0.3]
     #[arg(long)]
     pub max_acceleration: Option<f64>,
+    /// The controller's CoM height under the hybrid (and its controller-alone baseline's),
+    /// m, replacing its gait's own; a positive finite height (a height the legs cannot hold
+    /// makes the controller, and so the hybrid, fall) [default: the gait's own: the
+    /// robot's standing CoM height on the Minitaur's trot]
+    #[arg(long)]
+    pub body_height: Option<f64>,
     /// The hybrid's policy also observes the controller's measured body state: the CoM's
     /// velocity in the heading frame and its height (4 entries after the reference
     /// action), which the robot's own observation may lack (the Minitaur's does)
@@ -271,6 +277,9 @@ impl HybridArgs {
         }
         if self.max_acceleration.is_some() {
             preset.max_acceleration = self.max_acceleration;
+        }
+        if self.body_height.is_some() {
+            preset.command.body_height = self.body_height;
         }
         preset.include_state |= self.observe_state;
         if let Some([start, end]) = self.fade.as_deref() {
@@ -555,6 +564,15 @@ mod tests {
         assert_eq!(ramp(&[]), None);
         assert_eq!(ramp(&["--max-acceleration", "6"]), Some(6.0));
         assert!(parse_hybrid(minitaur.clone(), &["--max-acceleration", "x"]).is_err());
+    }
+
+    #[test]
+    fn the_body_height_is_the_gaits_unless_given() {
+        let minitaur = residual_config("minitaur").unwrap();
+        let height = |args: &[&str]| parse_hybrid(minitaur.clone(), args).unwrap().command.body_height;
+        assert_eq!(height(&[]), None);
+        assert_eq!(height(&["--body-height", "0.21"]), Some(0.21));
+        assert!(parse_hybrid(minitaur.clone(), &["--body-height", "x"]).is_err());
     }
 
     #[test]
