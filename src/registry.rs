@@ -586,6 +586,25 @@ pub fn make_vec_env(name: &str, n: usize, threads: usize) -> Result<VecEnv, Regi
 mod tests {
     use super::*;
 
+    #[test]
+    fn a_body_height_beyond_the_robots_reach_is_refused() {
+        let preset = residual_config("minitaur").unwrap();
+        let with = |h: f64| {
+            let command = Command { body_height: Some(h), ..preset.command };
+            make_residual_env("minitaur", ResidualConfig { command, ..preset.clone() })
+        };
+        // The screened heights (README, "Where the hybrid's gait tops out") build.
+        assert!(with(0.21).is_ok() && with(0.24).is_ok());
+        let refused = |h: f64| with(h).err().unwrap_or_else(|| panic!("{h} accepted")).to_string();
+        for bad in [20.0, 0.01] {
+            let err = refused(bad);
+            assert!(err.contains("body_height") && err.contains("standing CoM height"), "{err}");
+        }
+        for bad in [f64::INFINITY, f64::NAN, -0.2] {
+            assert!(refused(bad).contains("body_height"), "{bad}");
+        }
+    }
+
     /// `rated_speed` reaches the controller the hybrid runs; a bad one is an error, not a
     /// silently kept preset.
     #[test]
