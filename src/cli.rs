@@ -184,9 +184,9 @@ pub struct HybridArgs {
     #[arg(long)]
     pub max_acceleration: Option<f64>,
     /// The controller's CoM height under the hybrid (and its controller-alone baseline's),
-    /// m, replacing its gait's own; a positive finite height (a height the legs cannot hold
-    /// makes the controller, and so the hybrid, fall) [default: the gait's own: the
-    /// robot's standing CoM height on the Minitaur's trot]
+    /// m, replacing its gait's own; within 0.5–2 × the robot's standing CoM height
+    /// (refused otherwise) [default: the gait's own: the robot's standing CoM height on the
+    /// Minitaur's trot]
     #[arg(long)]
     pub body_height: Option<f64>,
     /// The hybrid's policy also observes the controller's measured body state: the CoM's
