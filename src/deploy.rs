@@ -120,7 +120,8 @@ impl HybridStack {
         let mut controller = controller;
         config.rate_controller(&mut controller)?;
         let controller = LocomotionController::new(robot.model(), controller)?;
-        config.check_body_height(&controller)?;
+        // The command for this robot (a body height within its legs' reach).
+        controller.check_command(&config.command)?;
         let torques = CommandTorques::new(robot.model(), robot.actuated_joints(), &controller)?;
         let m = robot.command_space().dim();
         let residual = Residual::new(&config, m)?;

@@ -571,25 +571,6 @@ impl ResidualConfig {
         Ok(())
     }
 
-    /// A set body height ([`Command::body_height`]) within [`BODY_HEIGHT_RANGE`] times the
-    /// standing CoM height of `controller`'s robot: a height in centimetres (20 for 0.2 m)
-    /// or far beyond the legs would only make every episode fall, so it is refused when the
-    /// hybrid is built (`ResidualEnv::new`, `deploy::HybridStack::new`).
-    pub fn check_body_height(&self, controller: &LocomotionController) -> Result<(), HybridError> {
-        let Some(h) = self.command.body_height else { return Ok(()) };
-        let standing = controller.robot().nominal_com_height;
-        let (lo, hi) = BODY_HEIGHT_RANGE;
-        if h.is_finite() && h >= lo * standing && h <= hi * standing {
-            Ok(())
-        } else {
-            Err(HybridError::BadSetting {
-                part: "command.body_height",
-                value: h,
-                expected: "a height within 0.5–2 × the robot's standing CoM height",
-            })
-        }
-    }
-
     /// The ramp's end σ within (0, 10] and at least the start's, a positive sample count,
     /// and something to ramp: an initial exploration and a joint residual.
     fn validate_ramp(&self, ramp: ExplorationRamp) -> Result<(), HybridError> {
@@ -703,10 +684,6 @@ pub const MAX_RATED_SPEED: f64 = 20.0;
 /// in `centaur control`: one turn a second, far beyond every robot here (the presets turn
 /// at up to 0.5 rad/s). A larger one only ramps the yaw reference without end.
 pub const MAX_YAW_RATE: f64 = 2.0 * std::f64::consts::PI;
-
-/// The body heights the hybrid accepts ([`ResidualConfig::check_body_height`]), as
-/// fractions of the robot's standing CoM height.
-pub const BODY_HEIGHT_RANGE: (f64, f64) = (0.5, 2.0);
 
 /// The widest cadence span ([`Steering::cadence`]): the gait clock's rate stays within
 /// [0.25, 1.75] times its own, inside the range the controller runs its clock at

@@ -99,7 +99,8 @@ impl ResidualEnv {
         let mapping = ActionMapping::new(env.as_ref(), &controller)?;
         let m = env.action_space().dim();
         let residual = Residual::new(&config, m)?;
-        config.check_body_height(&controller)?;
+        // The command for this robot (a body height within its legs' reach).
+        controller.check_command(&config.command)?;
         // A bound wider than the action range clips to the range: a typo such as 1e300 is
         // refused rather than carried as infinity.
         let space = env.action_space();

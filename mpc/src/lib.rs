@@ -123,7 +123,8 @@ mod wbc;
 
 pub use config::{Command, ControlMode, ControllerConfig, GaitOffer, HeightRise, MpcExecution, TurnRating};
 pub use controller::{
-    ControllerStatus, Fallback, JointCommand, LANDING_HEIGHT, LocomotionController, wrap_pi,
+    BODY_HEIGHT_RANGE, ControllerStatus, Fallback, JointCommand, LANDING_HEIGHT, LocomotionController,
+    wrap_pi,
 };
 pub use convex_mpc::{ConvexMpc, HardConstraints, MpcConfig, MpcInput, MpcSolver, NX, state_index};
 pub use error::ConfigError;

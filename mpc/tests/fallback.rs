@@ -49,6 +49,28 @@ fn low_friction_mpc_infeasible_decays_last_forces() {
 }
 
 #[test]
+fn a_body_height_beyond_the_legs_gives_posture_pd() {
+    let (model, cfg) = common::load("solo12");
+    let mut c = LocomotionController::new(&model, cfg).unwrap();
+    let s = c.nominal_state();
+    let standing = c.robot().nominal_com_height;
+    let at = |h: f64| Command { body_height: Some(h), ..Command::stand() };
+    // Within 0.5–2 × the standing height: accepted and run.
+    assert!(c.check_command(&at(1.1 * standing)).is_ok());
+    c.tick(&s, &at(1.1 * standing), 0.0);
+    assert_eq!(c.status().fallback, Fallback::None);
+    // In centimetres, or a tenth of the standing height: refused, and a tick holds the posture.
+    for (k, h) in [100.0 * standing, 0.1 * standing].into_iter().enumerate() {
+        let err = c.check_command(&at(h)).unwrap_err().to_string();
+        assert!(err.contains("command.body_height") && err.contains("standing CoM height"), "{err}");
+        c.tick(&s, &at(h), 0.001 * (k + 1) as f64);
+        assert_eq!(c.status().fallback, Fallback::PosturePd, "{h}");
+    }
+    c.tick(&s, &Command::stand(), 0.003);
+    assert_eq!(c.status().fallback, Fallback::None);
+}
+
+#[test]
 fn non_finite_state_gives_posture_pd() {
     for (name, _, _) in common::ROBOTS {
         let (model, cfg) = common::load(name);

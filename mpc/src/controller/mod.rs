@@ -42,6 +42,10 @@ use crate::error::ConfigError;
 use crate::gait::{Gait, GaitScheduler};
 use crate::robot::LeggedRobot;
 
+/// The body heights a command may set ([`Command::body_height`]), as fractions of the
+/// robot's standing CoM height ([`LocomotionController::check_command`]).
+pub const BODY_HEIGHT_RANGE: (f64, f64) = (0.5, 2.0);
+
 /// The locomotion controller. See the crate documentation for the pipeline.
 pub struct LocomotionController {
     cfg: ControllerConfig,
@@ -101,6 +105,28 @@ impl LocomotionController {
     /// Names of the actuated joints: the order of every vector in [`JointCommand`].
     pub fn joint_names(&self) -> &[String] {
         &self.robot.actuated_names
+    }
+
+    /// Checks `command` for this robot: [`Command::check`]'s numbers, and a set body height
+    /// within [`BODY_HEIGHT_RANGE`] times the robot's standing CoM height (a height in
+    /// centimetres, or far beyond the legs, would only make the robot fall). Every tick
+    /// answers a command that fails it with the posture fallback; the hybrid refuses one
+    /// when it is built.
+    pub fn check_command(&self, command: &Command) -> Result<(), ConfigError> {
+        command.check()?;
+        match command.body_height {
+            Some(h)
+                if !(h >= BODY_HEIGHT_RANGE.0 * self.robot.nominal_com_height
+                    && h <= BODY_HEIGHT_RANGE.1 * self.robot.nominal_com_height) =>
+            {
+                Err(ConfigError::OutOfRange {
+                    field: "command.body_height",
+                    value: h,
+                    range: "within 0.5–2 × the robot's standing CoM height",
+                })
+            }
+            _ => Ok(()),
+        }
     }
 
     /// The resolved robot (model with contact frames, nominal pose, mass, inertia).
@@ -242,7 +268,7 @@ impl LocomotionController {
         self.status.begin(t);
         if !state.is_finite()
             || !t.is_finite()
-            || command.check().is_err()
+            || self.check_command(command).is_err()
             || !self.estimate.set_state(&self.robot, &state.q, &state.v)
         {
             self.posture_fallback();
