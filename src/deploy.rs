@@ -17,7 +17,7 @@ use centaur_gym::BoxSpace;
 use centaur_mpc::{Command, ControllerConfig, LocomotionController};
 use centaur_rl::Policy;
 
-use crate::hybrid::{CommandTorques, ContactMap, HybridError, Residual, ResidualConfig, observed_state};
+use crate::hybrid::{CommandTorques, ContactMap, HybridError, Residual, ResidualConfig};
 
 /// What a robot (or its simulation) provides to the locomotion stack.
 pub trait RobotInterface {
@@ -187,7 +187,7 @@ impl HybridStack {
             Some(policy) => {
                 robot.sensors(&mut self.sensors);
                 let status = self.controller.status();
-                let state = observed_state(status);
+                let state = self.residual.state_of(status);
                 self.residual.observation(
                     &self.sensors,
                     status.phase,

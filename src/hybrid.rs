@@ -817,6 +817,12 @@ impl Residual {
         self.include_state
     }
 
+    /// The body state [`Residual::observation`] takes: [`observed_state`] of `status` where
+    /// the observation includes it, zeros (ignored, and not computed) where it does not.
+    pub fn state_of(&self, status: &ControllerStatus) -> [f32; OBSERVED_STATE_DIM] {
+        if self.include_state { observed_state(status) } else { [0.0; OBSERVED_STATE_DIM] }
+    }
+
     /// `applied = clip(reference + g · scale ⊙ clip(r, −1, 1), low, high)`, per entry, with
     /// `r` the joint-residual part of the policy's `output` and `g` the policy's
     /// `authority` over it ([`Residual::authority`]; 1 without a fade); without a joint

@@ -30,9 +30,7 @@ use centaur_gym::{BoxSpace, Env, EnvError, MAX_REWARD_TERMS, Step, check_action,
 use centaur_mpc::{Command, LocomotionController};
 use centaur_rl::{AlgoKind, Algorithm, RlError};
 
-use crate::hybrid::{
-    ActionMapping, HybridError, OBSERVED_STATE_DIM, Residual, ResidualConfig, observed_state,
-};
+use crate::hybrid::{ActionMapping, HybridError, OBSERVED_STATE_DIM, Residual, ResidualConfig};
 
 /// Makes a freshly built learner of kind `kind` start a hybrid as its controller: its mean
 /// output zero (the untrained hybrid acts exactly like the controller) and, for learners
@@ -193,7 +191,7 @@ impl ResidualEnv {
 
     fn write_obs(&self, obs: &mut [f32]) {
         let status = self.controller.status();
-        let state = observed_state(status);
+        let state = self.residual.state_of(status);
         self.residual.observation(&self.env_obs, status.phase, &self.command, &self.reference, &state, obs);
     }
 }

@@ -1,6 +1,6 @@
 //! The residual (hybrid) environment and the MCAP recordings.
 
-use centaur::hybrid::{ActionMapping, Authority, Fade, HybridError, ResidualConfig};
+use centaur::hybrid::{ActionMapping, Authority, Fade, HybridError, Residual, ResidualConfig};
 use centaur::recording::{CommandFrame, Frame, Recorder, TOPICS};
 use centaur::registry::{
     RegistryError, controller_config, make_residual_env, make_robot_env, residual_config,
@@ -281,6 +281,13 @@ fn the_observation_can_carry_the_controllers_body_state() {
     // The preset trots forward at its command: the state the policy sees says so.
     let commanded = obs[n_env + 2];
     assert!(forward > 0.5 * commanded && forward < 1.5 * commanded, "{forward} m/s under {commanded}");
+    // The law hands its observation the state only where it observes it (zeros, not
+    // computed, where it does not).
+    let status = env.controller().status();
+    let with = Residual::new(env.config(), m).unwrap();
+    assert_eq!(with.state_of(status), observed_state(status));
+    let without = Residual::new(&ResidualConfig { include_state: false, ..env.config().clone() }, m).unwrap();
+    assert_eq!(without.state_of(status), [0.0; OBSERVED_STATE_DIM]);
 }
 
 #[test]
