@@ -169,6 +169,20 @@ pub fn jacobian_center_of_mass<'a>(model: &Model, data: &'a mut Data, q: &[f64])
     &data.jacobian_com
 }
 
+/// Velocity of the centre of mass in the world, `J_com(q) v`, summed column by column
+/// (no allocation). Fills `data.jacobian_com` and `data.com` as
+/// [`jacobian_center_of_mass`] does.
+#[track_caller]
+pub fn center_of_mass_velocity(model: &Model, data: &mut Data, q: &[f64], v: &[f64]) -> Vector3<f64> {
+    check_len("v", v.len(), model.nv);
+    let jc = jacobian_center_of_mass(model, data, q);
+    let mut cv = Vector3::zeros();
+    for (k, vk) in v.iter().enumerate() {
+        cv += jc.column(k) * *vk;
+    }
+    cv
+}
+
 /// Centroidal momentum matrix `A_g(q)` (6 × nv) into `data.centroidal_map`: `A_g v` is the
 /// robot's linear momentum and its angular momentum about the centre of mass, in world
 /// axes. Also computes the centre of mass.

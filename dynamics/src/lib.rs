@@ -135,7 +135,10 @@ mod urdf;
 
 pub use aba::aba;
 pub use cholesky::{cholesky_decompose, mass_matrix_inverse, mass_matrix_solve};
-pub use crba::{center_of_mass, centroidal_map, centroidal_momentum, crba, jacobian_center_of_mass};
+pub use crba::{
+    center_of_mass, center_of_mass_velocity, centroidal_map, centroidal_momentum, crba,
+    jacobian_center_of_mass,
+};
 pub use data::Data;
 pub use energy::{kinetic_energy, potential_energy};
 pub use jacobian::{compute_joint_jacobians, frame_jacobian, joint_jacobian};

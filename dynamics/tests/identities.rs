@@ -8,10 +8,11 @@ mod common;
 
 use centaur_dynamics::spatial::Motion;
 use centaur_dynamics::{
-    Data, Force, Model, ReferenceFrame, aba, center_of_mass, centroidal_momentum, cholesky_decompose,
-    compute_joint_jacobians, crba, difference, forward_kinematics, forward_kinematics_velocity,
-    frame_jacobian, frame_placement, frame_velocity, gravity_torques, integrate, jacobian_center_of_mass,
-    kinetic_energy, mass_matrix_inverse, mass_matrix_solve, nonlinear_effects, potential_energy, rnea,
+    Data, Force, Model, ReferenceFrame, aba, center_of_mass, center_of_mass_velocity, centroidal_momentum,
+    cholesky_decompose, compute_joint_jacobians, crba, difference, forward_kinematics,
+    forward_kinematics_velocity, frame_jacobian, frame_placement, frame_velocity, gravity_torques, integrate,
+    jacobian_center_of_mass, kinetic_energy, mass_matrix_inverse, mass_matrix_solve, nonlinear_effects,
+    potential_energy, rnea,
 };
 use common::{Rng, random_q, random_v, rel_err, test_models};
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6xX, Vector3};
@@ -184,6 +185,9 @@ fn com_jacobian_equals_finite_differences() {
         let fd = (cp - cm) / (2.0 * H);
         let jv = &jc * v;
         assert!(rel_err(jv.as_slice(), fd.as_slice()) < 1e-7, "{}", model.name);
+        let cv = center_of_mass_velocity(model, data, q.as_slice(), v.as_slice());
+        assert!(rel_err(cv.as_slice(), jv.as_slice()) < 1e-12, "{}: J_com v summed", model.name);
+        assert!((data.com[0] - c0).norm() < 1e-14, "{}: the CoM beside it", model.name);
     });
 }
 

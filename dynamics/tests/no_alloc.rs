@@ -45,6 +45,7 @@ fn algorithms_allocate_nothing_after_data_new() {
             aba(&model, &mut data, q, v, a);
             center_of_mass(&model, &mut data, q);
             jacobian_center_of_mass(&model, &mut data, q);
+            center_of_mass_velocity(&model, &mut data, q, v);
             centroidal_map(&model, &mut data, q);
             centroidal_momentum(&model, &mut data, q, v);
             kinetic_energy(&model, &mut data, q, v);

@@ -1,7 +1,7 @@
 //! [`MinitaurEnv`]: the environment, its configuration and randomisation.
 
 use centaur_dynamics::nalgebra::Vector3;
-use centaur_dynamics::{Data, Inertia, Model, RobotState, jacobian_center_of_mass};
+use centaur_dynamics::{Data, Inertia, Model, RobotState, center_of_mass_velocity};
 use centaur_gym::{BoxSpace, Env, EnvError, Rng, Step, StepInfo};
 use centaur_gym::{check_action, check_observation};
 
@@ -532,11 +532,7 @@ fn observation_dim(config: &MinitaurConfig) -> usize {
 /// [`heading_body_state`] of the CoM at `state` of a robot of `model`'s masses, under the
 /// base's yaw.
 fn body_state(model: &Model, data: &mut Data, state: &RobotState) -> [f32; BODY_STATE_DIM] {
-    let jc = jacobian_center_of_mass(model, data, state.q.as_slice());
-    let mut v = Vector3::zeros();
-    for (k, vk) in state.v.iter().enumerate() {
-        v += jc.column(k) * *vk;
-    }
+    let v = center_of_mass_velocity(model, data, state.q.as_slice(), state.v.as_slice());
     let com = data.com[0];
     let (_, _, yaw) = state.base_orientation().euler_angles();
     heading_body_state([com.x, com.y, com.z], [v.x, v.y, v.z], yaw)

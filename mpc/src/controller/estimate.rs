@@ -7,8 +7,8 @@ use centaur_dynamics::nalgebra::{
     DMatrix, DVector, Matrix3, Matrix3xX, Matrix6xX, Rotation3, Vector3, Vector6,
 };
 use centaur_dynamics::{
-    Data, ReferenceFrame, crba, forward_kinematics, forward_kinematics_acceleration, frame_acceleration,
-    frame_classical_acceleration, frame_jacobian, frame_velocity, jacobian_center_of_mass, nonlinear_effects,
+    Data, ReferenceFrame, center_of_mass_velocity, crba, forward_kinematics, forward_kinematics_acceleration,
+    frame_acceleration, frame_classical_acceleration, frame_jacobian, frame_velocity, nonlinear_effects,
     update_frame_placements,
 };
 
@@ -118,12 +118,7 @@ impl Estimate {
         let q = self.q.as_slice();
         let v = self.v.as_slice();
         let dyn_ = &mut self.dynamics;
-        let jc = jacobian_center_of_mass(model, data, q);
-        let mut cv = Vector3::zeros();
-        for k in 0..model.nv {
-            cv += jc.column(k) * v[k];
-        }
-        self.com_vel = cv;
+        self.com_vel = center_of_mass_velocity(model, data, q, v);
         self.com = data.com[0];
         dyn_.j_body.fixed_rows_mut::<3>(0).copy_from(&data.jacobian_com);
         crba(model, data, q);
