@@ -189,6 +189,11 @@ pub struct HybridArgs {
     /// Minitaur's trot]
     #[arg(long)]
     pub body_height: Option<f64>,
+    /// The swing feet's apex height under the hybrid (and its controller-alone baseline's),
+    /// m in [0.01, 0.3], replacing the controller's own [default: the controller's own:
+    /// minitaur 0.07, ant, walker2d and humanoid 0.08]
+    #[arg(long)]
+    pub swing_height: Option<f64>,
     /// The hybrid's policy also observes the controller's measured body state: the CoM's
     /// velocity in the heading frame and its height (4 entries after the reference
     /// action), which the robot's own observation may lack (the Minitaur's does)
@@ -280,6 +285,9 @@ impl HybridArgs {
         }
         if self.body_height.is_some() {
             preset.command.body_height = self.body_height;
+        }
+        if self.swing_height.is_some() {
+            preset.swing_height = self.swing_height;
         }
         preset.include_state |= self.observe_state;
         if let Some([start, end]) = self.fade.as_deref() {
@@ -573,6 +581,15 @@ mod tests {
         assert_eq!(height(&[]), None);
         assert_eq!(height(&["--body-height", "0.21"]), Some(0.21));
         assert!(parse_hybrid(minitaur.clone(), &["--body-height", "x"]).is_err());
+    }
+
+    #[test]
+    fn the_swing_height_is_the_controllers_unless_given() {
+        let minitaur = residual_config("minitaur").unwrap();
+        let height = |args: &[&str]| parse_hybrid(minitaur.clone(), args).unwrap().swing_height;
+        assert_eq!(height(&[]), None);
+        assert_eq!(height(&["--swing-height", "0.045"]), Some(0.045));
+        assert!(parse_hybrid(minitaur.clone(), &["--swing-height", "x"]).is_err());
     }
 
     #[test]

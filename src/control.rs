@@ -141,6 +141,10 @@ pub struct ControlOptions {
     /// The command ramp (m/s², in (0, 20]) replacing the controller's own `max_acceleration`,
     /// as the hybrid's `max_acceleration` does (default: `None`, the controller's own).
     pub max_acceleration: Option<f64>,
+    /// The swing feet's apex height (m, in [`crate::hybrid::SWING_HEIGHT_RANGE`]) replacing
+    /// the controller's own `swing_height`, as the hybrid's `swing_height` does (default:
+    /// `None`, the controller's own).
+    pub swing_height: Option<f64>,
 }
 
 impl Default for ControlOptions {
@@ -163,6 +167,7 @@ impl Default for ControlOptions {
             period_scale: 1.0,
             duty_shift: 0.0,
             max_acceleration: None,
+            swing_height: None,
         }
     }
 }
@@ -238,6 +243,8 @@ pub struct ControlSummary {
     pub duty_shift: f64,
     /// The command ramp the controller ran with (m/s²): its own, or `--max-acceleration`.
     pub max_acceleration: f64,
+    /// The swing apex height the controller ran with (m): its own, or `--swing-height`.
+    pub swing_height: f64,
     /// The motor model the controller's torques became actions through, on a Minitaur
     /// (`nominal`, or `drawn` with `--drawn-motor`; `null`: a robot whose actions are torques).
     pub controller_motor: Option<MotorInverse>,
@@ -332,6 +339,9 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     if let Some(a) = opts.max_acceleration {
         crate::hybrid::check_max_acceleration(a)?;
     }
+    if let Some(h) = opts.swing_height {
+        crate::hybrid::check_swing_height(h)?;
+    }
     if let Some(p) = &opts.push {
         let magnitude = p.force.iter().map(|f| f * f).sum::<f64>().sqrt();
         if !(magnitude.is_finite() && magnitude <= MAX_PUSH_FORCE) {
@@ -420,6 +430,10 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         config.max_acceleration = a;
     }
     let max_acceleration = config.max_acceleration;
+    if let Some(h) = opts.swing_height {
+        config.swing_height = h;
+    }
+    let swing_height = config.swing_height;
     let mut ctrl = LocomotionController::new(env.model(), config)?;
     ctrl.set_gait_duty_shift(opts.duty_shift);
     let mut mapping = ActionMapping::new(env.as_ref(), &ctrl)?;
@@ -574,6 +588,7 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         period_scale: opts.period_scale,
         duty_shift: opts.duty_shift,
         max_acceleration,
+        swing_height,
         controller_motor: controller_motor(&opts.env, &settings),
         segments,
     })

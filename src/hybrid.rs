@@ -386,10 +386,17 @@ pub struct ResidualConfig {
     /// 0.03 m/s per control step.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_acceleration: Option<f64>,
+    /// The swing feet's apex height above lift-off and touch-down under the hybrid (and its
+    /// controller-alone baseline), m, replacing the controller's own `swing_height`
+    /// (`None`, the default: the controller's own; recorded only where set); within
+    /// [`SWING_HEIGHT_RANGE`]. At the Minitaur's 7 cm a swing at 8 steps a second lifts each
+    /// foot as high as for a slow walk; the trot at speed may need less.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub swing_height: Option<f64>,
 }
 
 /// Every field as `derive(Debug)` writes it, but `fade`, `exploration_ramp`, `bound_ramp`,
-/// `period_scale`, `max_acceleration` and `include_state` only where set: runs record this text in their fingerprint
+/// `period_scale`, `max_acceleration`, `swing_height` and `include_state` only where set: runs record this text in their fingerprint
 /// ([`crate::experiment::ExperimentOptions::fingerprint`]), and a run without them keeps
 /// the fingerprint it had before they existed (so `centaur compare --resume` and
 /// `--pure-from` still take it).
@@ -410,6 +417,7 @@ impl std::fmt::Debug for ResidualConfig {
             bound_ramp,
             period_scale,
             max_acceleration,
+            swing_height,
         } = self;
         let mut s = f.debug_struct("ResidualConfig");
         s.field("scale", scale)
@@ -436,6 +444,9 @@ impl std::fmt::Debug for ResidualConfig {
         if let Some(a) = max_acceleration {
             s.field("max_acceleration", a);
         }
+        if let Some(h) = swing_height {
+            s.field("swing_height", h);
+        }
         s.finish()
     }
 }
@@ -457,6 +468,7 @@ impl Default for ResidualConfig {
             bound_ramp: None,
             period_scale: None,
             max_acceleration: None,
+            swing_height: None,
         }
     }
 }
@@ -545,6 +557,9 @@ impl ResidualConfig {
         if let Some(value) = self.max_acceleration {
             check_max_acceleration(value)?;
         }
+        if let Some(value) = self.swing_height {
+            check_swing_height(value)?;
+        }
         if let Some(f) = &self.fade {
             f.validate()?;
         }
@@ -555,8 +570,9 @@ impl ResidualConfig {
     }
 
     /// `config` with [`ResidualConfig::rated_speed`], if set, as the rating of the
-    /// command's gait, [`ResidualConfig::period_scale`], if set, multiplying its period and
-    /// [`ResidualConfig::max_acceleration`], if set, as its command ramp:
+    /// command's gait, [`ResidualConfig::period_scale`], if set, multiplying its period,
+    /// [`ResidualConfig::max_acceleration`], if set, as its command ramp and
+    /// [`ResidualConfig::swing_height`], if set, as its swing apex:
     /// the controller the hybrid (and the controller-alone baseline beside it) runs. The
     /// gait must be offered and not the stand, which has no speed rating and no period. The
     /// command (at zero steering) must then be within the rating, speed and turning, as
@@ -656,6 +672,10 @@ impl ResidualConfig {
             check_max_acceleration(value)?;
             config.max_acceleration = value;
         }
+        if let Some(value) = self.swing_height {
+            check_swing_height(value)?;
+            config.swing_height = value;
+        }
         Ok(())
     }
 
@@ -705,6 +725,20 @@ pub(crate) fn check_period_scale(value: f64) -> Result<(), HybridError> {
         Ok(())
     } else {
         Err(HybridError::BadSetting { part: "period_scale", value, expected: "a factor in [0.25, 4]" })
+    }
+}
+
+/// The range of [`ResidualConfig::swing_height`] (m): 1 to 30 cm, a swing every legged
+/// robot here can make; a height in centimetres (7 for 0.07) is refused.
+pub const SWING_HEIGHT_RANGE: (f64, f64) = (0.01, 0.3);
+
+/// Refuses a swing height outside [`SWING_HEIGHT_RANGE`] (here and in `centaur control`).
+pub(crate) fn check_swing_height(value: f64) -> Result<(), HybridError> {
+    let (low, high) = SWING_HEIGHT_RANGE;
+    if value.is_finite() && (low..=high).contains(&value) {
+        Ok(())
+    } else {
+        Err(HybridError::BadSetting { part: "swing_height", value, expected: "a height in [0.01, 0.3] m" })
     }
 }
 
@@ -1596,6 +1630,35 @@ mod tests {
         assert!(!format!("{:?}", ramped(None)).contains("max_acceleration"));
         assert!(format!("{:?}", ramped(Some(6.0))).ends_with(", max_acceleration: 6.0 }"));
         assert!(!serde_json::to_string(&ramped(None)).unwrap().contains("max_acceleration"));
+    }
+
+    #[test]
+    fn a_swing_height_replaces_the_controllers_and_bad_ones_are_refused() {
+        let preset = ControllerConfig::minitaur();
+        let swung = |v: Option<f64>| ResidualConfig {
+            swing_height: v,
+            command: Command::forward(2.0, Gait::Trot),
+            ..ResidualConfig::default()
+        };
+        let mut c = preset.clone();
+        swung(None).rate_controller(&mut c).unwrap();
+        assert_eq!(c, preset);
+        swung(Some(0.045)).rate_controller(&mut c).unwrap();
+        assert_eq!(c.swing_height, 0.045);
+        assert_eq!(ControllerConfig { swing_height: preset.swing_height, ..c }, preset);
+        // 7 (centimetres for metres), none, a negative or non-finite height: refused.
+        for bad in [7.0, 0.0, 0.005, -0.05, f64::NAN, f64::INFINITY] {
+            let err = swung(Some(bad)).rate_controller(&mut preset.clone()).unwrap_err();
+            assert!(matches!(err, HybridError::BadSetting { part: "swing_height", .. }), "{bad}: {err}");
+            assert!(Residual::new(&swung(Some(bad)), 8).is_err(), "{bad}");
+        }
+        // Recorded only where set, and read back.
+        assert!(!format!("{:?}", swung(None)).contains("swing_height"));
+        assert!(format!("{:?}", swung(Some(0.045))).ends_with(", swing_height: 0.045 }"));
+        assert!(!serde_json::to_string(&swung(None)).unwrap().contains("swing_height"));
+        let back: ResidualConfig =
+            serde_json::from_str(&serde_json::to_string(&swung(Some(0.045))).unwrap()).unwrap();
+        assert_eq!(back, swung(Some(0.045)));
     }
 
     #[test]

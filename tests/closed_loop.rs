@@ -169,6 +169,28 @@ fn the_minitaur_trots_on_a_scaled_period_and_bad_scales_are_refused() {
     }
 }
 
+/// `swing_height` replaces the controller's swing apex (as the hybrid's does): the trot with
+/// 4.5 cm swings holds 1 m/s on a different trajectory, and the summary names the height;
+/// a height in centimetres, none or a non-finite one is refused.
+#[test]
+fn the_minitaur_trots_on_a_lower_swing_and_bad_heights_are_refused() {
+    let trot = |swing_height: Option<f64>| {
+        minitaur_for_4_s(Gait::Trot, ControlOptions { swing_height, ..ControlOptions::default() })
+    };
+    let own = trot(None).unwrap();
+    let low = trot(Some(0.045)).unwrap();
+    assert_eq!((own.swing_height, low.swing_height), (0.07, 0.045));
+    assert!(!low.fell, "fell after {:.2} s", low.seconds);
+    assert!((low.mean_speed - 1.0).abs() < 0.15, "mean speed {:.3} m/s for 1.0", low.mean_speed);
+    assert_ne!(own.distance.to_bits(), low.distance.to_bits(), "the swing height changed nothing");
+    for bad in [7.0, 0.0, f64::NAN] {
+        match trot(Some(bad)) {
+            Err(e @ ControlError::Hybrid(_)) => assert!(e.to_string().contains("swing_height"), "{bad}: {e}"),
+            other => panic!("swing height {bad}: {other:?}"),
+        }
+    }
+}
+
 /// `centaur control --duty-shift`: the Minitaur's trot with its stance fractions moved
 /// (0.4 of the cycle, flight phases between the pairs' stances) still holds 1 m/s, on a
 /// different trajectory from its own fractions; a shift out of range, or on the stand, is

@@ -444,6 +444,11 @@ struct ControlArgs {
     /// humanoid 0.3]
     #[arg(long, allow_negative_numbers = true)]
     max_acceleration: Option<f64>,
+    /// The swing feet's apex height, m in [0.01, 0.3], replacing the controller's own (as
+    /// the hybrid's `--swing-height`) [default: the controller's own: minitaur 0.07, ant,
+    /// walker2d and humanoid 0.08]
+    #[arg(long, allow_negative_numbers = true)]
+    swing_height: Option<f64>,
 }
 
 /// `--speed-schedule`'s pairs (a newtype, so that clap takes the list as one value).
@@ -654,6 +659,7 @@ fn control(args: ControlArgs) -> ExitCode {
         period_scale: args.period_scale,
         duty_shift: args.duty_shift,
         max_acceleration: args.max_acceleration,
+        swing_height: args.swing_height,
     };
     let result = check_out_dir(&args.out)
         .and_then(|()| run_control(&opts))

@@ -302,6 +302,7 @@ mod legacy {
             || residual.bound_ramp.is_some()
             || residual.period_scale.is_some()
             || residual.max_acceleration.is_some()
+            || residual.swing_height.is_some()
             || residual.include_state
             || residual.steering.cadence != 0.0
             || residual.steering.duty != 0.0;
@@ -354,6 +355,8 @@ mod legacy {
                 max_acceleration: _,
                 // ... and the body state in the observation: it can only be off here.
                 include_state: _,
+                // ... and the swing height: it can only be the controller's own here.
+                swing_height: _,
             } = self.r;
             let mut s = f.debug_struct("ResidualConfig");
             s.field("scale", scale)
