@@ -124,6 +124,11 @@ pub struct HybridArgs {
     /// sooner (a trot with flight phases) or later [default: the robot's]
     #[arg(long)]
     pub steer_duty: Option<f64>,
+    /// Span of the policy's swing-height steering, a fraction in [0, 0.75] (0: off): each
+    /// swing's apex is the controller's swing height × (1 ± this), taken at lift-off
+    /// [default: the robot's]
+    #[arg(long)]
+    pub steer_swing: Option<f64>,
     /// Which parts of the hybrid's action are on: both (the default), residual (no
     /// steering) or command (steering only)
     #[arg(long, value_enum, default_value = "both")]
@@ -246,6 +251,9 @@ impl HybridArgs {
         }
         if let Some(s) = self.steer_duty {
             preset.steering.duty = s;
+        }
+        if let Some(s) = self.steer_swing {
+            preset.steering.swing = s;
         }
         match self.parts {
             HybridParts::Both => {}
@@ -552,6 +560,9 @@ mod tests {
         assert!(parse_hybrid(walker.clone(), &["--steer-cadence", "x"]).is_err());
         assert_eq!(steering(&["--steer-duty", "0.15"]), Steering { duty: 0.15, ..walker.steering });
         assert_eq!(steering(&["--steer-duty", "0.15", "--parts", "residual"]), Steering::OFF);
+        assert_eq!(steering(&["--steer-swing", "0.5"]), Steering { swing: 0.5, ..walker.steering });
+        assert_eq!(steering(&["--steer-swing", "0.5", "--parts", "residual"]), Steering::OFF);
+        assert!(parse_hybrid(walker.clone(), &["--steer-swing", "x"]).is_err());
     }
 
     #[test]

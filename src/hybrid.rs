@@ -104,18 +104,24 @@ pub struct Steering {
     /// speed (recorded only where set).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub duty: f64,
+    /// Swing-height span, a fraction in [0, 0.75]: each swing's apex is the controller's
+    /// `swing_height` times `1 + swing · c`, taken at its lift-off
+    /// ([`centaur_mpc::LocomotionController::set_swing_height_scale`]), so the policy can lift
+    /// the feet less to step faster, or more over rough ground (recorded only where set).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub swing: f64,
 }
 
 fn is_zero(x: &f64) -> bool {
     *x == 0.0
 }
 
-/// Every field as `derive(Debug)` writes it, but `cadence` and `duty` only where set: runs
+/// Every field as `derive(Debug)` writes it, but `cadence`, `duty` and `swing` only where set: runs
 /// record this text in their fingerprint, and a run without them keeps the fingerprint it
 /// had before they existed.
 impl std::fmt::Debug for Steering {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let Steering { speed, yaw_rate, cadence, duty } = self;
+        let Steering { speed, yaw_rate, cadence, duty, swing } = self;
         let mut s = f.debug_struct("Steering");
         s.field("speed", speed).field("yaw_rate", yaw_rate);
         if *cadence != 0.0 {
@@ -124,13 +130,16 @@ impl std::fmt::Debug for Steering {
         if *duty != 0.0 {
             s.field("duty", duty);
         }
+        if *swing != 0.0 {
+            s.field("swing", swing);
+        }
         s.finish()
     }
 }
 
 impl Steering {
     /// No steering: the command is fixed.
-    pub const OFF: Steering = Steering { speed: 0.0, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 };
+    pub const OFF: Steering = Steering { speed: 0.0, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 };
 
     /// Number of action entries the steering adds.
     pub fn dim(&self) -> usize {
@@ -138,18 +147,20 @@ impl Steering {
     }
 
     /// The speed's place in the order of the steering entries (speed, yaw rate, cadence,
-    /// duty): the first where it is on.
+    /// duty, swing): the first where it is on.
     pub const SPEED: usize = 0;
     /// The yaw rate's place in the order of the steering entries.
     pub const YAW_RATE: usize = 1;
     /// The cadence's place in the order of the steering entries.
     pub const CADENCE: usize = 2;
-    /// The duty's place in the order of the steering entries: the last.
+    /// The duty's place in the order of the steering entries.
     pub const DUTY: usize = 3;
+    /// The swing height's place in the order of the steering entries: the last.
+    pub const SWING: usize = 4;
 
-    /// The spans in the order of their action entries: speed, yaw rate, cadence, duty.
-    fn spans(&self) -> [f64; 4] {
-        [self.speed, self.yaw_rate, self.cadence, self.duty]
+    /// The spans in the order of their action entries: speed, yaw rate, cadence, duty, swing.
+    fn spans(&self) -> [f64; 5] {
+        [self.speed, self.yaw_rate, self.cadence, self.duty, self.swing]
     }
 
     /// The index among the steering entries of `part` (its place in [`Steering::spans`]),
@@ -525,6 +536,14 @@ impl ResidualConfig {
                 expected: "a fraction in [0, 0.3] (the controller's largest shift of the stance fractions)",
             });
         }
+        if !(self.steering.swing.is_finite() && (0.0..=MAX_SWING).contains(&self.steering.swing)) {
+            let value = self.steering.swing;
+            return Err(HybridError::BadSetting {
+                part: "steering.swing",
+                value,
+                expected: "a fraction in [0, 0.75] (the apex 1 ± swing times the controller's swing height)",
+            });
+        }
         if self.steering.yaw_rate > MAX_YAW_RATE {
             let value = self.steering.yaw_rate;
             return Err(HybridError::BadSetting {
@@ -709,6 +728,11 @@ pub const MAX_YAW_RATE: f64 = 2.0 * std::f64::consts::PI;
 /// [0.25, 1.75] times its own, inside the range the controller runs its clock at
 /// ([`centaur_mpc::GAIT_RATE_RANGE`]), so no steered rate is clamped.
 pub const MAX_CADENCE: f64 = 0.75;
+
+/// The widest swing-height span ([`Steering::swing`]): the apex stays within [0.25, 1.75]
+/// times the controller's swing height, the range the controller holds its scale in
+/// ([`centaur_mpc::SWING_SCALE_RANGE`]), so no steered scale is clamped.
+pub const MAX_SWING: f64 = 0.75;
 
 /// The largest initial exploration σ accepted ([`Exploration`]), in the policy's [−1, 1]
 /// units: at σ 10 nearly every sample already lands outside [−1, 1] and is clipped, and far
@@ -925,22 +949,33 @@ impl Residual {
     }
 
     /// The shift of the stance fractions the policy's `output` steers to, `duty · g ·
-    /// clip(c, −1, 1)` with `c` its duty entry (the last steering entry) and `g` the
+    /// clip(c, −1, 1)` with `c` its duty entry (after the cadence) and `g` the
     /// `authority` over the steering; `None` without duty steering (the gaits keep their
     /// own).
     pub fn duty_shift(&self, output: &[f32], authority: f32) -> Option<f64> {
         self.steering_entry(output, authority, Steering::DUTY).map(|c| self.steering.duty * c)
     }
 
+    /// The scale of the swing apex the policy's `output` steers to, `1 + swing · g ·
+    /// clip(c, −1, 1)` with `c` its swing entry (the last steering entry) and `g` the
+    /// `authority` over the steering; `None` without swing steering (the controller's own
+    /// height).
+    pub fn swing_scale(&self, output: &[f32], authority: f32) -> Option<f64> {
+        self.steering_entry(output, authority, Steering::SWING).map(|c| 1.0 + self.steering.swing * c)
+    }
+
     /// Steers `controller`'s gait as the policy's `output` says: its clock's rate
-    /// ([`Residual::gait_rate`]) and its stance fractions ([`Residual::duty_shift`]),
-    /// each only where the policy steers it.
+    /// ([`Residual::gait_rate`]), its stance fractions ([`Residual::duty_shift`]) and its
+    /// swing apex ([`Residual::swing_scale`]), each only where the policy steers it.
     pub fn steer_gait(&self, controller: &mut LocomotionController, output: &[f32], authority: f32) {
         if let Some(rate) = self.gait_rate(output, authority) {
             controller.set_gait_rate(rate);
         }
         if let Some(shift) = self.duty_shift(output, authority) {
             controller.set_gait_duty_shift(shift);
+        }
+        if let Some(scale) = self.swing_scale(output, authority) {
+            controller.set_swing_height_scale(scale);
         }
     }
 
@@ -1272,7 +1307,7 @@ mod tests {
     fn steering_maps_the_policy_output_onto_the_command() {
         let base = Command::forward(2.0, Gait::Trot);
         let config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.2, cadence: 0.0, duty: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.2, cadence: 0.0, duty: 0.0, swing: 0.0 },
             ..ResidualConfig::new(0.25, base)
         };
         let r = Residual::new(&config, 3).unwrap();
@@ -1293,7 +1328,7 @@ mod tests {
     fn the_cadence_steers_the_gait_clock_last_and_is_checked_and_recorded_only_where_set() {
         let base = Command::forward(1.0, Gait::Walk);
         let config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4, duty: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4, duty: 0.0, swing: 0.0 },
             ..ResidualConfig::new(0.25, base)
         };
         let r = Residual::new(&config, 3).unwrap();
@@ -1335,7 +1370,7 @@ mod tests {
     fn the_duty_steers_the_stance_fractions_last_and_is_checked_and_recorded_only_where_set() {
         let base = Command::forward(1.0, Gait::Trot);
         let config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4, duty: 0.2 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4, duty: 0.2, swing: 0.0 },
             ..ResidualConfig::new(0.25, base)
         };
         let r = Residual::new(&config, 3).unwrap();
@@ -1367,12 +1402,55 @@ mod tests {
         assert_eq!(format!("{:?}", without.steering), "Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4 }");
         assert_eq!(
             format!("{:?}", config.steering),
-            "Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4, duty: 0.2 }"
+            "Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4, duty: 0.2, swing: 0.0 }"
         );
         let json = serde_json::to_string(&config.steering).unwrap();
         assert_eq!(json, r#"{"speed":0.5,"yaw_rate":0.0,"cadence":0.4,"duty":0.2}"#);
         assert_eq!(serde_json::from_str::<Steering>(&json).unwrap(), config.steering);
         assert!(!serde_json::to_string(&without.steering).unwrap().contains("duty"));
+    }
+
+    #[test]
+    fn the_swing_steers_the_apex_last_and_is_checked_and_recorded_only_where_set() {
+        let base = Command::forward(1.0, Gait::Trot);
+        let config = ResidualConfig {
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4, duty: 0.2, swing: 0.5 },
+            ..ResidualConfig::new(0.25, base)
+        };
+        let r = Residual::new(&config, 3).unwrap();
+        // [r₀ r₁ r₂ | c_speed c_cadence c_duty c_swing]
+        assert_eq!(r.policy_action_dim(), 7);
+        assert_eq!(r.swing_scale(&[0.0; 7], 1.0), Some(1.0));
+        let out = [0.0, 0.0, 0.0, 0.2, 0.5, -0.5, -0.6];
+        assert!((r.swing_scale(&out, 1.0).unwrap() - 0.7).abs() < 1e-6);
+        assert!((r.duty_shift(&out, 1.0).unwrap() + 0.1).abs() < 1e-12);
+        assert!((r.gait_rate(&out, 1.0).unwrap() - 1.2).abs() < 1e-12);
+        // Clipped to [−1, 1] and scaled by the authority.
+        assert!((r.swing_scale(&[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 5.0], 0.5).unwrap() - 1.25).abs() < 1e-12);
+        // Alone, it is the only steering entry; off, there is none.
+        let alone = ResidualConfig { steering: Steering { swing: 0.75, ..Steering::OFF }, ..config.clone() };
+        let r = Residual::new(&alone, 3).unwrap();
+        assert_eq!((r.policy_action_dim(), r.duty_shift(&[1.0; 4], 1.0)), (4, None));
+        assert_eq!(r.swing_scale(&[1.0, 1.0, 1.0, -1.0], 1.0), Some(0.25));
+        let without =
+            ResidualConfig { steering: Steering { swing: 0.0, ..config.steering }, ..config.clone() };
+        assert_eq!(Residual::new(&without, 3).unwrap().swing_scale(&[1.0; 6], 1.0), None);
+        for bad in [-0.1, 0.8, f64::NAN, f64::INFINITY] {
+            let c = ResidualConfig { steering: Steering { swing: bad, ..Steering::OFF }, ..config.clone() };
+            assert!(
+                matches!(Residual::new(&c, 3), Err(HybridError::BadSetting { part: "steering.swing", .. })),
+                "{bad}"
+            );
+        }
+        // The span's range is the controller's: no steered scale is clamped.
+        assert_eq!((1.0 - MAX_SWING, 1.0 + MAX_SWING), centaur_mpc::SWING_SCALE_RANGE);
+        // Recorded (text and data) only where set.
+        assert!(!format!("{:?}", without.steering).contains("swing"));
+        assert!(format!("{:?}", config.steering).ends_with(", duty: 0.2, swing: 0.5 }"));
+        let json = serde_json::to_string(&config.steering).unwrap();
+        assert!(json.ends_with(r#","swing":0.5}"#), "{json}");
+        assert_eq!(serde_json::from_str::<Steering>(&json).unwrap(), config.steering);
+        assert!(!serde_json::to_string(&without.steering).unwrap().contains("swing"));
     }
 
     #[test]
@@ -1397,7 +1475,7 @@ mod tests {
         // At authority g the residual and the steering are g times the policy's.
         let base = Command::forward(2.0, Gait::Trot);
         let config = ResidualConfig {
-            steering: Steering { speed: 1.0, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 },
+            steering: Steering { speed: 1.0, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 },
             fade: Some(fade),
             ..ResidualConfig::new(0.25, base)
         };
@@ -1443,7 +1521,7 @@ mod tests {
         let base = Command::forward(1.0, Gait::Trot);
         let config = ResidualConfig {
             joint_residual: false,
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 },
             ..ResidualConfig::new(0.25, base)
         };
         let r = Residual::new(&config, 3).unwrap();
@@ -1459,7 +1537,7 @@ mod tests {
         let nothing = ResidualConfig { joint_residual: false, ..ResidualConfig::default() };
         assert!(matches!(Residual::new(&nothing, 3), Err(HybridError::NothingToLearn)));
         let negative = ResidualConfig {
-            steering: Steering { speed: -0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 },
+            steering: Steering { speed: -0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 },
             ..ResidualConfig::default()
         };
         assert!(matches!(
@@ -1467,7 +1545,7 @@ mod tests {
             Err(HybridError::BadSetting { part: "steering.speed", .. })
         ));
         let nan = ResidualConfig {
-            steering: Steering { speed: 0.0, yaw_rate: f64::NAN, cadence: 0.0, duty: 0.0 },
+            steering: Steering { speed: 0.0, yaw_rate: f64::NAN, cadence: 0.0, duty: 0.0, swing: 0.0 },
             ..ResidualConfig::default()
         };
         assert!(matches!(
@@ -1487,7 +1565,7 @@ mod tests {
     #[test]
     fn the_initial_exploration_follows_the_action_layout() {
         let mut config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 },
             exploration: Some(Exploration { residual: 0.2, steering: 0.7 }),
             ..ResidualConfig::default()
         };
@@ -1501,7 +1579,7 @@ mod tests {
     #[test]
     fn the_exploration_ramp_floors_the_residual_only_and_is_checked() {
         let config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 },
             exploration: Some(Exploration { residual: 0.01, steering: 0.5 }),
             exploration_ramp: Some(ExplorationRamp { residual: 0.3, samples: 100_000 }),
             ..ResidualConfig::default()
@@ -1554,7 +1632,7 @@ mod tests {
         };
         let steering_only = ResidualConfig {
             joint_residual: false,
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 },
             ..config.clone()
         };
         bad(steering_only, "bound_ramp.from");
@@ -1747,7 +1825,7 @@ mod tests {
         assert!(matches!(too_fast, Err(HybridError::BadSetting { part: "command.yaw_rate", .. })));
         assert!(bad(Command { body_height: Some(0.2), yaw_rate: -6.0, ..fwd }).is_ok());
         let steer_yaw = |yaw_rate: f64| ResidualConfig {
-            steering: Steering { speed: 0.0, yaw_rate, cadence: 0.0, duty: 0.0 },
+            steering: Steering { speed: 0.0, yaw_rate, cadence: 0.0, duty: 0.0, swing: 0.0 },
             ..ResidualConfig::default()
         };
         assert!(steer_yaw(6.0).validate(8).is_ok());

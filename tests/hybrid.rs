@@ -190,6 +190,31 @@ fn duty_steering_shifts_the_stance_fractions() {
     assert_eq!(env.controller().gait_duty_shift(), 0.0);
 }
 
+/// Swing steering: zero output is the controller alone to the bit; the policy's last entry
+/// at −1 scales every following swing's apex to 1 − span (0.5 here), and a reset goes back
+/// to the controller's own height.
+#[test]
+fn swing_steering_scales_the_swing_apex() {
+    use centaur::hybrid::Steering;
+    let preset = residual_config("minitaur").unwrap();
+    let config = ResidualConfig { steering: Steering { swing: 0.5, ..preset.steering }, ..preset.clone() };
+    let mut env = make_residual_env("minitaur", config.clone()).unwrap();
+    let n_env = env.inner().observation_space().dim();
+    assert_eq!(env.action_space().dim(), env.inner().action_space().dim() + 2, "speed and swing");
+    let reference = controller_alone("minitaur", config.command, 150);
+    assert_eq!(zero_output_trace(&mut env, 150), reference, "c = 0 is the controller alone");
+    assert_eq!(env.controller().swing_height_scale(), 1.0);
+    let mut low = vec![0.0f32; env.action_space().dim()];
+    *low.last_mut().unwrap() = -1.0;
+    let t = trace(&mut env, &low, n_env, 150, |s| assert!(!s.terminated, "fell"));
+    assert_eq!(t.len(), reference.len(), "ended early");
+    assert!(t != reference, "the swing height changed nothing");
+    assert_eq!(env.controller().swing_height_scale(), 0.5);
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    env.reset(Some(3), &mut obs).unwrap();
+    assert_eq!(env.controller().swing_height_scale(), 1.0);
+}
+
 #[test]
 fn the_residual_is_bounded_by_its_scale_and_the_action_space() {
     let scale = 0.2;

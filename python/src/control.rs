@@ -5,7 +5,7 @@ use std::sync::Mutex;
 use centaur_dynamics::RobotState;
 use centaur_mpc::{
     Command, ControllerConfig, GAIT_RATE_RANGE, Gait, LocomotionController, MAX_DUTY_SHIFT,
-    duty_shift_in_range,
+    SWING_SCALE_RANGE, duty_shift_in_range,
 };
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
@@ -156,6 +156,24 @@ impl Controller {
     #[getter]
     fn gait_duty_shift(&self) -> PyResult<f64> {
         Ok(lock(&self.inner, "controller")?.controller.gait_duty_shift())
+    }
+
+    /// Scales the swing feet's apex height by `scale` for every swing that lifts off from
+    /// now on (a swing under way keeps its curve; a reset goes back to 1). A scale outside
+    /// [0.25, 1.75] (or not finite) is an error.
+    fn set_swing_height_scale(&self, scale: f64) -> PyResult<()> {
+        let (low, high) = SWING_SCALE_RANGE;
+        if !(scale.is_finite() && (low..=high).contains(&scale)) {
+            return Err(error(format!("swing height scale {scale}, expected a scale in [{low}, {high}]")));
+        }
+        lock(&self.inner, "controller")?.controller.set_swing_height_scale(scale);
+        Ok(())
+    }
+
+    /// The scale the next swings' apex takes (`set_swing_height_scale`).
+    #[getter]
+    fn swing_height_scale(&self) -> PyResult<f64> {
+        Ok(lock(&self.inner, "controller")?.controller.swing_height_scale())
     }
 
     /// One control step at time `t` (s) from state `(q, v)`, following the command (speeds in

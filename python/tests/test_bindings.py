@@ -109,6 +109,15 @@ def test_controller_errors():
             c.set_gait_duty_shift(bad)
     c.reset()
     assert c.gait_duty_shift == 0.0
+    # The swing apex's scale: taken by the next swings, refused out of range.
+    assert c.swing_height_scale == 1.0
+    c.set_swing_height_scale(0.5)
+    assert c.swing_height_scale == 0.5
+    for bad in (float("nan"), 0.2, 1.8):
+        with pytest.raises(centaur.CentaurError, match="swing height scale"):
+            c.set_swing_height_scale(bad)
+    c.reset()
+    assert c.swing_height_scale == 1.0
     with pytest.raises(centaur.CentaurError, match="unknown controller preset"):
         centaur.Controller(model, "cheetah")
     with pytest.raises(centaur.CentaurError):

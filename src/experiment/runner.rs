@@ -305,7 +305,8 @@ mod legacy {
             || residual.swing_height.is_some()
             || residual.include_state
             || residual.steering.cadence != 0.0
-            || residual.steering.duty != 0.0;
+            || residual.steering.duty != 0.0
+            || residual.steering.swing != 0.0;
         if newer {
             return false;
         }
@@ -378,8 +379,9 @@ mod legacy {
 
     impl fmt::Debug for SteeringForm<'_> {
         fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-            // Records of this form predate the cadence and the duty: they can only be 0 here.
-            let Steering { speed, yaw_rate, cadence: _, duty: _ } = self.0;
+            // Records of this form predate the cadence, the duty and the swing: they can only
+            // be 0 here.
+            let Steering { speed, yaw_rate, cadence: _, duty: _, swing: _ } = self.0;
             f.debug_struct("Steering").field("speed", speed).field("yaw_rate", yaw_rate).finish()
         }
     }
@@ -824,7 +826,13 @@ mod tests {
         assert_eq!(*t, format!("{trained:?}"));
         assert_eq!(*given, format!("{other:?}"));
         let slower = ResidualConfig {
-            steering: crate::hybrid::Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 },
+            steering: crate::hybrid::Steering {
+                speed: 0.5,
+                yaw_rate: 0.0,
+                cadence: 0.0,
+                duty: 0.0,
+                swing: 0.0,
+            },
             ..trained.clone()
         };
         assert!(matches!(check_trained_with(&dir, &slower), Err(ExperimentError::SetupMismatch { .. })));
@@ -938,7 +946,13 @@ mod tests {
         let dir = temp_dir("legacy-record");
         // The preset of 2026-11-27: steered ±1 m/s, rated 3.0.
         let preset = ResidualConfig {
-            steering: crate::hybrid::Steering { speed: 1.0, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 },
+            steering: crate::hybrid::Steering {
+                speed: 1.0,
+                yaw_rate: 0.0,
+                cadence: 0.0,
+                duty: 0.0,
+                swing: 0.0,
+            },
             rated_speed: Some(3.0),
             ..residual_config("minitaur").unwrap()
         };
@@ -962,7 +976,13 @@ mod tests {
             Err(ExperimentError::SetupMismatch { .. })
         ));
         let slower = ResidualConfig {
-            steering: crate::hybrid::Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0 },
+            steering: crate::hybrid::Steering {
+                speed: 0.5,
+                yaw_rate: 0.0,
+                cadence: 0.0,
+                duty: 0.0,
+                swing: 0.0,
+            },
             ..preset.clone()
         };
         assert!(matches!(check_trained_with(&dir, &slower), Err(ExperimentError::SetupMismatch { .. })));

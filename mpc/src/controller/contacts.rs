@@ -20,6 +20,10 @@ use crate::swing::{PointTarget, raibert_foothold, swing_curve};
 /// z = 0 when the controller decides whether a robot that started in the air has landed.
 pub const LANDING_HEIGHT: f64 = 0.03;
 
+/// The range [`crate::LocomotionController::set_swing_height_scale`] holds the scale of the
+/// swing apex in: a quarter to 1.75 times the configured `swing_height`.
+pub const SWING_SCALE_RANGE: (f64, f64) = (0.25, 1.75);
+
 /// Contact bookkeeping per contact point.
 pub(crate) struct Contacts {
     was_stance: Vec<bool>,
@@ -34,6 +38,11 @@ pub(crate) struct Contacts {
     /// A swing that ended early by touching the ground in its second half (measured).
     early: Vec<bool>,
     liftoff: Vec<Vector3<f64>>,
+    /// The scale of the swing apex that swings lifting off from now on take.
+    swing_scale: f64,
+    /// Each contact point's swing apex scale, taken from `swing_scale` at its lift-off (a
+    /// swing keeps its curve whatever the scale does meanwhile).
+    apex_scale: Vec<f64>,
 }
 
 impl Contacts {
@@ -47,6 +56,8 @@ impl Contacts {
             touched: vec![true; nc],
             early: vec![false; nc],
             liftoff: vec![Vector3::zeros(); nc],
+            swing_scale: 1.0,
+            apex_scale: vec![1.0; nc],
         }
     }
 
@@ -57,6 +68,20 @@ impl Contacts {
         self.early.iter_mut().for_each(|s| *s = false);
         self.ever_touched.iter_mut().for_each(|s| *s = false);
         self.landed = false;
+        self.swing_scale = 1.0;
+        self.apex_scale.iter_mut().for_each(|s| *s = 1.0);
+    }
+
+    /// Scales the apex of the swings lifting off from now on by `scale`, clamped to
+    /// [`SWING_SCALE_RANGE`]; a non-finite scale counts as 1.
+    pub(crate) fn set_swing_scale(&mut self, scale: f64) {
+        let (low, high) = SWING_SCALE_RANGE;
+        self.swing_scale = if scale.is_finite() { scale.clamp(low, high) } else { 1.0 };
+    }
+
+    /// The scale the next swings take ([`Contacts::set_swing_scale`]).
+    pub(crate) fn swing_scale(&self) -> f64 {
+        self.swing_scale
     }
 
     /// This tick's measured contact flags (`None`: follow the schedule).
@@ -112,6 +137,7 @@ impl Contacts {
             let swing_progress = pat.swing_progress(phase, leg);
             if self.was_stance[ci] && !stance || first {
                 self.liftoff[ci] = est.p_contact[ci];
+                self.apex_scale[ci] = self.swing_scale;
             }
             if self.was_stance[ci] != stance || first {
                 // A new phase (or the first tick): a stance has not touched down yet, a swing
@@ -204,7 +230,8 @@ impl Contacts {
             } else {
                 let sp = swing_progress.unwrap_or(1.0);
                 let t_sw = pat.swing_duration(leg);
-                let height = while_turning(pat.stagger != 0.0, cfg.turn_swing_height, cfg.swing_height);
+                let height = self.apex_scale[ci]
+                    * while_turning(pat.stagger != 0.0, cfg.turn_swing_height, cfg.swing_height);
                 let mut tg = swing_curve(&self.liftoff[ci], &fh, height, sp, t_sw);
                 if dt > 0.0 {
                     let ahead = swing_curve(&self.liftoff[ci], &fh, height, sp + dt / t_sw, t_sw);

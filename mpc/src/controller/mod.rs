@@ -25,7 +25,7 @@ mod torques;
 use centaur_dynamics::nalgebra::DVector;
 use centaur_dynamics::{Data, Model, RobotState};
 
-pub use contacts::LANDING_HEIGHT;
+pub use contacts::{LANDING_HEIGHT, SWING_SCALE_RANGE};
 pub use reference::wrap_pi;
 pub use status::{ControllerStatus, Fallback, JointCommand};
 
@@ -214,6 +214,20 @@ impl LocomotionController {
     /// The shift of the stance fractions in force now ([`Self::set_gait_duty_shift`]).
     pub fn gait_duty_shift(&self) -> f64 {
         self.gait.duty_shift()
+    }
+
+    /// Scales the swing feet's apex height (the configured `swing_height`, or
+    /// `turn_swing_height` while turning) by `scale` for every swing that lifts off from now
+    /// on; a swing under way keeps its curve. Clamped to [`crate::SWING_SCALE_RANGE`], a
+    /// non-finite scale counts as 1, and [`Self::reset`] goes back to 1. A hybrid's policy
+    /// steers it (`Steering::swing` in `centaur`).
+    pub fn set_swing_height_scale(&mut self, scale: f64) {
+        self.contacts.set_swing_scale(scale);
+    }
+
+    /// The scale the next swings' apex takes ([`Self::set_swing_height_scale`]).
+    pub fn swing_height_scale(&self) -> f64 {
+        self.contacts.swing_scale()
     }
 
     /// One control step at time `t` (s). Never panics on a non-finite state (it falls back
