@@ -826,13 +826,7 @@ mod tests {
         assert_eq!(*t, format!("{trained:?}"));
         assert_eq!(*given, format!("{other:?}"));
         let slower = ResidualConfig {
-            steering: crate::hybrid::Steering {
-                speed: 0.5,
-                yaw_rate: 0.0,
-                cadence: 0.0,
-                duty: 0.0,
-                swing: 0.0,
-            },
+            steering: crate::hybrid::Steering { speed: 0.5, ..crate::hybrid::Steering::OFF },
             ..trained.clone()
         };
         assert!(matches!(check_trained_with(&dir, &slower), Err(ExperimentError::SetupMismatch { .. })));
@@ -976,13 +970,7 @@ mod tests {
             Err(ExperimentError::SetupMismatch { .. })
         ));
         let slower = ResidualConfig {
-            steering: crate::hybrid::Steering {
-                speed: 0.5,
-                yaw_rate: 0.0,
-                cadence: 0.0,
-                duty: 0.0,
-                swing: 0.0,
-            },
+            steering: crate::hybrid::Steering { speed: 0.5, ..crate::hybrid::Steering::OFF },
             ..preset.clone()
         };
         assert!(matches!(check_trained_with(&dir, &slower), Err(ExperimentError::SetupMismatch { .. })));
@@ -994,6 +982,11 @@ mod tests {
                 steering: crate::hybrid::Steering { cadence: 0.5, ..preset.steering },
                 ..preset.clone()
             },
+            ResidualConfig {
+                steering: crate::hybrid::Steering { swing: 0.5, ..preset.steering },
+                ..preset.clone()
+            },
+            ResidualConfig { swing_height: Some(0.03), ..preset.clone() },
         ];
         for r in &newer {
             assert!(
