@@ -542,19 +542,20 @@ fn the_deployed_stack_acts_exactly_like_the_residual_env_it_was_trained_in() {
     let (fa, fb) = both(&faded);
     assert!(fa == fb, "with a fade, the deployed stack diverged from the training environment");
     assert!(fa != a, "the fade changed nothing");
-    // With the policy steering the cadence and the stance fractions on a faster clock, the
-    // stack runs the controller's gait as the env does.
+    // With the policy steering the cadence, the stance fractions and the swing apex on a
+    // faster clock and a lower swing, the stack runs the controller's gait as the env does.
     let clocked = ResidualConfig {
-        steering: centaur::hybrid::Steering { cadence: 0.5, duty: 0.2, ..config.steering },
+        steering: centaur::hybrid::Steering { cadence: 0.5, duty: 0.2, swing: 0.5, ..config.steering },
         period_scale: Some(0.8),
+        swing_height: Some(0.05),
         ..config.clone()
     };
     let (ca, cb) = both(&clocked);
     assert!(
         ca == cb,
-        "with cadence and duty steering, the deployed stack diverged from the training environment"
+        "with cadence, duty and swing steering, the deployed stack diverged from the training environment"
     );
-    assert!(ca != a, "the cadence, the duty and the clock changed nothing");
+    assert!(ca != a, "the cadence, the duty, the swing and the clock changed nothing");
     // With the controller's body state in the observation, the stack observes it as the env
     // does (the policy's outputs, so the robot's path, depend on it).
     let observing = ResidualConfig { include_state: true, ..config.clone() };
