@@ -1442,8 +1442,12 @@ mod tests {
                 "{bad}"
             );
         }
-        // The span's range is the controller's: no steered scale is clamped.
+        // The span's range is the controller's: no steered scale is clamped; the error's text
+        // names it.
         assert_eq!((1.0 - MAX_SWING, 1.0 + MAX_SWING), centaur_mpc::SWING_SCALE_RANGE);
+        let c = ResidualConfig { steering: Steering { swing: 0.8, ..Steering::OFF }, ..config.clone() };
+        let err = Residual::new(&c, 3).unwrap_err().to_string();
+        assert!(err.contains(&format!("[0, {MAX_SWING}]")), "{err}");
         // Recorded (text and data) only where set.
         assert!(!format!("{:?}", without.steering).contains("swing"));
         assert!(format!("{:?}", config.steering).ends_with(", duty: 0.2, swing: 0.5 }"));
@@ -1725,9 +1729,14 @@ mod tests {
         assert_eq!(c.swing_height, 0.045);
         assert_eq!(ControllerConfig { swing_height: preset.swing_height, ..c }, preset);
         // 7 (centimetres for metres), none, a negative or non-finite height: refused.
+        let (low, high) = SWING_HEIGHT_RANGE;
         for bad in [7.0, 0.0, 0.005, -0.05, f64::NAN, f64::INFINITY] {
             let err = swung(Some(bad)).rate_controller(&mut preset.clone()).unwrap_err();
             assert!(matches!(err, HybridError::BadSetting { part: "swing_height", .. }), "{bad}: {err}");
+            assert!(
+                err.to_string().contains(&format!("[{low}, {high}] m")),
+                "the text names the range: {err}"
+            );
             assert!(Residual::new(&swung(Some(bad)), 8).is_err(), "{bad}");
         }
         // Recorded only where set, and read back.

@@ -63,6 +63,9 @@ fn a_body_height_beyond_the_legs_gives_posture_pd() {
     for (k, h) in [100.0 * standing, 0.1 * standing].into_iter().enumerate() {
         let err = c.check_command(&at(h)).unwrap_err().to_string();
         assert!(err.contains("command.body_height") && err.contains("standing CoM height"), "{err}");
+        // The text names the range the check uses.
+        let (low, high) = centaur_mpc::BODY_HEIGHT_RANGE;
+        assert!(err.contains(&format!("{low}–{high} ×")), "{err}");
         c.tick(&s, &at(h), 0.001 * (k + 1) as f64);
         assert_eq!(c.status().fallback, Fallback::PosturePd, "{h}");
     }
