@@ -195,8 +195,9 @@ pub struct HybridArgs {
     #[arg(long)]
     pub body_height: Option<f64>,
     /// The swing feet's apex height under the hybrid (and its controller-alone baseline's),
-    /// m in [0.01, 0.3], replacing the controller's own [default: the controller's own:
-    /// minitaur 0.07, ant, walker2d and humanoid 0.08]
+    /// m in [0.01, 0.3], replacing the controller's own straight-line swing (a turning
+    /// minitaur keeps its 0.05) [default: the controller's own: minitaur 0.07, ant, walker2d
+    /// and humanoid 0.08]
     #[arg(long)]
     pub swing_height: Option<f64>,
     /// The hybrid's policy also observes the controller's measured body state: the CoM's
