@@ -1403,7 +1403,7 @@ mod tests {
         assert_eq!(format!("{:?}", without.steering), "Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4 }");
         assert_eq!(
             format!("{:?}", config.steering),
-            "Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4, duty: 0.2, swing: 0.0 }"
+            "Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4, duty: 0.2 }"
         );
         let json = serde_json::to_string(&config.steering).unwrap();
         assert_eq!(json, r#"{"speed":0.5,"yaw_rate":0.0,"cadence":0.4,"duty":0.2}"#);
