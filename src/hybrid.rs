@@ -745,11 +745,21 @@ pub const PERIOD_SCALE_RANGE: (f64, f64) = (0.25, 4.0);
 
 /// Refuses a period scale outside [`PERIOD_SCALE_RANGE`] (here and in `centaur control`).
 pub(crate) fn check_period_scale(value: f64) -> Result<(), HybridError> {
-    let (low, high) = PERIOD_SCALE_RANGE;
+    check_within("period_scale", value, PERIOD_SCALE_RANGE, "a factor in [0.25, 4]")
+}
+
+/// `value` of `part` finite and within `[low, high]`, or [`HybridError::BadSetting`] saying
+/// what is `expected`.
+fn check_within(
+    part: &'static str,
+    value: f64,
+    (low, high): (f64, f64),
+    expected: &'static str,
+) -> Result<(), HybridError> {
     if value.is_finite() && (low..=high).contains(&value) {
         Ok(())
     } else {
-        Err(HybridError::BadSetting { part: "period_scale", value, expected: "a factor in [0.25, 4]" })
+        Err(HybridError::BadSetting { part, value, expected })
     }
 }
 
@@ -759,12 +769,7 @@ pub const SWING_HEIGHT_RANGE: (f64, f64) = (0.01, 0.3);
 
 /// Refuses a swing height outside [`SWING_HEIGHT_RANGE`] (here and in `centaur control`).
 pub(crate) fn check_swing_height(value: f64) -> Result<(), HybridError> {
-    let (low, high) = SWING_HEIGHT_RANGE;
-    if value.is_finite() && (low..=high).contains(&value) {
-        Ok(())
-    } else {
-        Err(HybridError::BadSetting { part: "swing_height", value, expected: "a height in [0.01, 0.3] m" })
-    }
+    check_within("swing_height", value, SWING_HEIGHT_RANGE, "a height in [0.01, 0.3] m")
 }
 
 /// The largest [`ResidualConfig::max_acceleration`] accepted (m/s²): twice gravity, beyond
@@ -1308,7 +1313,7 @@ mod tests {
     fn steering_maps_the_policy_output_onto_the_command() {
         let base = Command::forward(2.0, Gait::Trot);
         let config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.2, cadence: 0.0, duty: 0.0, swing: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.2, ..Steering::OFF },
             ..ResidualConfig::new(0.25, base)
         };
         let r = Residual::new(&config, 3).unwrap();
@@ -1329,7 +1334,7 @@ mod tests {
     fn the_cadence_steers_the_gait_clock_last_and_is_checked_and_recorded_only_where_set() {
         let base = Command::forward(1.0, Gait::Walk);
         let config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4, duty: 0.0, swing: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4, ..Steering::OFF },
             ..ResidualConfig::new(0.25, base)
         };
         let r = Residual::new(&config, 3).unwrap();
@@ -1371,7 +1376,7 @@ mod tests {
     fn the_duty_steers_the_stance_fractions_last_and_is_checked_and_recorded_only_where_set() {
         let base = Command::forward(1.0, Gait::Trot);
         let config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4, duty: 0.2, swing: 0.0 },
+            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4, duty: 0.2, ..Steering::OFF },
             ..ResidualConfig::new(0.25, base)
         };
         let r = Residual::new(&config, 3).unwrap();
@@ -1480,7 +1485,7 @@ mod tests {
         // At authority g the residual and the steering are g times the policy's.
         let base = Command::forward(2.0, Gait::Trot);
         let config = ResidualConfig {
-            steering: Steering { speed: 1.0, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 },
+            steering: Steering { speed: 1.0, ..Steering::OFF },
             fade: Some(fade),
             ..ResidualConfig::new(0.25, base)
         };
@@ -1526,7 +1531,7 @@ mod tests {
         let base = Command::forward(1.0, Gait::Trot);
         let config = ResidualConfig {
             joint_residual: false,
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 },
+            steering: Steering { speed: 0.5, ..Steering::OFF },
             ..ResidualConfig::new(0.25, base)
         };
         let r = Residual::new(&config, 3).unwrap();
@@ -1542,7 +1547,7 @@ mod tests {
         let nothing = ResidualConfig { joint_residual: false, ..ResidualConfig::default() };
         assert!(matches!(Residual::new(&nothing, 3), Err(HybridError::NothingToLearn)));
         let negative = ResidualConfig {
-            steering: Steering { speed: -0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 },
+            steering: Steering { speed: -0.5, ..Steering::OFF },
             ..ResidualConfig::default()
         };
         assert!(matches!(
@@ -1550,7 +1555,7 @@ mod tests {
             Err(HybridError::BadSetting { part: "steering.speed", .. })
         ));
         let nan = ResidualConfig {
-            steering: Steering { speed: 0.0, yaw_rate: f64::NAN, cadence: 0.0, duty: 0.0, swing: 0.0 },
+            steering: Steering { speed: 0.0, yaw_rate: f64::NAN, ..Steering::OFF },
             ..ResidualConfig::default()
         };
         assert!(matches!(
@@ -1570,7 +1575,7 @@ mod tests {
     #[test]
     fn the_initial_exploration_follows_the_action_layout() {
         let mut config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 },
+            steering: Steering { speed: 0.5, ..Steering::OFF },
             exploration: Some(Exploration { residual: 0.2, steering: 0.7 }),
             ..ResidualConfig::default()
         };
@@ -1584,7 +1589,7 @@ mod tests {
     #[test]
     fn the_exploration_ramp_floors_the_residual_only_and_is_checked() {
         let config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 },
+            steering: Steering { speed: 0.5, ..Steering::OFF },
             exploration: Some(Exploration { residual: 0.01, steering: 0.5 }),
             exploration_ramp: Some(ExplorationRamp { residual: 0.3, samples: 100_000 }),
             ..ResidualConfig::default()
@@ -1637,7 +1642,7 @@ mod tests {
         };
         let steering_only = ResidualConfig {
             joint_residual: false,
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 },
+            steering: Steering { speed: 0.5, ..Steering::OFF },
             ..config.clone()
         };
         bad(steering_only, "bound_ramp.from");
@@ -1704,15 +1709,29 @@ mod tests {
         ramped(Some(6.0)).rate_controller(&mut c).unwrap();
         assert_eq!(c.max_acceleration, 6.0);
         assert_eq!(ControllerConfig { max_acceleration: preset.max_acceleration, ..c }, preset);
-        for bad in [0.0, -1.0, 20.5, f64::NAN, f64::INFINITY] {
-            let err = ramped(Some(bad)).rate_controller(&mut preset.clone()).unwrap_err();
-            assert!(matches!(err, HybridError::BadSetting { part: "max_acceleration", .. }), "{bad}: {err}");
-            assert!(Residual::new(&ramped(Some(bad)), 8).is_err(), "{bad}");
+        refused_and_recorded_only_where_set("max_acceleration", ramped, 6.0, &[0.0, -1.0, 20.5]);
+    }
+
+    /// A controller setting `part` of the hybrid (`with(Some(v))` sets it to `v`): each of
+    /// `bad` (and NaN and ∞) refused by the controller's rating and by the law, naming the
+    /// part; recorded (text and data) only where set, and `good` read back.
+    fn refused_and_recorded_only_where_set(
+        part: &str,
+        with: impl Fn(Option<f64>) -> ResidualConfig,
+        good: f64,
+        bad: &[f64],
+    ) {
+        let preset = ControllerConfig::minitaur();
+        for &v in bad.iter().chain(&[f64::NAN, f64::INFINITY]) {
+            let err = with(Some(v)).rate_controller(&mut preset.clone()).unwrap_err();
+            assert!(matches!(err, HybridError::BadSetting { part: p, .. } if p == part), "{v}: {err}");
+            assert!(Residual::new(&with(Some(v)), 8).is_err(), "{v}");
         }
-        // Recorded only where set.
-        assert!(!format!("{:?}", ramped(None)).contains("max_acceleration"));
-        assert!(format!("{:?}", ramped(Some(6.0))).ends_with(", max_acceleration: 6.0 }"));
-        assert!(!serde_json::to_string(&ramped(None)).unwrap().contains("max_acceleration"));
+        assert!(!format!("{:?}", with(None)).contains(part));
+        assert!(format!("{:?}", with(Some(good))).ends_with(&format!(", {part}: {good:?} }}")));
+        assert!(!serde_json::to_string(&with(None)).unwrap().contains(part));
+        let text = serde_json::to_string(&with(Some(good))).unwrap();
+        assert_eq!(serde_json::from_str::<ResidualConfig>(&text).unwrap(), with(Some(good)));
     }
 
     #[test]
@@ -1729,24 +1748,12 @@ mod tests {
         swung(Some(0.045)).rate_controller(&mut c).unwrap();
         assert_eq!(c.swing_height, 0.045);
         assert_eq!(ControllerConfig { swing_height: preset.swing_height, ..c }, preset);
-        // 7 (centimetres for metres), none, a negative or non-finite height: refused.
+        // 7 (centimetres for metres), none, too low or negative: refused, the text naming the
+        // range the check uses.
+        refused_and_recorded_only_where_set("swing_height", swung, 0.045, &[7.0, 0.0, 0.005, -0.05]);
         let (low, high) = SWING_HEIGHT_RANGE;
-        for bad in [7.0, 0.0, 0.005, -0.05, f64::NAN, f64::INFINITY] {
-            let err = swung(Some(bad)).rate_controller(&mut preset.clone()).unwrap_err();
-            assert!(matches!(err, HybridError::BadSetting { part: "swing_height", .. }), "{bad}: {err}");
-            assert!(
-                err.to_string().contains(&format!("[{low}, {high}] m")),
-                "the text names the range: {err}"
-            );
-            assert!(Residual::new(&swung(Some(bad)), 8).is_err(), "{bad}");
-        }
-        // Recorded only where set, and read back.
-        assert!(!format!("{:?}", swung(None)).contains("swing_height"));
-        assert!(format!("{:?}", swung(Some(0.045))).ends_with(", swing_height: 0.045 }"));
-        assert!(!serde_json::to_string(&swung(None)).unwrap().contains("swing_height"));
-        let back: ResidualConfig =
-            serde_json::from_str(&serde_json::to_string(&swung(Some(0.045))).unwrap()).unwrap();
-        assert_eq!(back, swung(Some(0.045)));
+        let err = swung(Some(7.0)).rate_controller(&mut preset.clone()).unwrap_err().to_string();
+        assert!(err.contains(&format!("[{low}, {high}] m")), "{err}");
     }
 
     #[test]
@@ -1835,7 +1842,7 @@ mod tests {
         assert!(matches!(too_fast, Err(HybridError::BadSetting { part: "command.yaw_rate", .. })));
         assert!(bad(Command { body_height: Some(0.2), yaw_rate: -6.0, ..fwd }).is_ok());
         let steer_yaw = |yaw_rate: f64| ResidualConfig {
-            steering: Steering { speed: 0.0, yaw_rate, cadence: 0.0, duty: 0.0, swing: 0.0 },
+            steering: Steering { speed: 0.0, yaw_rate, ..Steering::OFF },
             ..ResidualConfig::default()
         };
         assert!(steer_yaw(6.0).validate(8).is_ok());

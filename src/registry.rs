@@ -86,7 +86,7 @@ fn modular(config: ModularConfig, s: &EnvSettings) -> Result<Box<dyn RobotEnv>, 
 /// steering's gradient is twice as large).
 fn minitaur_residual(_: AlgoKind) -> ResidualConfig {
     ResidualConfig {
-        steering: Steering { speed: 1.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 },
+        steering: Steering { speed: 1.5, ..Steering::OFF },
         exploration: Some(Exploration { residual: 0.3, steering: 0.5 }),
         rated_speed: Some(3.5),
         ..ResidualConfig::new(0.25, Command::forward(2.0, Gait::Trot))
@@ -99,7 +99,7 @@ fn minitaur_residual(_: AlgoKind) -> ResidualConfig {
 /// the controller alone, 75 % at the Minitaur's σ 0.3 on the residual).
 fn ant_residual(_: AlgoKind) -> ResidualConfig {
     ResidualConfig {
-        steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 },
+        steering: Steering { speed: 0.5, ..Steering::OFF },
         exploration: Some(Exploration { residual: 0.1, steering: 0.5 }),
         ..ResidualConfig::new(0.3, Command::forward(1.0, Gait::Trot))
     }
@@ -134,7 +134,7 @@ fn ant_residual(_: AlgoKind) -> ResidualConfig {
 /// the rating above with that bound.
 fn walker2d_residual(kind: AlgoKind) -> ResidualConfig {
     let walk = ResidualConfig {
-        steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 },
+        steering: Steering { speed: 0.5, ..Steering::OFF },
         rated_speed: Some(1.5),
         ..ResidualConfig::new(1.0, Command::forward(1.0, Gait::Walk))
     };
@@ -162,7 +162,7 @@ fn walker2d_residual(kind: AlgoKind) -> ResidualConfig {
 /// around standing (stepping in place), at PPO's own exploration.
 fn humanoid_residual(_: AlgoKind) -> ResidualConfig {
     ResidualConfig {
-        steering: Steering { speed: 0.1, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 },
+        steering: Steering { speed: 0.1, ..Steering::OFF },
         exploration: Some(Exploration { residual: 0.1, steering: 0.5 }),
         ..ResidualConfig::new(0.1, Command::forward(0.3, Gait::Walk))
     }

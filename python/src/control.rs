@@ -124,10 +124,7 @@ impl Controller {
     /// carries on (a reset goes back to 1). A rate outside [0.25, 4] (or not finite) is an
     /// error.
     fn set_gait_rate(&self, rate: f64) -> PyResult<()> {
-        let (low, high) = GAIT_RATE_RANGE;
-        if !(rate.is_finite() && (low..=high).contains(&rate)) {
-            return Err(error(format!("gait rate {rate}, expected a rate in [{low}, {high}]")));
-        }
+        check_range("gait rate", "a rate", rate, GAIT_RATE_RANGE)?;
         lock(&self.inner, "controller")?.controller.set_gait_rate(rate);
         Ok(())
     }
@@ -162,10 +159,7 @@ impl Controller {
     /// now on (a swing under way keeps its curve; a reset goes back to 1). A scale outside
     /// [0.25, 1.75] (or not finite) is an error.
     fn set_swing_height_scale(&self, scale: f64) -> PyResult<()> {
-        let (low, high) = SWING_SCALE_RANGE;
-        if !(scale.is_finite() && (low..=high).contains(&scale)) {
-            return Err(error(format!("swing height scale {scale}, expected a scale in [{low}, {high}]")));
-        }
+        check_range("swing height scale", "a scale", scale, SWING_SCALE_RANGE)?;
         lock(&self.inner, "controller")?.controller.set_swing_height_scale(scale);
         Ok(())
     }
@@ -256,5 +250,14 @@ impl Controller {
         status.set_item("foot_positions", st.foot_positions.clone())?;
         status.set_item("footholds", st.footholds.clone())?;
         Ok((PyArray1::from_slice(py, torques), targets, status))
+    }
+}
+
+/// `value` (named `what`, a `noun`) finite and within `[low, high]`, or an error naming both.
+fn check_range(what: &str, noun: &str, value: f64, (low, high): (f64, f64)) -> PyResult<()> {
+    if value.is_finite() && (low..=high).contains(&value) {
+        Ok(())
+    } else {
+        Err(error(format!("{what} {value}, expected {noun} in [{low}, {high}]")))
     }
 }

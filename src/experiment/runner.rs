@@ -940,13 +940,7 @@ mod tests {
         let dir = temp_dir("legacy-record");
         // The preset of 2026-11-27: steered ±1 m/s, rated 3.0.
         let preset = ResidualConfig {
-            steering: crate::hybrid::Steering {
-                speed: 1.0,
-                yaw_rate: 0.0,
-                cadence: 0.0,
-                duty: 0.0,
-                swing: 0.0,
-            },
+            steering: crate::hybrid::Steering { speed: 1.0, ..crate::hybrid::Steering::OFF },
             rated_speed: Some(3.0),
             ..residual_config("minitaur").unwrap()
         };
