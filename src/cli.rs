@@ -133,7 +133,9 @@ pub struct HybridArgs {
     /// steering) or command (steering only)
     #[arg(long, value_enum, default_value = "both")]
     pub parts: HybridParts,
-    /// Initial exploration σ of the joint residual, in policy units (PPO and A2C) [default: the robot's]
+    /// Initial exploration σ of the joint residual, in policy units (PPO and A2C): each
+    /// joint's noise is σ × the residual bound, so a wider --residual-scale explores wider
+    /// unless σ is narrowed with it [default: the robot's]
     #[arg(long)]
     pub explore_residual: Option<f64>,
     /// Initial exploration σ of the steering, in policy units (PPO and A2C) [default: the robot's]
