@@ -76,6 +76,7 @@ fn main() {
                     );
                 }
                 settings.motor_inverse = trained.controller_motor;
+                settings.observe_body_state = trained.observe_body_state.then_some(true);
             }
             Err(e) => {
                 eprintln!("embed_controller: {e}");

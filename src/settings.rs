@@ -133,8 +133,8 @@ pub struct EnvSettings {
 /// during episodes — and not what its policies observe, do or are rewarded for: a policy
 /// trained with them runs in the robot's preset environment as it is (the robustness study
 /// and `embed_controller` take such runs, and runs with `motor_inverse`, whose motor they
-/// tell the controller too, [`crate::experiment::TrainedWith`]; any other key is refused
-/// there).
+/// tell the controller too, or `observe_body_state`, whose observation they give the
+/// policies too, [`crate::experiment::TrainedWith`]; any other key is refused there).
 pub const TRAINING_ONLY: [&str; 2] = ["motor_strength", "pushes"];
 
 impl EnvSettings {

@@ -642,6 +642,34 @@ fn compare_takes_the_env_table_of_its_run_file() {
     std::fs::remove_file(&config).unwrap();
 }
 
+/// A run whose agents observed the body state (`[env] observe_body_state = true`) is taken by
+/// the robustness study, which gives them that observation (without it the policies would not
+/// fit the preset env's and the study would refuse them).
+#[test]
+fn the_robustness_study_takes_a_run_that_observed_the_body_state() {
+    let out = out_dir("compare-body-state");
+    let config = out_dir("compare-body-state.toml");
+    std::fs::write(
+        &config,
+        "n_steps = 64\nbatch_size = 64\nn_epochs = 1\n[env]\nobserve_body_state = true\n",
+    )
+    .unwrap();
+    let o = compare_minitaur_ppo(&["--seeds", "1", "--steps", "64", "--eval-episodes", "1"], &config, &out);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let seed_0 = out.join("seed_0");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["robustness", "--episodes", "1", "--run"])
+        .arg(&seed_0)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rows: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(seed_0.join("robustness.json")).unwrap()).unwrap();
+    assert_eq!(rows.as_array().map(Vec::len), Some(10), "{rows}");
+    let _ = std::fs::remove_dir_all(&out);
+    std::fs::remove_file(&config).unwrap();
+}
+
 /// `centaur compare --env minitaur --algo ppo ARGS --config CONFIG --out OUT`.
 fn compare_minitaur_ppo(
     args: &[&str],

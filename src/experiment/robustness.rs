@@ -10,6 +10,7 @@
 //!
 //! The hybrid is evaluated with the setup its run was trained with: options that differ from
 //! the one its `experiment.json` records (a rating, a steering span, the parts) are refused.
+//! Agents trained observing the body state (`[env] observe_body_state`) observe it here too.
 
 use std::path::PathBuf;
 
@@ -146,7 +147,8 @@ pub fn run_robustness(opts: &RobustnessOptions) -> Result<Vec<RobustnessRow>, Ex
     let load = |agent: &str| Policy::load(&opts.run.join(agent).join("checkpoint")).map_err(RlError::from);
     let (pure_policy, hybrid_policy) = (load("pure_rl")?, load("hybrid")?);
     let robot = |c: &Condition| -> Result<Box<dyn RobotEnv>, ExperimentError> {
-        Ok(Box::new(MinitaurEnv::new(MinitaurConfig { motor_inverse, ..c.minitaur() })?))
+        let observe_body_state = trained.observe_body_state;
+        Ok(Box::new(MinitaurEnv::new(MinitaurConfig { motor_inverse, observe_body_state, ..c.minitaur() })?))
     };
     let controller = |env: &dyn RobotEnv| -> Result<LocomotionController, ExperimentError> {
         Ok(LocomotionController::new(env.model(), controller_cfg.clone()).map_err(HybridError::from)?)

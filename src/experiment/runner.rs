@@ -189,6 +189,9 @@ pub struct TrainedWith {
     /// The motor the controller was told, on a Minitaur (`None`: another robot); the studies
     /// tell it the same unless asked otherwise.
     pub controller_motor: Option<MotorInverse>,
+    /// Whether both agents observed the robot's body state (`[env] observe_body_state`,
+    /// the Minitaur's); the studies build their environments with it.
+    pub observe_body_state: bool,
 }
 
 /// Creates the run directory, refusing one that already holds a run unless `overwrite`
@@ -225,9 +228,9 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<DirLock, ExperimentError>
 /// (`the_trots_own_rating_reproduces_the_old_preset_bit_for_bit`), so the two match. Records
 /// from before the setup was stored as data are matched by their text. A run trained with
 /// `[env]` settings is refused unless they only perturbed training
-/// ([`crate::settings::TRAINING_ONLY`]: motor strength drawn at reset, pushes) or set the
-/// motor the controller is told, which is returned ([`TrainedWith`]), since the callers run
-/// the robot's preset environment with it. A run whose record holds the controller's preset
+/// ([`crate::settings::TRAINING_ONLY`]: motor strength drawn at reset, pushes), set the
+/// motor the controller is told or put the body state in the observation, both returned
+/// ([`TrainedWith`]), since the callers run the robot's preset environment with them. A run whose record holds the controller's preset
 /// (since 2026-11-28) is refused when today's differs, naming the first difference. The
 /// safety fade ([`crate::hybrid::Fade`]) is not compared: a run may be evaluated with or
 /// without it. `centaur robustness` and `examples/embed_controller` check with it.
@@ -243,10 +246,14 @@ pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<Train
     })?;
     // The studies that check with this run the robot's preset environment: settings that
     // only perturbed training (motor strength drawn at reset, pushes) leave its policies
-    // fit for it, and they tell the controller the motor it was told; any other changes the
-    // task.
-    let task_keys: Vec<_> =
-        record.env_settings.task_keys().into_iter().filter(|k| *k != "motor_inverse").collect();
+    // fit for it, they tell the controller the motor it was told and give the policies the
+    // observation they were trained on (the body state or not); any other changes the task.
+    let task_keys: Vec<_> = record
+        .env_settings
+        .task_keys()
+        .into_iter()
+        .filter(|k| !["motor_inverse", "observe_body_state"].contains(k))
+        .collect();
     if !task_keys.is_empty() {
         return Err(ExperimentError::EnvSettingsNotCovered {
             run: dir.to_path_buf(),
@@ -276,7 +283,10 @@ pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<Train
                 return Err(ExperimentError::ControllerChanged { run: dir.to_path_buf(), difference });
             }
         }
-        return Ok(TrainedWith { controller_motor: record.controller_motor() });
+        return Ok(TrainedWith {
+            controller_motor: record.controller_motor(),
+            observe_body_state: record.env_settings.observe_body_state == Some(true),
+        });
     }
     Err(ExperimentError::SetupMismatch { run: dir.to_path_buf(), trained, given: format!("{residual:?}") })
 }
@@ -879,8 +889,9 @@ mod tests {
     }
 
     /// A run trained with `[env]` settings that only perturbed its training (motor strength
-    /// drawn at reset, pushes) is fit for the preset environment; one whose settings change
-    /// the task is refused, naming those keys only.
+    /// drawn at reset, pushes) is fit for the preset environment, one that observed the body
+    /// state for that environment observing it; one whose settings change the task is
+    /// refused, naming those keys only.
     #[test]
     fn training_only_settings_leave_a_run_fit_for_the_preset_env() {
         let dir = temp_dir("training-only");
@@ -896,7 +907,12 @@ mod tests {
             ),
         );
         check_trained_with(&dir, &preset).unwrap();
-        write_record(&dir, &with("[env]\nmotor_strength = [0.8, 1.2]\nenergy_weight = 0.0\n"));
+        assert!(!check_trained_with(&dir, &preset).unwrap().observe_body_state);
+        // The body state in the observation is no perturbation but no other task either: the
+        // studies observe it too.
+        write_record(&dir, &with("[env]\nobserve_body_state = true\n"));
+        assert!(check_trained_with(&dir, &preset).unwrap().observe_body_state);
+        write_record(&dir, &with("[env]\nobserve_body_state = true\nenergy_weight = 0.0\n"));
         let err = check_trained_with(&dir, &preset).unwrap_err();
         let ExperimentError::EnvSettingsNotCovered { ref keys, .. } = err else { panic!("{err}") };
         assert_eq!(keys, "energy_weight");
