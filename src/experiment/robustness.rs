@@ -146,8 +146,8 @@ pub fn run_robustness(opts: &RobustnessOptions) -> Result<Vec<RobustnessRow>, Ex
     opts.residual.rate_controller(&mut controller_cfg)?;
     let load = |agent: &str| Policy::load(&opts.run.join(agent).join("checkpoint")).map_err(RlError::from);
     let (pure_policy, hybrid_policy) = (load("pure_rl")?, load("hybrid")?);
+    let observe_body_state = trained.observe_body_state;
     let robot = |c: &Condition| -> Result<Box<dyn RobotEnv>, ExperimentError> {
-        let observe_body_state = trained.observe_body_state;
         Ok(Box::new(MinitaurEnv::new(MinitaurConfig { motor_inverse, observe_body_state, ..c.minitaur() })?))
     };
     let controller = |env: &dyn RobotEnv| -> Result<LocomotionController, ExperimentError> {

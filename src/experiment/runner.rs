@@ -230,10 +230,11 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<DirLock, ExperimentError>
 /// `[env]` settings is refused unless they only perturbed training
 /// ([`crate::settings::TRAINING_ONLY`]: motor strength drawn at reset, pushes), set the
 /// motor the controller is told or put the body state in the observation, both returned
-/// ([`TrainedWith`]), since the callers run the robot's preset environment with them. A run whose record holds the controller's preset
-/// (since 2026-11-28) is refused when today's differs, naming the first difference. The
-/// safety fade ([`crate::hybrid::Fade`]) is not compared: a run may be evaluated with or
-/// without it. `centaur robustness` and `examples/embed_controller` check with it.
+/// ([`TrainedWith`]), since the callers run the robot's preset environment with them. A run
+/// whose record holds the controller's preset (since 2026-11-28) is refused when today's
+/// differs, naming the first difference. The safety fade ([`crate::hybrid::Fade`]) is not
+/// compared: a run may be evaluated with or without it. `centaur robustness` and
+/// `examples/embed_controller` check with it.
 pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<TrainedWith, ExperimentError> {
     let path = dir.join("experiment.json");
     let text = std::fs::read_to_string(&path).map_err(|source| match source.kind() {
