@@ -621,11 +621,7 @@ fn compare_takes_the_env_table_of_its_run_file() {
     }
     let record = std::fs::read_to_string(seed_0.join("experiment.json")).unwrap();
     assert!(record.contains("\"max_episode_steps\": 30"), "{record}");
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
-        .args(["robustness", "--episodes", "1", "--run"])
-        .arg(&seed_0)
-        .output()
-        .unwrap();
+    let o = robustness(&seed_0, &[]);
     assert!(!o.status.success());
     assert!(
         String::from_utf8_lossy(&o.stderr)
@@ -657,17 +653,23 @@ fn the_robustness_study_takes_a_run_that_observed_the_body_state() {
     let o = compare_minitaur_ppo(&["--seeds", "1", "--steps", "64", "--eval-episodes", "1"], &config, &out);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let seed_0 = out.join("seed_0");
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
-        .args(["robustness", "--episodes", "1", "--run"])
-        .arg(&seed_0)
-        .output()
-        .unwrap();
+    let o = robustness(&seed_0, &[]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let rows: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(seed_0.join("robustness.json")).unwrap()).unwrap();
     assert_eq!(rows.as_array().map(Vec::len), Some(10), "{rows}");
     let _ = std::fs::remove_dir_all(&out);
     std::fs::remove_file(&config).unwrap();
+}
+
+/// `centaur robustness --episodes 1 --run RUN EXTRA`.
+fn robustness(run: &Path, extra: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["robustness", "--episodes", "1", "--run"])
+        .arg(run)
+        .args(extra)
+        .output()
+        .unwrap()
 }
 
 /// `centaur compare --env minitaur --algo ppo ARGS --config CONFIG --out OUT`.
@@ -864,14 +866,6 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
 
     // The robustness study on seed 0's run: one episode per agent and condition.
     let seed_0 = out.join("seed_0");
-    let robustness = |run: &Path, extra: &[&str]| {
-        std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
-            .args(["robustness", "--episodes", "1", "--run"])
-            .arg(run)
-            .args(extra)
-            .output()
-            .unwrap()
-    };
     let o = robustness(&seed_0, &[]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let rows: serde_json::Value =
