@@ -129,6 +129,11 @@ pub struct HybridArgs {
     /// [default: the robot's]
     #[arg(long)]
     pub steer_swing: Option<f64>,
+    /// Span of the policy's foothold steering, metres in [0, 0.1] (0: off): each swing lands
+    /// up to this far ahead of or behind the controller's foothold along the heading, taken
+    /// at lift-off [default: the robot's]
+    #[arg(long)]
+    pub steer_foothold: Option<f64>,
     /// Which parts of the hybrid's action are on: both (the default), residual (no
     /// steering) or command (steering only)
     #[arg(long, value_enum, default_value = "both")]
@@ -257,6 +262,9 @@ impl HybridArgs {
         }
         if let Some(s) = self.steer_swing {
             preset.steering.swing = s;
+        }
+        if let Some(s) = self.steer_foothold {
+            preset.steering.foothold = s;
         }
         match self.parts {
             HybridParts::Both => {}
@@ -566,6 +574,9 @@ mod tests {
         assert_eq!(steering(&["--steer-swing", "0.5"]), Steering { swing: 0.5, ..walker.steering });
         assert_eq!(steering(&["--steer-swing", "0.5", "--parts", "residual"]), Steering::OFF);
         assert!(parse_hybrid(walker.clone(), &["--steer-swing", "x"]).is_err());
+        assert_eq!(steering(&["--steer-foothold", "0.05"]), Steering { foothold: 0.05, ..walker.steering });
+        assert_eq!(steering(&["--steer-foothold", "0.05", "--parts", "residual"]), Steering::OFF);
+        assert!(parse_hybrid(walker.clone(), &["--steer-foothold", "x"]).is_err());
     }
 
     #[test]

@@ -77,7 +77,8 @@ pub enum HybridError {
 
 /// How the policy may steer the controller's command. Each non-zero span adds one entry
 /// `c ∈ [−1, 1]` to the policy's action, after the joint residual, in this order (speed,
-/// yaw rate, cadence), and the controller follows `base + span · clip(c, −1, 1)`; zero
+/// yaw rate, cadence, duty, swing, foothold), and the controller follows `base + span ·
+/// clip(c, −1, 1)` (the gait's parts as their fields say); zero
 /// switches that part off. The controller still clamps the result to its rating for the
 /// gait and ramps towards it at its own acceleration limit, so a noisy steering output is
 /// smoothed, not followed step by step; the cadence moves at the gait clock's slew
@@ -110,18 +111,25 @@ pub struct Steering {
     /// the feet less to step faster, or more over rough ground (recorded only where set).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub swing: f64,
+    /// Foothold span (m), in [0, 0.1]: each swing lands `foothold · c` metres ahead of the
+    /// controller's foothold (Raibert's neutral point and its capture-point term) along the
+    /// heading, taken at its lift-off
+    /// ([`centaur_mpc::LocomotionController::set_foothold_offset`]), so the policy can
+    /// lengthen or shorten the stride the controller plans (recorded only where set).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub foothold: f64,
 }
 
 fn is_zero(x: &f64) -> bool {
     *x == 0.0
 }
 
-/// Every field as `derive(Debug)` writes it, but `cadence`, `duty` and `swing` only where set: runs
+/// Every field as `derive(Debug)` writes it, but `cadence`, `duty`, `swing` and `foothold` only where set: runs
 /// record this text in their fingerprint, and a run without them keeps the fingerprint it
 /// had before they existed.
 impl std::fmt::Debug for Steering {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let Steering { speed, yaw_rate, cadence, duty, swing } = self;
+        let Steering { speed, yaw_rate, cadence, duty, swing, foothold } = self;
         let mut s = f.debug_struct("Steering");
         s.field("speed", speed).field("yaw_rate", yaw_rate);
         if *cadence != 0.0 {
@@ -133,13 +141,17 @@ impl std::fmt::Debug for Steering {
         if *swing != 0.0 {
             s.field("swing", swing);
         }
+        if *foothold != 0.0 {
+            s.field("foothold", foothold);
+        }
         s.finish()
     }
 }
 
 impl Steering {
     /// No steering: the command is fixed.
-    pub const OFF: Steering = Steering { speed: 0.0, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0 };
+    pub const OFF: Steering =
+        Steering { speed: 0.0, yaw_rate: 0.0, cadence: 0.0, duty: 0.0, swing: 0.0, foothold: 0.0 };
 
     /// Number of action entries the steering adds.
     pub fn dim(&self) -> usize {
@@ -147,7 +159,7 @@ impl Steering {
     }
 
     /// The speed's place in the order of the steering entries (speed, yaw rate, cadence,
-    /// duty, swing): the first where it is on.
+    /// duty, swing, foothold): the first where it is on.
     pub const SPEED: usize = 0;
     /// The yaw rate's place in the order of the steering entries.
     pub const YAW_RATE: usize = 1;
@@ -155,12 +167,15 @@ impl Steering {
     pub const CADENCE: usize = 2;
     /// The duty's place in the order of the steering entries.
     pub const DUTY: usize = 3;
-    /// The swing height's place in the order of the steering entries: the last.
+    /// The swing height's place in the order of the steering entries.
     pub const SWING: usize = 4;
+    /// The foothold offset's place in the order of the steering entries: the last.
+    pub const FOOTHOLD: usize = 5;
 
-    /// The spans in the order of their action entries: speed, yaw rate, cadence, duty, swing.
-    fn spans(&self) -> [f64; 5] {
-        [self.speed, self.yaw_rate, self.cadence, self.duty, self.swing]
+    /// The spans in the order of their action entries: speed, yaw rate, cadence, duty,
+    /// swing, foothold.
+    fn spans(&self) -> [f64; 6] {
+        [self.speed, self.yaw_rate, self.cadence, self.duty, self.swing, self.foothold]
     }
 
     /// The index among the steering entries of `part` (its place in [`Steering::spans`]),
@@ -545,6 +560,14 @@ impl ResidualConfig {
                 expected: "a fraction in [0, 0.75] (the apex 1 ± swing times the controller's swing height)",
             });
         }
+        if !(self.steering.foothold.is_finite() && (0.0..=MAX_FOOTHOLD).contains(&self.steering.foothold)) {
+            let value = self.steering.foothold;
+            return Err(HybridError::BadSetting {
+                part: "steering.foothold",
+                value,
+                expected: "metres in [0, 0.1] (the controller's largest foothold offset)",
+            });
+        }
         if self.steering.yaw_rate > MAX_YAW_RATE {
             let value = self.steering.yaw_rate;
             return Err(HybridError::BadSetting {
@@ -734,6 +757,10 @@ pub const MAX_CADENCE: f64 = 0.75;
 /// times the controller's swing height, the range the controller holds its scale in
 /// ([`centaur_mpc::SWING_SCALE_RANGE`]), so no steered scale is clamped.
 pub const MAX_SWING: f64 = 0.75;
+
+/// The widest foothold span ([`Steering::foothold`], m): the controller's largest foothold
+/// offset ([`centaur_mpc::MAX_FOOTHOLD_OFFSET`]), so no steered offset is clamped.
+pub const MAX_FOOTHOLD: f64 = 0.1;
 
 /// The largest initial exploration σ accepted ([`Exploration`]), in the policy's [−1, 1]
 /// units: at σ 10 nearly every sample already lands outside [−1, 1] and is clipped, and far
@@ -963,16 +990,25 @@ impl Residual {
     }
 
     /// The scale of the swing apex the policy's `output` steers to, `1 + swing · g ·
-    /// clip(c, −1, 1)` with `c` its swing entry (the last steering entry) and `g` the
+    /// clip(c, −1, 1)` with `c` its swing entry (after the duty) and `g` the
     /// `authority` over the steering; `None` without swing steering (the controller's own
     /// height).
     pub fn swing_scale(&self, output: &[f32], authority: f32) -> Option<f64> {
         self.steering_entry(output, authority, Steering::SWING).map(|c| 1.0 + self.steering.swing * c)
     }
 
+    /// The foothold offset (m, forward along the heading) the policy's `output` steers to,
+    /// `foothold · g · clip(c, −1, 1)` with `c` its foothold entry (the last steering entry)
+    /// and `g` the `authority` over the steering; `None` without foothold steering (the
+    /// controller's own footholds).
+    pub fn foothold_offset(&self, output: &[f32], authority: f32) -> Option<f64> {
+        self.steering_entry(output, authority, Steering::FOOTHOLD).map(|c| self.steering.foothold * c)
+    }
+
     /// Steers `controller`'s gait as the policy's `output` says: its clock's rate
-    /// ([`Residual::gait_rate`]), its stance fractions ([`Residual::duty_shift`]) and its
-    /// swing apex ([`Residual::swing_scale`]), each only where the policy steers it.
+    /// ([`Residual::gait_rate`]), its stance fractions ([`Residual::duty_shift`]), its
+    /// swing apex ([`Residual::swing_scale`]) and its footholds
+    /// ([`Residual::foothold_offset`]), each only where the policy steers it.
     pub fn steer_gait(&self, controller: &mut LocomotionController, output: &[f32], authority: f32) {
         if let Some(rate) = self.gait_rate(output, authority) {
             controller.set_gait_rate(rate);
@@ -982,6 +1018,9 @@ impl Residual {
         }
         if let Some(scale) = self.swing_scale(output, authority) {
             controller.set_swing_height_scale(scale);
+        }
+        if let Some(offset) = self.foothold_offset(output, authority) {
+            controller.set_foothold_offset(offset);
         }
     }
 
@@ -1420,7 +1459,7 @@ mod tests {
     fn the_swing_steers_the_apex_last_and_is_checked_and_recorded_only_where_set() {
         let base = Command::forward(1.0, Gait::Trot);
         let config = ResidualConfig {
-            steering: Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4, duty: 0.2, swing: 0.5 },
+            steering: Steering { speed: 0.5, cadence: 0.4, duty: 0.2, swing: 0.5, ..Steering::OFF },
             ..ResidualConfig::new(0.25, base)
         };
         let r = Residual::new(&config, 3).unwrap();
@@ -1441,26 +1480,95 @@ mod tests {
         let without =
             ResidualConfig { steering: Steering { swing: 0.0, ..config.steering }, ..config.clone() };
         assert_eq!(Residual::new(&without, 3).unwrap().swing_scale(&[1.0; 6], 1.0), None);
-        for bad in [-0.1, 0.8, f64::NAN, f64::INFINITY] {
-            let c = ResidualConfig { steering: Steering { swing: bad, ..Steering::OFF }, ..config.clone() };
-            assert!(
-                matches!(Residual::new(&c, 3), Err(HybridError::BadSetting { part: "steering.swing", .. })),
-                "{bad}"
-            );
-        }
         // The span's range is the controller's: no steered scale is clamped; the error's text
         // names it.
         assert_eq!((1.0 - MAX_SWING, 1.0 + MAX_SWING), centaur_mpc::SWING_SCALE_RANGE);
         let c = ResidualConfig { steering: Steering { swing: 0.8, ..Steering::OFF }, ..config.clone() };
         let err = Residual::new(&c, 3).unwrap_err().to_string();
         assert!(err.contains(&format!("[0, {MAX_SWING}]")), "{err}");
-        // Recorded (text and data) only where set.
-        assert!(!format!("{:?}", without.steering).contains("swing"));
-        assert!(format!("{:?}", config.steering).ends_with(", duty: 0.2, swing: 0.5 }"));
+        let swing = |s: &mut Steering, x| s.swing = x;
+        let (debug, json) = (", duty: 0.2, swing: 0.5 }", r#","swing":0.5}"#);
+        span_refused_and_recorded_only_where_set(
+            &config,
+            swing,
+            "swing",
+            &[-0.1, 0.8, f64::NAN, f64::INFINITY],
+            debug,
+            json,
+        );
+    }
+
+    /// What every gait-steering span shares: each `bad` span (alone) is refused naming
+    /// `steering.{name}`, and the span is recorded, as text and as data, only where set —
+    /// `config`'s steering (Debug text ending in `debug_tail`, JSON in `json_tail`) with it,
+    /// the same with `set` to 0 without it.
+    fn span_refused_and_recorded_only_where_set(
+        config: &ResidualConfig,
+        set: fn(&mut Steering, f64),
+        name: &str,
+        bad: &[f64],
+        debug_tail: &str,
+        json_tail: &str,
+    ) {
+        let part = format!("steering.{name}");
+        for &b in bad {
+            let mut steering = Steering::OFF;
+            set(&mut steering, b);
+            let got = Residual::new(&ResidualConfig { steering, ..config.clone() }, 3).err();
+            assert!(
+                matches!(&got, Some(HybridError::BadSetting { part: p, .. }) if *p == part),
+                "{name} = {b}: {got:?}"
+            );
+        }
+        let mut without = config.steering;
+        set(&mut without, 0.0);
+        assert!(!format!("{without:?}").contains(name));
+        assert!(format!("{:?}", config.steering).ends_with(debug_tail));
         let json = serde_json::to_string(&config.steering).unwrap();
-        assert!(json.ends_with(r#","swing":0.5}"#), "{json}");
+        assert!(json.ends_with(json_tail), "{json}");
         assert_eq!(serde_json::from_str::<Steering>(&json).unwrap(), config.steering);
-        assert!(!serde_json::to_string(&without.steering).unwrap().contains("swing"));
+        assert!(!serde_json::to_string(&without).unwrap().contains(name));
+    }
+
+    #[test]
+    fn the_foothold_steers_the_offset_last_and_is_checked_and_recorded_only_where_set() {
+        let base = Command::forward(1.0, Gait::Trot);
+        let config = ResidualConfig {
+            steering: Steering { speed: 0.5, cadence: 0.4, swing: 0.5, foothold: 0.08, ..Steering::OFF },
+            ..ResidualConfig::new(0.25, base)
+        };
+        let r = Residual::new(&config, 3).unwrap();
+        // [r₀ r₁ r₂ | c_speed c_cadence c_swing c_foothold]
+        assert_eq!(r.policy_action_dim(), 7);
+        assert_eq!(r.foothold_offset(&[0.0; 7], 1.0), Some(0.0));
+        let out = [0.0, 0.0, 0.0, 0.2, 0.5, -0.6, 0.5];
+        assert!((r.foothold_offset(&out, 1.0).unwrap() - 0.04).abs() < 1e-9);
+        assert!((r.swing_scale(&out, 1.0).unwrap() - 0.7).abs() < 1e-6);
+        assert!((r.gait_rate(&out, 1.0).unwrap() - 1.2).abs() < 1e-12);
+        // Clipped to [−1, 1] and scaled by the authority.
+        let far = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -5.0];
+        assert!((r.foothold_offset(&far, 0.5).unwrap() + 0.04).abs() < 1e-9);
+        // Alone, it is the only steering entry; off, there is none.
+        let alone =
+            ResidualConfig { steering: Steering { foothold: 0.1, ..Steering::OFF }, ..config.clone() };
+        let r = Residual::new(&alone, 3).unwrap();
+        assert_eq!((r.policy_action_dim(), r.swing_scale(&[1.0; 4], 1.0)), (4, None));
+        assert!((r.foothold_offset(&[1.0, 1.0, 1.0, -1.0], 1.0).unwrap() + 0.1).abs() < 1e-9);
+        let without =
+            ResidualConfig { steering: Steering { foothold: 0.0, ..config.steering }, ..config.clone() };
+        assert_eq!(Residual::new(&without, 3).unwrap().foothold_offset(&[1.0; 6], 1.0), None);
+        // The span's range is the controller's: no steered offset is clamped.
+        assert_eq!(MAX_FOOTHOLD, centaur_mpc::MAX_FOOTHOLD_OFFSET);
+        let foothold = |s: &mut Steering, x| s.foothold = x;
+        let (debug, json) = (", swing: 0.5, foothold: 0.08 }", r#","foothold":0.08}"#);
+        span_refused_and_recorded_only_where_set(
+            &config,
+            foothold,
+            "foothold",
+            &[-0.01, 0.11, f64::NAN, f64::INFINITY],
+            debug,
+            json,
+        );
     }
 
     #[test]

@@ -215,6 +215,32 @@ fn swing_steering_scales_the_swing_apex() {
     assert_eq!(env.controller().swing_height_scale(), 1.0);
 }
 
+/// Foothold steering: zero output is the controller alone to the bit; the policy's last
+/// entry at +1 moves every following swing's foothold the span (5 cm) ahead along the
+/// heading, and a reset goes back to the controller's own footholds.
+#[test]
+fn foothold_steering_moves_the_footholds() {
+    use centaur::hybrid::Steering;
+    let preset = residual_config("minitaur").unwrap();
+    let config =
+        ResidualConfig { steering: Steering { foothold: 0.05, ..preset.steering }, ..preset.clone() };
+    let mut env = make_residual_env("minitaur", config.clone()).unwrap();
+    let n_env = env.inner().observation_space().dim();
+    assert_eq!(env.action_space().dim(), env.inner().action_space().dim() + 2, "speed and foothold");
+    let reference = controller_alone("minitaur", config.command, 150);
+    assert_eq!(zero_output_trace(&mut env, 150), reference, "c = 0 is the controller alone");
+    assert_eq!(env.controller().foothold_offset(), 0.0);
+    let mut ahead = vec![0.0f32; env.action_space().dim()];
+    *ahead.last_mut().unwrap() = 1.0;
+    let t = trace(&mut env, &ahead, n_env, 150, |s| assert!(!s.terminated, "fell"));
+    assert_eq!(t.len(), reference.len(), "ended early");
+    assert!(t != reference, "the foothold offset changed nothing");
+    assert!((env.controller().foothold_offset() - 0.05).abs() < 1e-9);
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    env.reset(Some(3), &mut obs).unwrap();
+    assert_eq!(env.controller().foothold_offset(), 0.0);
+}
+
 #[test]
 fn the_residual_is_bounded_by_its_scale_and_the_action_space() {
     let scale = 0.2;
@@ -542,10 +568,17 @@ fn the_deployed_stack_acts_exactly_like_the_residual_env_it_was_trained_in() {
     let (fa, fb) = both(&faded);
     assert!(fa == fb, "with a fade, the deployed stack diverged from the training environment");
     assert!(fa != a, "the fade changed nothing");
-    // With the policy steering the cadence, the stance fractions and the swing apex on a
-    // faster clock and a lower swing, the stack runs the controller's gait as the env does.
+    // With the policy steering the cadence, the stance fractions, the swing apex and the
+    // footholds on a faster clock and a lower swing, the stack runs the controller's gait as
+    // the env does.
     let clocked = ResidualConfig {
-        steering: centaur::hybrid::Steering { cadence: 0.5, duty: 0.2, swing: 0.5, ..config.steering },
+        steering: centaur::hybrid::Steering {
+            cadence: 0.5,
+            duty: 0.2,
+            swing: 0.5,
+            foothold: 0.05,
+            ..config.steering
+        },
         period_scale: Some(0.8),
         swing_height: Some(0.05),
         ..config.clone()
@@ -553,9 +586,9 @@ fn the_deployed_stack_acts_exactly_like_the_residual_env_it_was_trained_in() {
     let (ca, cb) = both(&clocked);
     assert!(
         ca == cb,
-        "with cadence, duty and swing steering, the deployed stack diverged from the training environment"
+        "with cadence, duty, swing and foothold steering, the deployed stack diverged from the training environment"
     );
-    assert!(ca != a, "the cadence, the duty, the swing and the clock changed nothing");
+    assert!(ca != a, "the cadence, the duty, the swing, the footholds and the clock changed nothing");
     // With the controller's body state in the observation, the stack observes it as the env
     // does (the policy's outputs, so the robot's path, depend on it).
     let observing = ResidualConfig { include_state: true, ..config.clone() };

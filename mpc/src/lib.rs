@@ -124,7 +124,7 @@ mod wbc;
 pub use config::{Command, ControlMode, ControllerConfig, GaitOffer, HeightRise, MpcExecution, TurnRating};
 pub use controller::{
     BODY_HEIGHT_RANGE, ControllerStatus, Fallback, JointCommand, LANDING_HEIGHT, LocomotionController,
-    SWING_SCALE_RANGE, wrap_pi,
+    MAX_FOOTHOLD_OFFSET, SWING_SCALE_RANGE, wrap_pi,
 };
 pub use convex_mpc::{ConvexMpc, HardConstraints, MpcConfig, MpcInput, MpcSolver, NX, state_index};
 pub use error::ConfigError;

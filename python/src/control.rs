@@ -5,7 +5,7 @@ use std::sync::Mutex;
 use centaur_dynamics::RobotState;
 use centaur_mpc::{
     Command, ControllerConfig, GAIT_RATE_RANGE, Gait, LocomotionController, MAX_DUTY_SHIFT,
-    SWING_SCALE_RANGE, duty_shift_in_range,
+    MAX_FOOTHOLD_OFFSET, SWING_SCALE_RANGE, duty_shift_in_range,
 };
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
@@ -168,6 +168,21 @@ impl Controller {
     #[getter]
     fn swing_height_scale(&self) -> PyResult<f64> {
         Ok(lock(&self.inner, "controller")?.controller.swing_height_scale())
+    }
+
+    /// Moves the footholds of every swing that lifts off from now on `offset` metres forward
+    /// along the heading (negative: behind; a swing under way keeps its foothold; a reset
+    /// goes back to 0). An offset outside [-0.1, 0.1] m (or not finite) is an error.
+    fn set_foothold_offset(&self, offset: f64) -> PyResult<()> {
+        check_range("foothold offset", "metres", offset, (-MAX_FOOTHOLD_OFFSET, MAX_FOOTHOLD_OFFSET))?;
+        lock(&self.inner, "controller")?.controller.set_foothold_offset(offset);
+        Ok(())
+    }
+
+    /// The foothold offset the next swings take (`set_foothold_offset`).
+    #[getter]
+    fn foothold_offset(&self) -> PyResult<f64> {
+        Ok(lock(&self.inner, "controller")?.controller.foothold_offset())
     }
 
     /// One control step at time `t` (s) from state `(q, v)`, following the command (speeds in

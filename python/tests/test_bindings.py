@@ -118,6 +118,15 @@ def test_controller_errors():
             c.set_swing_height_scale(bad)
     c.reset()
     assert c.swing_height_scale == 1.0
+    # The foothold offset: taken by the next swings, refused out of range.
+    assert c.foothold_offset == 0.0
+    c.set_foothold_offset(-0.04)
+    assert c.foothold_offset == -0.04
+    for bad in (float("nan"), 0.11, -0.2):
+        with pytest.raises(centaur.CentaurError, match="foothold offset"):
+            c.set_foothold_offset(bad)
+    c.reset()
+    assert c.foothold_offset == 0.0
     with pytest.raises(centaur.CentaurError, match="unknown controller preset"):
         centaur.Controller(model, "cheetah")
     with pytest.raises(centaur.CentaurError):

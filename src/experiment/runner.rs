@@ -317,7 +317,8 @@ mod legacy {
             || residual.include_state
             || residual.steering.cadence != 0.0
             || residual.steering.duty != 0.0
-            || residual.steering.swing != 0.0;
+            || residual.steering.swing != 0.0
+            || residual.steering.foothold != 0.0;
         if newer {
             return false;
         }
@@ -390,9 +391,9 @@ mod legacy {
 
     impl fmt::Debug for SteeringForm<'_> {
         fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-            // Records of this form predate the cadence, the duty and the swing: they can only
-            // be 0 here.
-            let Steering { speed, yaw_rate, cadence: _, duty: _, swing: _ } = self.0;
+            // Records of this form predate the cadence, the duty, the swing and the foothold:
+            // they can only be 0 here.
+            let Steering { speed, yaw_rate, cadence: _, duty: _, swing: _, foothold: _ } = self.0;
             f.debug_struct("Steering").field("speed", speed).field("yaw_rate", yaw_rate).finish()
         }
     }

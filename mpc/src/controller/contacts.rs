@@ -24,6 +24,12 @@ pub const LANDING_HEIGHT: f64 = 0.03;
 /// swing apex in: a quarter to 1.75 times the configured `swing_height`.
 pub const SWING_SCALE_RANGE: (f64, f64) = (0.25, 1.75);
 
+/// The largest forward foothold offset (m) [`crate::LocomotionController::set_foothold_offset`]
+/// holds, either way: 10 cm, about half a small quadruped's leg length (the Minitaur's legs
+/// reach ≈ 0.2 m), beyond which a foot placed that far ahead or behind its neutral point
+/// brakes or trips the body rather than steering its stride.
+pub const MAX_FOOTHOLD_OFFSET: f64 = 0.1;
+
 /// Contact bookkeeping per contact point.
 pub(crate) struct Contacts {
     was_stance: Vec<bool>,
@@ -43,6 +49,11 @@ pub(crate) struct Contacts {
     /// Each contact point's swing apex scale, taken from `swing_scale` at its lift-off (a
     /// swing keeps its curve whatever the scale does meanwhile).
     apex_scale: Vec<f64>,
+    /// The forward offset (m, along the heading) that swings lifting off from now on add
+    /// to their foothold.
+    foothold_offset: f64,
+    /// Each contact point's foothold offset, taken from `foothold_offset` at its lift-off.
+    step_offset: Vec<f64>,
 }
 
 impl Contacts {
@@ -58,6 +69,8 @@ impl Contacts {
             liftoff: vec![Vector3::zeros(); nc],
             swing_scale: 1.0,
             apex_scale: vec![1.0; nc],
+            foothold_offset: 0.0,
+            step_offset: vec![0.0; nc],
         }
     }
 
@@ -70,6 +83,8 @@ impl Contacts {
         self.landed = false;
         self.swing_scale = 1.0;
         self.apex_scale.iter_mut().for_each(|s| *s = 1.0);
+        self.foothold_offset = 0.0;
+        self.step_offset.iter_mut().for_each(|s| *s = 0.0);
     }
 
     /// Scales the apex of the swings lifting off from now on by `scale`, clamped to
@@ -82,6 +97,19 @@ impl Contacts {
     /// The scale the next swings take ([`Contacts::set_swing_scale`]).
     pub(crate) fn swing_scale(&self) -> f64 {
         self.swing_scale
+    }
+
+    /// Moves the footholds of the swings lifting off from now on `offset` metres forward
+    /// along the heading, clamped to ±[`MAX_FOOTHOLD_OFFSET`]; a non-finite offset counts
+    /// as 0.
+    pub(crate) fn set_foothold_offset(&mut self, offset: f64) {
+        self.foothold_offset =
+            if offset.is_finite() { offset.clamp(-MAX_FOOTHOLD_OFFSET, MAX_FOOTHOLD_OFFSET) } else { 0.0 };
+    }
+
+    /// The offset the next swings take ([`Contacts::set_foothold_offset`]).
+    pub(crate) fn foothold_offset(&self) -> f64 {
+        self.foothold_offset
     }
 
     /// This tick's measured contact flags (`None`: follow the schedule).
@@ -138,6 +166,7 @@ impl Contacts {
             if self.was_stance[ci] && !stance || first {
                 self.liftoff[ci] = est.p_contact[ci];
                 self.apex_scale[ci] = self.swing_scale;
+                self.step_offset[ci] = self.foothold_offset;
             }
             if self.was_stance[ci] != stance || first {
                 // A new phase (or the first tick): a stance has not touched down yet, a swing
@@ -186,6 +215,13 @@ impl Contacts {
                 self.liftoff[ci].z,
                 g,
             );
+            // The steered offset along the heading (zero unless set: the controller as
+            // configured, to the bit).
+            let ahead = self.step_offset[ci];
+            if ahead != 0.0 {
+                fh.x += c * ahead;
+                fh.y += s * ahead;
+            }
             if cfg.mpc.planar {
                 fh.y = est.p_contact[ci].y;
             }
@@ -199,6 +235,10 @@ impl Contacts {
                 let t_next = gait.stance_time_left(leg) + pat.swing_duration(leg);
                 let t_mid = t_next + 0.5 * pat.stance_duration(leg);
                 let mut p = hip_at(w * t_mid) + v_cmd * t_td + v_cmd * t_mid;
+                if self.foothold_offset != 0.0 {
+                    p.x += c * self.foothold_offset;
+                    p.y += s * self.foothold_offset;
+                }
                 p.z = est.p_contact[ci].z;
                 if cfg.mpc.planar {
                     p.y = est.p_contact[ci].y;

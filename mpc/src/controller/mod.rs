@@ -25,7 +25,7 @@ mod torques;
 use centaur_dynamics::nalgebra::DVector;
 use centaur_dynamics::{Data, Model, RobotState};
 
-pub use contacts::{LANDING_HEIGHT, SWING_SCALE_RANGE};
+pub use contacts::{LANDING_HEIGHT, MAX_FOOTHOLD_OFFSET, SWING_SCALE_RANGE};
 pub use reference::wrap_pi;
 pub use status::{ControllerStatus, Fallback, JointCommand};
 
@@ -228,6 +228,22 @@ impl LocomotionController {
     /// The scale the next swings' apex takes ([`Self::set_swing_height_scale`]).
     pub fn swing_height_scale(&self) -> f64 {
         self.contacts.swing_scale()
+    }
+
+    /// Moves the footholds of every swing that lifts off from now on `offset` metres
+    /// forward along the body's heading (negative: behind), on top of Raibert's neutral
+    /// point and its capture-point correction; a swing under way keeps its foothold's
+    /// offset, and the MPC's look-ahead of the stance legs' next footholds takes the offset
+    /// in force. Clamped to ±[`crate::MAX_FOOTHOLD_OFFSET`], a non-finite offset counts as
+    /// 0, and [`Self::reset`] goes back to 0. A hybrid's policy steers it
+    /// (`Steering::foothold` in `centaur`).
+    pub fn set_foothold_offset(&mut self, offset: f64) {
+        self.contacts.set_foothold_offset(offset);
+    }
+
+    /// The foothold offset the next swings take ([`Self::set_foothold_offset`]).
+    pub fn foothold_offset(&self) -> f64 {
+        self.contacts.foothold_offset()
     }
 
     /// One control step at time `t` (s). Never panics on a non-finite state (it falls back
