@@ -124,9 +124,9 @@ fn is_zero(x: &f64) -> bool {
     *x == 0.0
 }
 
-/// Every field as `derive(Debug)` writes it, but `cadence`, `duty`, `swing` and `foothold` only where set: runs
-/// record this text in their fingerprint, and a run without them keeps the fingerprint it
-/// had before they existed.
+/// Every field as `derive(Debug)` writes it, but `cadence`, `duty`, `swing` and `foothold`
+/// only where set: runs record this text in their fingerprint, and a run without them keeps
+/// the fingerprint it had before they existed.
 impl std::fmt::Debug for Steering {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let Steering { speed, yaw_rate, cadence, duty, swing, foothold } = self;

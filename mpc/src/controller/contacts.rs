@@ -24,10 +24,11 @@ pub const LANDING_HEIGHT: f64 = 0.03;
 /// swing apex in: a quarter to 1.75 times the configured `swing_height`.
 pub const SWING_SCALE_RANGE: (f64, f64) = (0.25, 1.75);
 
-/// The largest forward foothold offset (m) [`crate::LocomotionController::set_foothold_offset`]
-/// holds, either way: 10 cm, about half a small quadruped's leg length (the Minitaur's legs
-/// reach ≈ 0.2 m), beyond which a foot placed that far ahead or behind its neutral point
-/// brakes or trips the body rather than steering its stride.
+/// The largest foothold offset (m, ahead or behind)
+/// [`crate::LocomotionController::set_foothold_offset`] holds: 10 cm, a bound on how far a
+/// steering policy may move a foot from where the controller plans it, small against the
+/// ground a stance sweeps at speed (the Minitaur hybrid's at 4.5 m/s and 7.8 touchdowns per
+/// foot a second: ≈ 0.3 m).
 pub const MAX_FOOTHOLD_OFFSET: f64 = 0.1;
 
 /// Contact bookkeeping per contact point.
