@@ -216,8 +216,9 @@ fn swing_steering_scales_the_swing_apex() {
 }
 
 /// Foothold steering: zero output is the controller alone to the bit; the policy's last
-/// entry at +1 moves every following swing's foothold the span (5 cm) ahead along the
-/// heading, and a reset goes back to the controller's own footholds.
+/// entry at +1 sets the offset every following swing takes to the span (5 cm ahead; how a
+/// swing lands with it: `mpc/tests/foothold_offset.rs`) and changes the run, and a reset
+/// goes back to the controller's own footholds.
 #[test]
 fn foothold_steering_moves_the_footholds() {
     use centaur::hybrid::Steering;
