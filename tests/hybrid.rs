@@ -155,91 +155,70 @@ fn cadence_steering_runs_the_gait_clock_faster_or_slower() {
     }
 }
 
-/// Duty steering moves the trot's stance fractions by `duty · c`: at c = 0 the hybrid with
-/// it on is the controller alone to the bit; held at c = −1 the controller's shift reaches
-/// −duty at its slew (the Minitaur trots with flight phases), the robot's trajectory
-/// differs and it is still up after 1.5 s. The policy's last action entry is the duty.
+/// What every gait-steering part's test shares, on the Minitaur preset with `steering`
+/// (the part on, its entry the policy's last): the hybrid with a zero output is the
+/// controller alone to the bit; then the last entry held at `c` for 1.5 s changes the
+/// robot's path without a fall. Returns what `read` says of the controller at zero output,
+/// after the 1.5 s at `c`, and after a reset.
+fn steer_last_entry(
+    steering: centaur::hybrid::Steering,
+    c: f32,
+    read: fn(&LocomotionController) -> f64,
+) -> (f64, f64, f64) {
+    let preset = residual_config("minitaur").unwrap();
+    let config = ResidualConfig { steering, ..preset };
+    let mut env = make_residual_env("minitaur", config.clone()).unwrap();
+    let n_env = env.inner().observation_space().dim();
+    assert_eq!(env.action_space().dim(), env.inner().action_space().dim() + 2, "speed and the part");
+    let reference = controller_alone("minitaur", config.command, 150);
+    assert_eq!(zero_output_trace(&mut env, 150), reference, "c = 0 is the controller alone");
+    let at_zero = read(env.controller());
+    let mut held = vec![0.0f32; env.action_space().dim()];
+    *held.last_mut().unwrap() = c;
+    let t = trace(&mut env, &held, n_env, 150, |s| assert!(!s.terminated, "fell"));
+    assert_eq!(t.len(), reference.len(), "ended early");
+    assert!(t != reference, "steering the part changed nothing");
+    let steered = read(env.controller());
+    let mut obs = vec![0.0f32; env.observation_space().dim()];
+    env.reset(Some(3), &mut obs).unwrap();
+    (at_zero, steered, read(env.controller()))
+}
+
+/// Duty steering moves the trot's stance fractions by `duty · c`: held at c = −1 the
+/// controller's shift reaches −duty at its slew (the Minitaur trots with flight phases), and
+/// a reset hands the next episode the gaits' own fractions.
 #[test]
 fn duty_steering_shifts_the_stance_fractions() {
     use centaur::hybrid::Steering;
     use centaur::mpc::DUTY_SHIFT_SLEW;
-    let preset = residual_config("minitaur").unwrap();
-    let config = ResidualConfig { steering: Steering { duty: 0.2, ..preset.steering }, ..preset.clone() };
-    let mut env = make_residual_env("minitaur", config.clone()).unwrap();
-    let n_env = env.inner().observation_space().dim();
-    assert_eq!(env.action_space().dim(), env.inner().action_space().dim() + 2, "speed and duty");
-    let reference = controller_alone("minitaur", config.command, 150);
-    assert_eq!(zero_output_trace(&mut env, 150), reference, "c = 0 is the controller alone");
-    assert_eq!(env.controller().gait_duty_shift(), 0.0);
-    let mut flying = vec![0.0f32; env.action_space().dim()];
-    *flying.last_mut().unwrap() = -1.0;
-    let steps = 150;
-    let t = trace(&mut env, &flying, n_env, steps, |s| assert!(!s.terminated, "fell"));
-    assert_eq!(t.len(), reference.len(), "ended early");
-    assert!(t != reference, "the duty changed nothing");
+    let steering = Steering { duty: 0.2, ..residual_config("minitaur").unwrap().steering };
     // 150 steps of 10 ms: far more than the 0.2 s the slew takes.
     const { assert!(0.2 / DUTY_SHIFT_SLEW < 1.0) };
-    assert!(
-        (env.controller().gait_duty_shift() + 0.2).abs() < 1e-12,
-        "{}",
-        env.controller().gait_duty_shift()
-    );
-    // A reset hands the next episode the gaits' own fractions.
-    let mut obs = vec![0.0f32; env.observation_space().dim()];
-    env.reset(Some(3), &mut obs).unwrap();
-    assert_eq!(env.controller().gait_duty_shift(), 0.0);
+    let (zero, steered, reset) = steer_last_entry(steering, -1.0, LocomotionController::gait_duty_shift);
+    assert_eq!((zero, reset), (0.0, 0.0));
+    assert!((steered + 0.2).abs() < 1e-12, "{steered}");
 }
 
-/// Swing steering: zero output is the controller alone to the bit; the policy's last entry
-/// at −1 scales every following swing's apex to 1 − span (0.5 here), and a reset goes back
-/// to the controller's own height.
+/// Swing steering: the policy's last entry at −1 scales every following swing's apex to
+/// 1 − span (0.5 here), and a reset goes back to the controller's own height.
 #[test]
 fn swing_steering_scales_the_swing_apex() {
     use centaur::hybrid::Steering;
-    let preset = residual_config("minitaur").unwrap();
-    let config = ResidualConfig { steering: Steering { swing: 0.5, ..preset.steering }, ..preset.clone() };
-    let mut env = make_residual_env("minitaur", config.clone()).unwrap();
-    let n_env = env.inner().observation_space().dim();
-    assert_eq!(env.action_space().dim(), env.inner().action_space().dim() + 2, "speed and swing");
-    let reference = controller_alone("minitaur", config.command, 150);
-    assert_eq!(zero_output_trace(&mut env, 150), reference, "c = 0 is the controller alone");
-    assert_eq!(env.controller().swing_height_scale(), 1.0);
-    let mut low = vec![0.0f32; env.action_space().dim()];
-    *low.last_mut().unwrap() = -1.0;
-    let t = trace(&mut env, &low, n_env, 150, |s| assert!(!s.terminated, "fell"));
-    assert_eq!(t.len(), reference.len(), "ended early");
-    assert!(t != reference, "the swing height changed nothing");
-    assert_eq!(env.controller().swing_height_scale(), 0.5);
-    let mut obs = vec![0.0f32; env.observation_space().dim()];
-    env.reset(Some(3), &mut obs).unwrap();
-    assert_eq!(env.controller().swing_height_scale(), 1.0);
+    let steering = Steering { swing: 0.5, ..residual_config("minitaur").unwrap().steering };
+    let scales = steer_last_entry(steering, -1.0, LocomotionController::swing_height_scale);
+    assert_eq!(scales, (1.0, 0.5, 1.0));
 }
 
-/// Foothold steering: zero output is the controller alone to the bit; the policy's last
-/// entry at +1 sets the offset every following swing takes to the span (5 cm ahead; how a
-/// swing lands with it: `mpc/tests/foothold_offset.rs`) and changes the run, and a reset
-/// goes back to the controller's own footholds.
+/// Foothold steering: the policy's last entry at +1 sets the offset every following swing
+/// takes to the span (5 cm ahead; how a swing lands with it: `mpc/tests/foothold_offset.rs`),
+/// and a reset goes back to the controller's own footholds.
 #[test]
 fn foothold_steering_moves_the_footholds() {
     use centaur::hybrid::Steering;
-    let preset = residual_config("minitaur").unwrap();
-    let config =
-        ResidualConfig { steering: Steering { foothold: 0.05, ..preset.steering }, ..preset.clone() };
-    let mut env = make_residual_env("minitaur", config.clone()).unwrap();
-    let n_env = env.inner().observation_space().dim();
-    assert_eq!(env.action_space().dim(), env.inner().action_space().dim() + 2, "speed and foothold");
-    let reference = controller_alone("minitaur", config.command, 150);
-    assert_eq!(zero_output_trace(&mut env, 150), reference, "c = 0 is the controller alone");
-    assert_eq!(env.controller().foothold_offset(), 0.0);
-    let mut ahead = vec![0.0f32; env.action_space().dim()];
-    *ahead.last_mut().unwrap() = 1.0;
-    let t = trace(&mut env, &ahead, n_env, 150, |s| assert!(!s.terminated, "fell"));
-    assert_eq!(t.len(), reference.len(), "ended early");
-    assert!(t != reference, "the foothold offset changed nothing");
-    assert!((env.controller().foothold_offset() - 0.05).abs() < 1e-9);
-    let mut obs = vec![0.0f32; env.observation_space().dim()];
-    env.reset(Some(3), &mut obs).unwrap();
-    assert_eq!(env.controller().foothold_offset(), 0.0);
+    let steering = Steering { foothold: 0.05, ..residual_config("minitaur").unwrap().steering };
+    let (zero, steered, reset) = steer_last_entry(steering, 1.0, LocomotionController::foothold_offset);
+    assert_eq!((zero, reset), (0.0, 0.0));
+    assert!((steered - 0.05).abs() < 1e-9, "{steered}");
 }
 
 #[test]
