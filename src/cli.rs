@@ -207,6 +207,17 @@ pub struct HybridArgs {
     /// and humanoid 0.08]
     #[arg(long)]
     pub swing_height: Option<f64>,
+    /// How often the hybrid's controller (and its controller-alone baseline) solves its
+    /// convex MPC, s in [0.005, 0.2], replacing the controller's own; between solves it
+    /// follows the last plan [default: the controller's own, 0.02]
+    #[arg(long)]
+    pub mpc_period: Option<f64>,
+    /// The hybrid's controller (and its controller-alone baseline) computes its torques on
+    /// the cheap path (stance legs τ = −J_cᵀ f from the MPC, swing legs Cartesian PD)
+    /// instead of its whole-body QP: each sample costs less, and the controller alone is
+    /// weaker
+    #[arg(long)]
+    pub cheap_torques: bool,
     /// The hybrid's policy also observes the controller's measured body state: the CoM's
     /// velocity in the heading frame and its height (4 entries after the reference
     /// action), which the robot's own observation may lack (the Minitaur's does)
@@ -308,6 +319,10 @@ impl HybridArgs {
         if self.swing_height.is_some() {
             preset.swing_height = self.swing_height;
         }
+        if self.mpc_period.is_some() {
+            preset.mpc_period = self.mpc_period;
+        }
+        preset.cheap_torques |= self.cheap_torques;
         preset.include_state |= self.observe_state;
         if let Some([start, end]) = self.fade.as_deref() {
             preset.fade = Some(Fade { start: *start, end: *end });
@@ -615,6 +630,16 @@ mod tests {
         assert_eq!(height(&[]), None);
         assert_eq!(height(&["--swing-height", "0.045"]), Some(0.045));
         assert!(parse_hybrid(minitaur.clone(), &["--swing-height", "x"]).is_err());
+    }
+
+    #[test]
+    fn the_mpc_period_and_the_torque_path_are_the_controllers_unless_given() {
+        let minitaur = residual_config("minitaur").unwrap();
+        let parsed = |args: &[&str]| parse_hybrid(minitaur.clone(), args).unwrap();
+        assert_eq!((parsed(&[]).mpc_period, parsed(&[]).cheap_torques), (None, false));
+        assert_eq!(parsed(&["--mpc-period", "0.06"]).mpc_period, Some(0.06));
+        assert!(parsed(&["--cheap-torques"]).cheap_torques);
+        assert!(parse_hybrid(minitaur.clone(), &["--mpc-period", "x"]).is_err());
     }
 
     #[test]

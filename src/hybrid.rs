@@ -15,7 +15,8 @@
 use centaur_dynamics::{Model, RobotState};
 use centaur_envs::{RobotEnv, Servo};
 use centaur_mpc::{
-    Command, ConfigError, ControllerConfig, ControllerStatus, Gait, JointCommand, LocomotionController,
+    Command, ConfigError, ControlMode, ControllerConfig, ControllerStatus, Gait, JointCommand,
+    LocomotionController,
 };
 
 /// What the hybrid's pieces refuse.
@@ -420,10 +421,27 @@ pub struct ResidualConfig {
     /// hybrid at 4 m/s and 8 steps a second did better on 3 cm (README, "A lower swing").
     #[serde(skip_serializing_if = "Option::is_none")]
     pub swing_height: Option<f64>,
+    /// How often the controller solves its convex MPC under the hybrid (and its
+    /// controller-alone baseline), s, replacing the controller's own `mpc_period` (`None`,
+    /// the default: the controller's own, 0.02 s on every preset; recorded only where set);
+    /// within [`MPC_PERIOD_RANGE`]. Between solves the controller follows the last plan's
+    /// forces. A longer period makes every hybrid sample cheaper (README, "A cheaper
+    /// controller under the hybrid").
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mpc_period: Option<f64>,
+    /// The controller's cheap torque path under the hybrid (and its controller-alone
+    /// baseline) instead of its whole-body QP ([`centaur_mpc::ControlMode::Cheap`]: stance
+    /// legs `τ = −J_cᵀ f_MPC`, swing legs Cartesian PD; default: false, the whole-body QP;
+    /// recorded only where set). The controller alone is much weaker on it (the Minitaur's
+    /// trot at 3 m/s falls within about a second); the hybrid's residual learns the rest,
+    /// and each sample costs less (README, "A cheaper controller under the hybrid").
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub cheap_torques: bool,
 }
 
 /// Every field as `derive(Debug)` writes it, but `fade`, `exploration_ramp`, `bound_ramp`,
-/// `period_scale`, `max_acceleration`, `swing_height` and `include_state` only where set: runs record this text in their fingerprint
+/// `period_scale`, `max_acceleration`, `swing_height`, `mpc_period`, `cheap_torques` and
+/// `include_state` only where set: runs record this text in their fingerprint
 /// ([`crate::experiment::ExperimentOptions::fingerprint`]), and a run without them keeps
 /// the fingerprint it had before they existed (so `centaur compare --resume` and
 /// `--pure-from` still take it).
@@ -445,6 +463,8 @@ impl std::fmt::Debug for ResidualConfig {
             period_scale,
             max_acceleration,
             swing_height,
+            mpc_period,
+            cheap_torques,
         } = self;
         let mut s = f.debug_struct("ResidualConfig");
         s.field("scale", scale)
@@ -474,6 +494,12 @@ impl std::fmt::Debug for ResidualConfig {
         if let Some(h) = swing_height {
             s.field("swing_height", h);
         }
+        if *cheap_torques {
+            s.field("cheap_torques", cheap_torques);
+        }
+        if let Some(p) = mpc_period {
+            s.field("mpc_period", p);
+        }
         s.finish()
     }
 }
@@ -496,6 +522,8 @@ impl Default for ResidualConfig {
             period_scale: None,
             max_acceleration: None,
             swing_height: None,
+            mpc_period: None,
+            cheap_torques: false,
         }
     }
 }
@@ -603,6 +631,9 @@ impl ResidualConfig {
         if let Some(value) = self.swing_height {
             check_swing_height(value)?;
         }
+        if let Some(value) = self.mpc_period {
+            check_mpc_period(value)?;
+        }
         if let Some(f) = &self.fade {
             f.validate()?;
         }
@@ -615,7 +646,9 @@ impl ResidualConfig {
     /// `config` with [`ResidualConfig::rated_speed`], if set, as the rating of the
     /// command's gait, [`ResidualConfig::period_scale`], if set, multiplying its period,
     /// [`ResidualConfig::max_acceleration`], if set, as its command ramp and
-    /// [`ResidualConfig::swing_height`], if set, as its swing apex:
+    /// [`ResidualConfig::swing_height`], if set, as its swing apex,
+    /// [`ResidualConfig::mpc_period`], if set, as its MPC period and, with
+    /// [`ResidualConfig::cheap_torques`], its cheap torque path:
     /// the controller the hybrid (and the controller-alone baseline beside it) runs. The
     /// gait must be offered and not the stand, which has no speed rating and no period. The
     /// command (at zero steering) must then be within the rating, speed and turning, as
@@ -719,6 +752,13 @@ impl ResidualConfig {
             check_swing_height(value)?;
             config.swing_height = value;
         }
+        if let Some(value) = self.mpc_period {
+            check_mpc_period(value)?;
+            config.mpc_period = value;
+        }
+        if self.cheap_torques {
+            config.mode = ControlMode::Cheap;
+        }
         Ok(())
     }
 
@@ -797,6 +837,17 @@ pub const SWING_HEIGHT_RANGE: (f64, f64) = (0.01, 0.3);
 /// Refuses a swing height outside [`SWING_HEIGHT_RANGE`] (here and in `centaur control`).
 pub(crate) fn check_swing_height(value: f64) -> Result<(), HybridError> {
     check_within("swing_height", value, SWING_HEIGHT_RANGE, "a height in [0.01, 0.3] m")
+}
+
+/// The range of [`ResidualConfig::mpc_period`] (s): from every 5 ms (faster than any
+/// robot here is controlled, so the MPC then runs every tick) to every 0.2 s (the presets'
+/// MPC horizons cover at least 0.3 s, so the plan in use never runs out between solves); a
+/// period in milliseconds (60 for 0.06) is refused.
+pub const MPC_PERIOD_RANGE: (f64, f64) = (0.005, 0.2);
+
+/// Refuses an MPC period outside [`MPC_PERIOD_RANGE`].
+pub(crate) fn check_mpc_period(value: f64) -> Result<(), HybridError> {
+    check_within("mpc_period", value, MPC_PERIOD_RANGE, "a period in [0.005, 0.2] s")
 }
 
 /// The largest [`ResidualConfig::max_acceleration`] accepted (m/s²): twice gravity, beyond
@@ -1862,6 +1913,44 @@ mod tests {
         let (low, high) = SWING_HEIGHT_RANGE;
         let err = swung(Some(7.0)).rate_controller(&mut preset.clone()).unwrap_err().to_string();
         assert!(err.contains(&format!("[{low}, {high}] m")), "{err}");
+    }
+
+    #[test]
+    fn an_mpc_period_and_the_cheap_torques_replace_the_controllers_and_bad_periods_are_refused() {
+        let preset = ControllerConfig::minitaur();
+        let with = |period: Option<f64>, cheap: bool| ResidualConfig {
+            mpc_period: period,
+            cheap_torques: cheap,
+            command: Command::forward(2.0, Gait::Trot),
+            ..ResidualConfig::default()
+        };
+        let mut c = preset.clone();
+        with(None, false).rate_controller(&mut c).unwrap();
+        assert_eq!(c, preset);
+        with(Some(0.06), false).rate_controller(&mut c).unwrap();
+        assert_eq!(c.mpc_period, 0.06);
+        assert_eq!(ControllerConfig { mpc_period: preset.mpc_period, ..c.clone() }, preset);
+        with(Some(0.06), true).rate_controller(&mut c).unwrap();
+        assert_eq!((c.mpc_period, c.mode), (0.06, ControlMode::Cheap));
+        assert_eq!(ControllerConfig { mpc_period: preset.mpc_period, mode: preset.mode, ..c }, preset);
+        assert_eq!(preset.mode, ControlMode::WholeBody);
+        // 60 (milliseconds for seconds), none, too short or negative: refused, the text
+        // naming the range the check uses.
+        refused_and_recorded_only_where_set(
+            "mpc_period",
+            |p| with(p, false),
+            0.06,
+            &[60.0, 0.0, 0.001, -0.02],
+        );
+        let (low, high) = MPC_PERIOD_RANGE;
+        let err = with(Some(60.0), false).rate_controller(&mut preset.clone()).unwrap_err().to_string();
+        assert!(err.contains(&format!("[{low}, {high}] s")), "{err}");
+        // The cheap path is recorded only where set, and read back.
+        assert!(!format!("{:?}", with(None, false)).contains("cheap_torques"));
+        assert!(format!("{:?}", with(None, true)).ends_with(", cheap_torques: true }"));
+        assert!(!serde_json::to_string(&with(None, false)).unwrap().contains("cheap_torques"));
+        let text = serde_json::to_string(&with(Some(0.06), true)).unwrap();
+        assert_eq!(serde_json::from_str::<ResidualConfig>(&text).unwrap(), with(Some(0.06), true));
     }
 
     #[test]

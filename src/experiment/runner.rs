@@ -314,6 +314,8 @@ mod legacy {
             || residual.period_scale.is_some()
             || residual.max_acceleration.is_some()
             || residual.swing_height.is_some()
+            || residual.mpc_period.is_some()
+            || residual.cheap_torques
             || residual.include_state
             || residual.steering.cadence != 0.0
             || residual.steering.duty != 0.0
@@ -370,6 +372,9 @@ mod legacy {
                 include_state: _,
                 // ... and the swing height: it can only be the controller's own here.
                 swing_height: _,
+                // ... and the MPC period and the torque path: the controller's own here.
+                mpc_period: _,
+                cheap_torques: _,
             } = self.r;
             let mut s = f.debug_struct("ResidualConfig");
             s.field("scale", scale)
@@ -999,6 +1004,8 @@ mod tests {
                 ..preset.clone()
             },
             ResidualConfig { swing_height: Some(0.03), ..preset.clone() },
+            ResidualConfig { mpc_period: Some(0.06), ..preset.clone() },
+            ResidualConfig { cheap_torques: true, ..preset.clone() },
         ];
         for r in &newer {
             assert!(
