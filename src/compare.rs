@@ -20,7 +20,7 @@ use serde::Serialize;
 
 use crate::experiment::{
     AgentStats, BudgetEval, Curve, ExperimentError, ExperimentOptions, ExperimentSummary, Phase,
-    finished_experiment, run_experiment,
+    check_resumable, finished_experiment, run_experiment,
 };
 use crate::hybrid::ResidualConfig;
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
@@ -60,7 +60,9 @@ pub struct CompareOptions {
     /// [`ExperimentOptions::eval_every`]).
     pub eval_every: Option<u64>,
     /// Keep the seeds already finished in `out` with the same options (their
-    /// `experiment.json` fingerprint), run the others (replacing a seed's partial run).
+    /// `experiment.json` fingerprint), run the others (replacing a seed's partial run of
+    /// these options); a seed's directory holding a run of other options is refused before
+    /// anything trains ([`crate::experiment::check_resumable`]).
     pub resume: bool,
     /// Replace a comparison already in `out` (its files only) instead of refusing.
     pub overwrite: bool,
@@ -355,11 +357,17 @@ pub fn run_compare(
         pure_from: opts.pure_from.as_ref().map(|dir| dir.join(format!("seed_{seed}"))),
         hybrid_algo: opts.hybrid_algo.clone(),
     };
-    // Every seed's pure-RL agent to reuse is checked before the first seed trains.
+    // Every seed's pure-RL agent to reuse, and on resume every seed's directory, is checked
+    // before the first seed trains: a resume replaces only runs of these options killed
+    // before their summary, never a run of other options (a mistyped flag once replaced two
+    // finished seeds).
     for seed in 0..seeds {
         let exp = seed_options(seed);
         if let Some(from) = &exp.pure_from {
             crate::experiment::check_pure_source(from, &exp)?;
+        }
+        if opts.resume && !opts.overwrite {
+            check_resumable(&exp)?;
         }
     }
     let run_seed = |seed: u64, progress: &mut dyn FnMut(u64, Phase, &UpdateMetrics)| {

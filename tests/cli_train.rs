@@ -747,6 +747,28 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     assert_eq!(resumed, first);
     assert_eq!(std::fs::read(out.join("seed_0").join("hybrid").join("checkpoint")).unwrap(), seed_0_ckpt);
     assert!(out.join("seed_1").join("summary.json").is_file());
+    // Regression (2026-12-06): `--resume` with other options than the seeds ran with (a
+    // flag left out) is refused before anything trains, naming the difference; the finished
+    // seeds stay as they were (it used to replace them, one after the other).
+    let summaries =
+        |dir: &Path| ["seed_0", "seed_1"].map(|s| std::fs::read(dir.join(s).join("summary.json")).unwrap());
+    let before = summaries(&out);
+    let o =
+        compare_minitaur_ppo(&[&args[..], &["--resume", "--residual-scale", "0.1"]].concat(), &config, &out);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{stderr}");
+    assert!(stderr.contains("a run of other options") && stderr.contains("scale: [0."), "{stderr}");
+    assert_eq!(summaries(&out), before);
+    assert_eq!(std::fs::read(out.join("seed_0").join("hybrid").join("checkpoint")).unwrap(), seed_0_ckpt);
+    // A record that does not read is refused too, and left where it is.
+    let record = out.join("seed_1").join("experiment.json");
+    let text = std::fs::read_to_string(&record).unwrap();
+    std::fs::write(&record, &text[..text.len() / 2]).unwrap();
+    let o = compare_minitaur_ppo(&[&args[..], &["--resume"]].concat(), &config, &out);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && stderr.contains("cannot be read as a run's record"), "{stderr}");
+    assert_eq!(summaries(&out), before);
+    std::fs::write(&record, &text).unwrap();
 
     // An ablation of the hybrid reusing the pure-RL agents: the pure rows are the first
     // comparison's (training copied, final evaluation made again), the hybrid's its own.

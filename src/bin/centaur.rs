@@ -511,7 +511,8 @@ struct CompareArgs {
     #[arg(long, allow_negative_numbers = true, default_value_t = 100_000)]
     eval_every: u64,
     /// Keep the seeds already finished in --out with the same options and run the rest (a
-    /// killed comparison loses at most the seeds it was running).
+    /// killed comparison loses at most the seeds it was running); a seed holding a run of
+    /// other options is refused before anything trains.
     #[arg(long, conflicts_with = "overwrite")]
     resume: bool,
     /// Replace the comparison already in --out (its run files only).

@@ -43,5 +43,7 @@ pub use options::{Curve, ExperimentError, ExperimentOptions, ExperimentResult, P
 pub use presets::tuned_config;
 pub use robustness::{Condition, RobustnessOptions, RobustnessRow, robustness_table, run_robustness};
 pub(crate) use runner::check_pure_source;
-pub use runner::{EXPERIMENT_FILES, TrainedWith, check_trained_with, finished_experiment, run_experiment};
+pub use runner::{
+    EXPERIMENT_FILES, TrainedWith, check_resumable, check_trained_with, finished_experiment, run_experiment,
+};
 pub use summary::{AgentStats, BudgetEval, ExperimentSummary, cost_of_transport};

@@ -125,6 +125,30 @@ pub enum ExperimentError {
         /// The directory.
         dir: PathBuf,
     },
+    /// `centaur compare --resume` found a seed's directory holding a run of other options
+    /// than these: resuming would replace it (until 2026-12-06 it did, without a word).
+    #[error(
+        "{dir}: it holds a run of other options than these (recorded …{recorded}…, here …{given}…); resuming would replace it: give the options it ran with, or choose another --out (--overwrite replaces the whole comparison)"
+    )]
+    ResumeDiffers {
+        /// The seed's directory.
+        dir: PathBuf,
+        /// The recorded options around their first difference.
+        recorded: String,
+        /// These options around the same place.
+        given: String,
+    },
+    /// `centaur compare --resume` found a seed's record (`experiment.json`) it cannot read:
+    /// resuming would replace a run it cannot tell to be this one.
+    #[error(
+        "{dir}/experiment.json cannot be read as a run's record ({reason}); resuming would replace that run: move it away, or choose another --out (--overwrite replaces the whole comparison)"
+    )]
+    ResumeUnreadable {
+        /// The seed's directory.
+        dir: PathBuf,
+        /// Why the record does not read.
+        reason: String,
+    },
     /// A run whose pure-RL agent was to be reused was trained with other options.
     #[error(
         "{from}: its pure-RL agent was trained with other options than this run's (only the hybrid's setup may differ): recorded …{recorded}…, here …{given}…"

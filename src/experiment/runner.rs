@@ -556,6 +556,31 @@ fn reuse_pure(from: &Path, opts: &ExperimentOptions) -> Result<Trained, Experime
     })
 }
 
+/// Checks, reading only, that `centaur compare --resume` may run `opts` in its directory
+/// (`opts.out`): nothing there, a run killed before it wrote its record, or a run of the
+/// same options (finished: kept; killed: run again). A run of other options, or a record
+/// that does not read, is refused ([`ExperimentError::ResumeDiffers`],
+/// [`ExperimentError::ResumeUnreadable`]): resuming would replace a run that is not this
+/// one's.
+pub fn check_resumable(opts: &ExperimentOptions) -> Result<(), ExperimentError> {
+    let path = opts.out.join("experiment.json");
+    let text = match std::fs::read_to_string(&path) {
+        Ok(text) => text,
+        Err(e) if matches!(e.kind(), std::io::ErrorKind::NotFound | std::io::ErrorKind::NotADirectory) => {
+            return Ok(());
+        }
+        Err(source) => return Err(ExperimentError::Io { path, source }),
+    };
+    let record: ExperimentRecord = serde_json::from_str(&text)
+        .map_err(|e| ExperimentError::ResumeUnreadable { dir: opts.out.clone(), reason: e.to_string() })?;
+    let given = opts.fingerprint();
+    if record.fingerprint != given {
+        let (recorded, given) = around_difference(&record.fingerprint, &given);
+        return Err(ExperimentError::ResumeDiffers { dir: opts.out.clone(), recorded, given });
+    }
+    Ok(())
+}
+
 /// The result of a run already finished in `opts.out` with the same options (its
 /// `experiment.json` fingerprint, `summary.json` and both agents' `metrics.csv`), or `None`
 /// if the directory holds no such finished run. `centaur compare --resume` keeps these.
