@@ -425,16 +425,18 @@ pub struct ResidualConfig {
     /// controller-alone baseline), s, replacing the controller's own `mpc_period` (`None`,
     /// the default: the controller's own, 0.02 s on every preset; recorded only where set);
     /// within [`MPC_PERIOD_RANGE`]. Between solves the controller follows the last plan's
-    /// forces. A longer period makes every hybrid sample cheaper (README, "A cheaper
-    /// controller under the hybrid").
+    /// forces. A longer period makes every hybrid sample cheaper, and the hybrid learnt less
+    /// per sample on it (README, "Where the hybrid's time goes, and a cheaper controller
+    /// under it").
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mpc_period: Option<f64>,
     /// The controller's cheap torque path under the hybrid (and its controller-alone
     /// baseline) instead of its whole-body QP ([`centaur_mpc::ControlMode::Cheap`]: stance
     /// legs `τ = −J_cᵀ f_MPC`, swing legs Cartesian PD; default: false, the whole-body QP;
     /// recorded only where set). The controller alone is much weaker on it (the Minitaur's
-    /// trot at 3 m/s falls within about a second); the hybrid's residual learns the rest,
-    /// and each sample costs less (README, "A cheaper controller under the hybrid").
+    /// trot at 3 m/s falls within about a second); each sample costs less, and the hybrid
+    /// learnt less per sample on it (README, "Where the hybrid's time goes, and a cheaper
+    /// controller under it").
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub cheap_torques: bool,
 }
