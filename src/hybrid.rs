@@ -496,11 +496,11 @@ impl std::fmt::Debug for ResidualConfig {
         if let Some(h) = swing_height {
             s.field("swing_height", h);
         }
-        if *cheap_torques {
-            s.field("cheap_torques", cheap_torques);
-        }
         if let Some(p) = mpc_period {
             s.field("mpc_period", p);
+        }
+        if *cheap_torques {
+            s.field("cheap_torques", cheap_torques);
         }
         s.finish()
     }

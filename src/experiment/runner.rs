@@ -563,33 +563,40 @@ fn reuse_pure(from: &Path, opts: &ExperimentOptions) -> Result<Trained, Experime
 /// [`ExperimentError::ResumeUnreadable`]): resuming would replace a run that is not this
 /// one's.
 pub fn check_resumable(opts: &ExperimentOptions) -> Result<(), ExperimentError> {
-    let path = opts.out.join("experiment.json");
+    let given = opts.fingerprint();
+    match recorded_fingerprint(&opts.out)? {
+        Some(recorded) if recorded != given => {
+            let (recorded, given) = around_difference(&recorded, &given);
+            Err(ExperimentError::ResumeDiffers { dir: opts.out.clone(), recorded, given })
+        }
+        _ => Ok(()),
+    }
+}
+
+/// The fingerprint recorded in `dir`'s `experiment.json`, `None` where there is none (or no
+/// `dir`), [`ExperimentError::ResumeUnreadable`] where the record does not read.
+fn recorded_fingerprint(dir: &Path) -> Result<Option<String>, ExperimentError> {
+    let path = dir.join("experiment.json");
     let text = match std::fs::read_to_string(&path) {
         Ok(text) => text,
         Err(e) if matches!(e.kind(), std::io::ErrorKind::NotFound | std::io::ErrorKind::NotADirectory) => {
-            return Ok(());
+            return Ok(None);
         }
         Err(source) => return Err(ExperimentError::Io { path, source }),
     };
     let record: ExperimentRecord = serde_json::from_str(&text)
-        .map_err(|e| ExperimentError::ResumeUnreadable { dir: opts.out.clone(), reason: e.to_string() })?;
-    let given = opts.fingerprint();
-    if record.fingerprint != given {
-        let (recorded, given) = around_difference(&record.fingerprint, &given);
-        return Err(ExperimentError::ResumeDiffers { dir: opts.out.clone(), recorded, given });
-    }
-    Ok(())
+        .map_err(|e| ExperimentError::ResumeUnreadable { dir: dir.to_path_buf(), reason: e.to_string() })?;
+    Ok(Some(record.fingerprint))
 }
 
 /// The result of a run already finished in `opts.out` with the same options (its
 /// `experiment.json` fingerprint, `summary.json` and both agents' `metrics.csv`), or `None`
 /// if the directory holds no such finished run. `centaur compare --resume` keeps these.
 pub fn finished_experiment(opts: &ExperimentOptions) -> Option<ExperimentResult> {
-    let read = |f: &str| std::fs::read_to_string(opts.out.join(f)).ok();
-    let record: ExperimentRecord = serde_json::from_str(&read("experiment.json")?).ok()?;
-    if record.fingerprint != opts.fingerprint() {
+    if recorded_fingerprint(&opts.out).ok()?? != opts.fingerprint() {
         return None;
     }
+    let read = |f: &str| std::fs::read_to_string(opts.out.join(f)).ok();
     let summary: ExperimentSummary = serde_json::from_str(&read("summary.json")?).ok()?;
     let curve = |agent: &str| -> Option<Curve> {
         let rows = MetricsCsv::read(&opts.out.join(agent).join("metrics.csv")).ok()?;
