@@ -8,7 +8,7 @@
 //!
 //! | file | content |
 //! |---|---|
-//! | `compare.json` | per agent: the across-seed IQM (with its 95 % CI), mean and std of the evaluation return, speed, falls and cost of transport, and every seed's numbers |
+//! | `compare.json` | per agent: the across-seed IQM (with its 95 % CI), mean and std of the evaluation return, speed, falls and cost of transport, and every seed's numbers; both learners at every budget; the head-to-head read off them ([`HeadToHead`]: budgets at or above pure RL, the samples to reach its final return, equal wall-clock), which the command also prints |
 //! | `learning_curves.png`, `.svg` | mean training return across seeds against steps, with a band of ± one standard deviation across seeds |
 //! | `eval_curves.png`, `.svg`; `eval_curves_wall.png`, `.svg` | the deterministic evaluations at each budget (`--eval-every`): IQM over seeds with its 95 % CI, against steps and against training wall-clock seconds |
 
@@ -128,6 +128,199 @@ pub struct CompareSummary {
     /// writes them; absent where the hybrid learnt with the pure-RL agent's.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hybrid_learner: Option<String>,
+    /// The hybrid against pure RL, read off `budgets` and the final evaluations: at every
+    /// budget, the samples it takes to reach pure RL's final return, at equal wall-clock.
+    pub head_to_head: HeadToHead,
+}
+
+/// The hybrid against pure RL, read off the evaluations the way issue 23 puts its bars: at
+/// every evaluated budget, the samples the hybrid needs to reach pure RL's final return,
+/// and at equal training wall-clock. Every figure is an IQM over seeds (the budgets' and the
+/// final evaluations'); [`HeadToHead::from_budgets`] computes it.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct HeadToHead {
+    /// Budgets evaluated during training (`--eval-every`; the rows of
+    /// [`CompareSummary::budgets`]).
+    pub budgets: usize,
+    /// Budgets where the hybrid's IQM is at least pure RL's.
+    pub hybrid_at_or_above: usize,
+    /// The budgets (training samples) where the hybrid's IQM is below pure RL's.
+    pub hybrid_below_at: Vec<u64>,
+    /// Budgets where the hybrid fell in fewer evaluation episodes than pure RL.
+    pub fewer_falls: usize,
+    /// Budgets where both fell in as many episodes.
+    pub as_many_falls: usize,
+    /// Pure RL's final return (IQM over seeds of its final evaluation): the return to reach.
+    pub pure_final_iqm: f64,
+    /// Pure RL's training samples per seed.
+    pub pure_samples: u64,
+    /// The hybrid's samples at its first budget whose IQM reaches `pure_final_iqm` (its
+    /// final evaluation counting after its last budget); `None` where none does.
+    pub hybrid_reaches_pure_final_at: Option<u64>,
+    /// `hybrid_reaches_pure_final_at` as a fraction of `pure_samples` (issue 23's bar: ≤ ¼).
+    pub fraction_of_pure_samples: Option<f64>,
+    /// The hybrid at each of pure RL's evaluation times.
+    pub equal_wall_clock: EqualWallClock,
+}
+
+/// The hybrid at each of pure RL's evaluation times: its latest evaluation by then.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct EqualWallClock {
+    /// One point per budget row, in order.
+    pub points: Vec<WallClockPoint>,
+    /// Points where the hybrid's latest IQM is at least pure RL's.
+    pub hybrid_at_or_above: usize,
+    /// Pure RL's times were measured in another run (`--pure-from`), under another load, so
+    /// they compare less surely with the hybrid's.
+    pub pure_times_from_another_run: bool,
+}
+
+/// Pure RL's evaluation at one budget and the hybrid's latest evaluation by that time.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct WallClockPoint {
+    /// Pure RL's training wall-clock seconds to this budget (mean over seeds).
+    pub seconds: f64,
+    /// Pure RL's samples at this budget.
+    pub pure_env_steps: u64,
+    /// Pure RL's IQM at this budget.
+    pub pure_iqm: f64,
+    /// The hybrid's samples at its latest budget reached within `seconds` (mean over seeds);
+    /// 0 before its first, where the hybrid is still the controller alone (the untrained
+    /// deterministic hybrid acts exactly as its controller) and `hybrid_iqm` is the
+    /// controller's.
+    pub hybrid_env_steps: u64,
+    /// The hybrid's IQM there.
+    pub hybrid_iqm: f64,
+}
+
+impl HeadToHead {
+    /// Reads the head-to-head off the budget rows and the three agents' final evaluations;
+    /// `pure_reused`: pure RL's agents (and so their wall times) come from another run.
+    pub fn from_budgets(
+        budgets: &[BudgetRow],
+        hybrid: &Aggregate,
+        pure: &Aggregate,
+        controller: &Aggregate,
+        pure_reused: bool,
+    ) -> Self {
+        let below: Vec<u64> = budgets
+            .iter()
+            .filter(|b| !at_or_above(b.hybrid_iqm, b.pure_iqm))
+            .map(|b| b.hybrid_env_steps)
+            .collect();
+        let target = pure.return_iqm;
+        let hybrid_final_steps = hybrid.per_seed.first().map_or(0, |s| s.env_steps);
+        let pure_samples = pure.per_seed.first().map_or(0, |s| s.env_steps);
+        let reached = budgets
+            .iter()
+            .map(|b| (b.hybrid_env_steps, b.hybrid_iqm))
+            .chain(std::iter::once((hybrid_final_steps, hybrid.return_iqm)))
+            .find(|&(_, r)| r >= target)
+            .map(|(steps, _)| steps);
+        let points: Vec<WallClockPoint> = budgets
+            .iter()
+            .map(|p| {
+                let (hybrid_env_steps, hybrid_iqm) = budgets
+                    .iter()
+                    .rev()
+                    .find(|h| h.hybrid_wall_seconds <= p.pure_wall_seconds)
+                    .map_or((0, controller.return_iqm), |h| (h.hybrid_env_steps, h.hybrid_iqm));
+                WallClockPoint {
+                    seconds: p.pure_wall_seconds,
+                    pure_env_steps: p.pure_env_steps,
+                    pure_iqm: p.pure_iqm,
+                    hybrid_env_steps,
+                    hybrid_iqm,
+                }
+            })
+            .collect();
+        HeadToHead {
+            budgets: budgets.len(),
+            hybrid_at_or_above: budgets.len() - below.len(),
+            hybrid_below_at: below,
+            fewer_falls: budgets.iter().filter(|b| b.hybrid_falls.0 < b.pure_falls.0).count(),
+            as_many_falls: budgets.iter().filter(|b| b.hybrid_falls.0 == b.pure_falls.0).count(),
+            pure_final_iqm: target,
+            pure_samples,
+            hybrid_reaches_pure_final_at: reached,
+            fraction_of_pure_samples: reached
+                .filter(|_| pure_samples > 0)
+                .map(|s| s as f64 / pure_samples as f64),
+            equal_wall_clock: EqualWallClock {
+                hybrid_at_or_above: points.iter().filter(|p| at_or_above(p.hybrid_iqm, p.pure_iqm)).count(),
+                points,
+                pure_times_from_another_run: pure_reused,
+            },
+        }
+    }
+
+    /// The head-to-head in a few lines of text (what `centaur compare` prints).
+    pub fn text(&self) -> String {
+        let mut t = String::new();
+        if self.budgets == 0 {
+            t += "- no evaluations during training (`--eval-every`): no budgets to compare\n";
+        } else {
+            t += &format!(
+                "- by budget: the hybrid's IQM at or above pure RL's at {} of {} budgets{}; fewer falls at {}, as many at {}\n",
+                self.hybrid_at_or_above,
+                self.budgets,
+                if self.hybrid_below_at.is_empty() {
+                    String::new()
+                } else {
+                    format!(" (below at {})", join(self.hybrid_below_at.iter().map(|s| s.to_string())))
+                },
+                self.fewer_falls,
+                self.as_many_falls
+            );
+        }
+        t += &match (self.hybrid_reaches_pure_final_at, self.fraction_of_pure_samples) {
+            (Some(at), Some(f)) => format!(
+                "- pure RL's final return ({:.2}) reached by the hybrid at {at} samples: {f:.3} of pure RL's {}\n",
+                self.pure_final_iqm, self.pure_samples
+            ),
+            (Some(at), None) => {
+                format!(
+                    "- pure RL's final return ({:.2}) reached by the hybrid at {at} samples\n",
+                    self.pure_final_iqm
+                )
+            }
+            (None, _) => format!(
+                "- pure RL's final return ({:.2}) not reached by the hybrid at any budget\n",
+                self.pure_final_iqm
+            ),
+        };
+        let w = &self.equal_wall_clock;
+        if !w.points.is_empty() {
+            let below = w.points.iter().filter(|p| !at_or_above(p.hybrid_iqm, p.pure_iqm));
+            let below: Vec<String> =
+                below.map(|p| format!("{:.0} s by {:.2}", p.seconds, p.pure_iqm - p.hybrid_iqm)).collect();
+            t += &format!(
+                "- at equal wall-clock (the hybrid's latest evaluation at each of pure RL's evaluation times; the controller alone before its first): at or above pure RL at {} of {}{}{}\n",
+                w.hybrid_at_or_above,
+                w.points.len(),
+                if below.is_empty() {
+                    String::new()
+                } else {
+                    format!(" (below at {})", join(below.into_iter()))
+                },
+                if w.pure_times_from_another_run {
+                    "; pure RL's times are those of the run its agents were reused from, under another load"
+                } else {
+                    ""
+                }
+            );
+        }
+        t
+    }
+}
+
+/// `hybrid ≥ pure`; false where either is NaN, so a NaN budget counts as below, never above.
+fn at_or_above(hybrid: f64, pure: f64) -> bool {
+    hybrid >= pure
+}
+
+fn join(items: impl Iterator<Item = String>) -> String {
+    items.collect::<Vec<_>>().join(", ")
 }
 
 /// Both learners at one training budget, across seeds.
@@ -402,17 +595,26 @@ pub fn run_compare(
             None => {}
         }
     }
+    let (hybrid, pure_rl, controller) = (
+        aggregate(&runs, |r| &r.hybrid),
+        aggregate(&runs, |r| &r.pure_rl),
+        aggregate(&runs, |r| &r.controller),
+    );
+    let budgets = budget_rows(&runs);
+    let head_to_head =
+        HeadToHead::from_budgets(&budgets, &hybrid, &pure_rl, &controller, opts.pure_from.is_some());
     let summary = CompareSummary {
         env: opts.env.clone(),
         algo: opts.algo.kind().name().to_string(),
         seeds,
         steps: opts.steps,
-        hybrid: aggregate(&runs, |r| &r.hybrid),
-        pure_rl: aggregate(&runs, |r| &r.pure_rl),
-        controller: aggregate(&runs, |r| &r.controller),
-        budgets: budget_rows(&runs),
+        hybrid,
+        pure_rl,
+        controller,
+        budgets,
         pure_from: opts.pure_from.as_deref().map(crate::rundir::recorded_path),
         hybrid_learner: opts.hybrid_algo.as_ref().map(|h| format!("{h:?}")),
+        head_to_head,
     };
     let path = opts.out.join("compare.json");
     let text = serde_json::to_string_pretty(&summary)
@@ -532,9 +734,80 @@ mod tests {
             budgets: rows,
             pure_from: None,
             hybrid_learner: None,
+            head_to_head: HeadToHead::default(),
         };
         let table = summary.budget_table();
         assert!(table.contains("| 100352 (hybrid) / 102400 (pure) |"), "{table}");
         assert!(table.contains("| 200704 |"), "{table}");
+    }
+
+    #[test]
+    fn the_head_to_head_reads_budgets_the_quarter_and_equal_wall_clock_as_issue_23_puts_them() {
+        // Three budgets; the hybrid costs twice pure RL's time per sample.
+        let row = |steps: u64, h: f64, p: f64, h_wall: f64, p_wall: f64, h_falls: usize, p_falls: usize| {
+            BudgetRow {
+                env_steps: steps,
+                hybrid_env_steps: steps,
+                pure_env_steps: steps,
+                hybrid_iqm: h,
+                hybrid_ci95: None,
+                pure_iqm: p,
+                pure_ci95: None,
+                hybrid_wall_seconds: h_wall,
+                pure_wall_seconds: p_wall,
+                hybrid_falls: (h_falls, 50),
+                pure_falls: (p_falls, 50),
+            }
+        };
+        let budgets = [
+            row(100, 20.0, 10.0, 20.0, 10.0, 1, 5),
+            row(200, 25.0, 26.0, 40.0, 20.0, 2, 2),
+            row(300, 31.0, 30.0, 60.0, 30.0, 0, 1),
+        ];
+        let agent = |iqm: f64, steps: u64| Aggregate {
+            return_iqm: iqm,
+            per_seed: vec![AgentStats { env_steps: steps, ..Default::default() }],
+            ..Default::default()
+        };
+        let (hybrid, pure, controller) = (agent(31.5, 300), agent(30.5, 300), agent(12.0, 0));
+        let h = HeadToHead::from_budgets(&budgets, &hybrid, &pure, &controller, false);
+        // By budget: at or above at 100 and 300, below at 200; fewer falls at 100 and 300,
+        // as many at 200.
+        assert_eq!((h.budgets, h.hybrid_at_or_above, h.hybrid_below_at.clone()), (3, 2, vec![200]));
+        assert_eq!((h.fewer_falls, h.as_many_falls), (2, 1));
+        // Pure RL's final 30.5: the hybrid's 31.0 at 300 is the first to reach it, 300 / 300 = 1.
+        assert_eq!((h.pure_final_iqm, h.pure_samples), (30.5, 300));
+        assert_eq!((h.hybrid_reaches_pure_final_at, h.fraction_of_pure_samples), (Some(300), Some(1.0)));
+        // Equal wall-clock: at pure RL's 10 s the hybrid has no evaluation yet (its first at
+        // 20 s): the controller's 12 against 10, at or above; at 20 s its 100-sample 20
+        // against 26, below by 6; at 30 s still its 100-sample 20 against 30, below by 10.
+        let w = &h.equal_wall_clock;
+        let seen: Vec<(f64, u64, f64)> =
+            w.points.iter().map(|p| (p.seconds, p.hybrid_env_steps, p.hybrid_iqm)).collect();
+        assert_eq!(seen, [(10.0, 0, 12.0), (20.0, 100, 20.0), (30.0, 100, 20.0)]);
+        assert_eq!((w.hybrid_at_or_above, w.pure_times_from_another_run), (1, false));
+        let text = h.text();
+        assert!(text.contains("at 2 of 3 budgets (below at 200); fewer falls at 2, as many at 1"), "{text}");
+        assert!(
+            text.contains("(30.50) reached by the hybrid at 300 samples: 1.000 of pure RL's 300"),
+            "{text}"
+        );
+        assert!(
+            text.contains("at or above pure RL at 1 of 3 (below at 20 s by 6.00, 30 s by 10.00)"),
+            "{text}"
+        );
+        // A target never reached, pure RL's agents reused from another run, a NaN budget
+        // counted below (never silently above).
+        let mut nan = budgets.clone();
+        nan[0].hybrid_iqm = f64::NAN;
+        let h = HeadToHead::from_budgets(&nan, &hybrid, &agent(40.0, 1200), &controller, true);
+        assert_eq!((h.hybrid_reaches_pure_final_at, h.fraction_of_pure_samples), (None, None));
+        assert_eq!(h.hybrid_below_at, vec![100, 200]);
+        assert!(h.text().contains("(40.00) not reached by the hybrid at any budget"), "{}", h.text());
+        assert!(h.text().contains("under another load"), "{}", h.text());
+        // No budgets: said so, and the final evaluations still answer the return question.
+        let h = HeadToHead::from_budgets(&[], &hybrid, &pure, &controller, false);
+        assert_eq!(h.hybrid_reaches_pure_final_at, Some(300));
+        assert!(h.text().contains("no evaluations during training"), "{}", h.text());
     }
 }

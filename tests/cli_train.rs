@@ -716,6 +716,15 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
         assert_eq!(b["pure_env_steps"], b["env_steps"], "{b}");
     }
     assert_eq!(budgets[1]["hybrid_iqm"].as_f64(), json["hybrid"]["return_iqm"].as_f64());
+    // The head-to-head read off those budgets, printed and recorded.
+    assert!(
+        stdout.contains("The hybrid against pure RL") && stdout.contains("at equal wall-clock"),
+        "{stdout}"
+    );
+    let h2h = &json["head_to_head"];
+    assert_eq!((h2h["budgets"].as_u64(), h2h["pure_samples"].as_u64()), (Some(2), Some(512)));
+    assert_eq!(h2h["pure_final_iqm"], json["pure_rl"]["return_iqm"]);
+    assert_eq!(h2h["equal_wall_clock"]["points"].as_array().map(Vec::len), Some(2));
     assert!(out.join("eval_curves.png").is_file() && out.join("eval_curves_wall.png").is_file());
     for seed in ["seed_0", "seed_1"] {
         assert!(out.join(seed).join("summary.json").is_file(), "{seed}");

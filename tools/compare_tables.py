@@ -5,8 +5,10 @@
 
 Three tables, as the README shows them: the final deterministic evaluation per agent (IQM
 with its 95 % stratified-bootstrap CI, mean ± std over seeds, forward speed, falls, cost of
-transport), the evaluations at every budget, and each seed's final return and falls. Every
-figure is read from compare.json; nothing is recomputed.
+transport), the evaluations at every budget, and each seed's final return and falls; then,
+where compare.json has it, the head-to-head `centaur compare` read off them (by budget, pure
+RL's final return, equal wall-clock). Every figure is read from compare.json; nothing is
+recomputed.
 """
 import argparse
 import json
@@ -60,6 +62,20 @@ def main():
         seeds = ", ".join(f"{s['return_mean']:.{k}f}/{s['falls']}" for s in d[key]["per_seed"])
         walls = ", ".join(f"{s['wall_seconds']:,.0f}" for s in d[key]["per_seed"])
         print(f"{name} per seed (return / falls of {d[key]['per_seed'][0]['episodes']}): {seeds}; training wall (s): {walls}")
+    h2h = d.get("head_to_head")  # written by `centaur compare` since 2026-12-07
+    if h2h:
+        print()
+        below = ", ".join(f"{s:,}" for s in h2h["hybrid_below_at"]) or "none"
+        print(f"By budget: at or above pure RL at {h2h['hybrid_at_or_above']} of {h2h['budgets']} (below at {below}); "
+              f"fewer falls at {h2h['fewer_falls']}, as many at {h2h['as_many_falls']}")
+        at, frac = h2h.get("hybrid_reaches_pure_final_at"), h2h.get("fraction_of_pure_samples")
+        reached = f"reached at {at:,} samples ({frac:.3f} of {h2h['pure_samples']:,})" if at is not None and frac is not None \
+            else "not reached"
+        print(f"Pure RL's final return ({num(h2h['pure_final_iqm'], k)}): {reached}")
+        w = h2h["equal_wall_clock"]
+        rows = ", ".join(f"{p['seconds']:,.0f} s: {num(p['hybrid_iqm'], k)} against {num(p['pure_iqm'], k)}" for p in w["points"])
+        print(f"Equal wall-clock: at or above at {w['hybrid_at_or_above']} of {len(w['points'])} ({rows})"
+              + ("; pure RL's times from the reused run" if w["pure_times_from_another_run"] else ""))
     return 0
 
 

@@ -618,6 +618,8 @@ fn compare(args: CompareArgs) -> ExitCode {
                 println!("\nBy training budget (deterministic evaluation):\n");
                 print!("{}", summary.budget_table());
             }
+            println!("\nThe hybrid against pure RL (IQMs over seeds):\n");
+            print!("{}", summary.head_to_head.text());
             println!("\nwrote {}", opts.out.join("compare.json").display());
             ExitCode::SUCCESS
         }
