@@ -166,7 +166,7 @@ pub struct HeadToHead {
 /// The hybrid at each of pure RL's evaluation times: its latest evaluation by then.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct EqualWallClock {
-    /// One point per budget row, in order.
+    /// One point per pure-RL evaluation of the budget rows, in order.
     pub points: Vec<WallClockPoint>,
     /// Points where the hybrid's latest IQM is at least pure RL's.
     pub hybrid_at_or_above: usize,
@@ -217,9 +217,13 @@ impl HeadToHead {
             .chain(std::iter::once((hybrid_final_steps, hybrid.return_iqm)))
             .find(|&(_, r)| r >= target)
             .map(|(steps, _)| steps);
+        // A row whose pure-RL evaluation is the row before's (the last row pairs the hybrid's
+        // final evaluation with pure RL's last when their rollouts end apart) is one time.
         let points: Vec<WallClockPoint> = budgets
             .iter()
-            .map(|p| {
+            .enumerate()
+            .filter(|&(k, p)| k == 0 || budgets[k - 1].pure_env_steps != p.pure_env_steps)
+            .map(|(_, p)| {
                 let (hybrid_env_steps, hybrid_iqm) = budgets
                     .iter()
                     .rev()
@@ -796,6 +800,17 @@ mod tests {
             text.contains("at or above pure RL at 1 of 3 (below at 20 s by 6.00, 30 s by 10.00)"),
             "{text}"
         );
+        // A last row pairing the hybrid's final evaluation with pure RL's last one again (their
+        // rollouts end apart): a budget of its own, but not another of pure RL's times.
+        let mut paired = budgets.to_vec();
+        paired.push(BudgetRow {
+            hybrid_env_steps: 310,
+            hybrid_iqm: 31.5,
+            hybrid_wall_seconds: 62.0,
+            ..budgets[2]
+        });
+        let h = HeadToHead::from_budgets(&paired, &hybrid, &pure, &controller, false);
+        assert_eq!((h.budgets, h.hybrid_at_or_above, h.equal_wall_clock.points.len()), (4, 3, 3));
         // A target never reached, pure RL's agents reused from another run, a NaN budget
         // counted below (never silently above).
         let mut nan = budgets.clone();
