@@ -1,6 +1,7 @@
 //! Runs the model-based controller alone on a robot environment and prints a trace every
 //! `--every` steps (time, base position, roll/pitch/yaw, CoM velocity, planned vs measured
-//! contacts, solver statuses), then the run summary as JSON:
+//! contacts, solver statuses), then the run's summary (`RESULT`) and the solvers' mean time
+//! and iterations (`SOLVES`: the MPC per solve, the whole-body QP per tick):
 //! `cargo run --release --example control_probe -- ant trot 0.3 10 --every 10`.
 
 use centaur::control::parse_gait;
@@ -212,6 +213,8 @@ fn main() {
     let (mut forward_path, mut x_prev, mut y_prev) = (0.0f64, x0, y0);
     let mut fell = false;
     let mut max_tilt = 0.0f64;
+    // MPC: total µs, total iterations, solves; WBC: the same per tick.
+    let mut solves = (0.0f64, 0.0f64, 0usize, 0.0f64, 0.0f64, 0usize);
     for k in 0..steps {
         if (push_y != 0.0 || push_x != 0.0) && (t - push_at).abs() < 0.5 * dt {
             env.push(Vector3::new(push_x, push_y, 0.0), push_dur);
@@ -271,6 +274,17 @@ fn main() {
                 })
                 .collect();
             env.action_for_torques(&tau_pd, &mut action);
+        }
+        {
+            let st = ctrl.status();
+            if st.mpc_ran {
+                solves.0 += st.mpc_solve_us;
+                solves.1 += f64::from(st.mpc_iterations);
+                solves.2 += 1;
+            }
+            solves.3 += st.wbc_solve_us;
+            solves.4 += f64::from(st.wbc_iterations);
+            solves.5 += 1;
         }
         let tau: Vec<f64> = mapping.torques(env.as_ref(), ctrl.command()).to_vec();
         if every > 0 && k % every == 0 {
@@ -426,6 +440,16 @@ fn main() {
         ctrl.status().mpc_failures + ctrl.status().wbc_failures,
         heading / (t - t_start).max(1e-9),
         forward_path / (t - t_start).max(1e-9)
+    );
+    let per = |x: f64, n: usize| x / n.max(1) as f64;
+    println!(
+        "SOLVES mpc {:.1} us {:.2} iterations over {} solves; wbc {:.1} us {:.2} iterations over {} ticks",
+        per(solves.0, solves.2),
+        per(solves.1, solves.2),
+        solves.2,
+        per(solves.3, solves.5),
+        per(solves.4, solves.5),
+        solves.5
     );
     if ctrl.status().clamped_commands > 0 {
         println!(
