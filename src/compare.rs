@@ -184,8 +184,8 @@ pub struct WallClockPoint {
     pub pure_env_steps: u64,
     /// Pure RL's IQM at this budget.
     pub pure_iqm: f64,
-    /// The hybrid's samples at its latest budget reached within `seconds` (mean over seeds);
-    /// 0 before its first, where the hybrid is still the controller alone (the untrained
+    /// The hybrid's samples at its latest budget whose training time (the mean over seeds)
+    /// is within `seconds`; 0 before its first, where the hybrid is still the controller alone (the untrained
     /// deterministic hybrid acts exactly as its controller) and `hybrid_iqm` is the
     /// controller's.
     pub hybrid_env_steps: u64,
@@ -215,7 +215,7 @@ impl HeadToHead {
             .iter()
             .map(|b| (b.hybrid_env_steps, b.hybrid_iqm))
             .chain(std::iter::once((hybrid_final_steps, hybrid.return_iqm)))
-            .find(|&(_, r)| r >= target)
+            .find(|&(_, r)| at_or_above(r, target))
             .map(|(steps, _)| steps);
         // A row whose pure-RL evaluation is the row before's (the last row pairs the hybrid's
         // final evaluation with pure RL's last when their rollouts end apart) is one time.
