@@ -213,8 +213,9 @@ fn main() {
     let (mut forward_path, mut x_prev, mut y_prev) = (0.0f64, x0, y0);
     let mut fell = false;
     let mut max_tilt = 0.0f64;
-    // MPC: total µs, total iterations, solves; WBC: the same per tick.
-    let mut solves = (0.0f64, 0.0f64, 0usize, 0.0f64, 0.0f64, 0usize);
+    // Sums for the SOLVES line: the MPC over the ticks that solved, the WBC over every tick.
+    let (mut mpc_us, mut mpc_iterations, mut mpc_solves) = (0.0f64, 0.0f64, 0usize);
+    let (mut wbc_us, mut wbc_iterations, mut ticks) = (0.0f64, 0.0f64, 0usize);
     for k in 0..steps {
         if (push_y != 0.0 || push_x != 0.0) && (t - push_at).abs() < 0.5 * dt {
             env.push(Vector3::new(push_x, push_y, 0.0), push_dur);
@@ -278,13 +279,13 @@ fn main() {
         {
             let st = ctrl.status();
             if st.mpc_ran {
-                solves.0 += st.mpc_solve_us;
-                solves.1 += f64::from(st.mpc_iterations);
-                solves.2 += 1;
+                mpc_us += st.mpc_solve_us;
+                mpc_iterations += f64::from(st.mpc_iterations);
+                mpc_solves += 1;
             }
-            solves.3 += st.wbc_solve_us;
-            solves.4 += f64::from(st.wbc_iterations);
-            solves.5 += 1;
+            wbc_us += st.wbc_solve_us;
+            wbc_iterations += f64::from(st.wbc_iterations);
+            ticks += 1;
         }
         let tau: Vec<f64> = mapping.torques(env.as_ref(), ctrl.command()).to_vec();
         if every > 0 && k % every == 0 {
@@ -443,13 +444,11 @@ fn main() {
     );
     let per = |x: f64, n: usize| x / n.max(1) as f64;
     println!(
-        "SOLVES mpc {:.1} us {:.2} iterations over {} solves; wbc {:.1} us {:.2} iterations over {} ticks",
-        per(solves.0, solves.2),
-        per(solves.1, solves.2),
-        solves.2,
-        per(solves.3, solves.5),
-        per(solves.4, solves.5),
-        solves.5
+        "SOLVES mpc {:.1} us {:.2} iterations over {mpc_solves} solves; wbc {:.1} us {:.2} iterations over {ticks} ticks",
+        per(mpc_us, mpc_solves),
+        per(mpc_iterations, mpc_solves),
+        per(wbc_us, ticks),
+        per(wbc_iterations, ticks),
     );
     if ctrl.status().clamped_commands > 0 {
         println!(

@@ -185,9 +185,9 @@ pub struct WallClockPoint {
     /// Pure RL's IQM at this budget.
     pub pure_iqm: f64,
     /// The hybrid's samples at its latest budget whose training time (the mean over seeds)
-    /// is within `seconds`; 0 before its first, where the hybrid is still the controller alone (the untrained
-    /// deterministic hybrid acts exactly as its controller) and `hybrid_iqm` is the
-    /// controller's.
+    /// is within `seconds`; 0 before its first, where the hybrid is still the controller
+    /// alone (the untrained deterministic hybrid acts exactly as its controller) and
+    /// `hybrid_iqm` is the controller's.
     pub hybrid_env_steps: u64,
     /// The hybrid's IQM there.
     pub hybrid_iqm: f64,
