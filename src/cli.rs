@@ -11,10 +11,14 @@ use crate::experiment::{
     EXPERIMENT_FILES, ExperimentError, ExperimentOptions, ExperimentResult, Phase, run_experiment,
     tuned_config,
 };
-use crate::hybrid::{BoundRamp, Exploration, ExplorationRamp, Fade, ResidualConfig, Steering};
+use crate::hybrid::{Fade, ResidualConfig};
 use crate::mpc::Gait;
 use crate::registry::residual_config_for;
 use crate::settings::EnvSettings;
+use crate::spec::{
+    ControllerTable, ExplorationTable, HybridTableFields, HybridTables, Parts, RampTable, SteeringTable,
+    Torques,
+};
 use crate::train::{parse_run_config, read_config_file};
 
 /// The progress-bar style of the examples and the command line.
@@ -232,14 +236,7 @@ pub struct HybridArgs {
     pub fade: Option<Vec<f64>>,
 }
 
-/// The samples over which `--explore-ramp` and `--bound-ramp` rise when neither the
-/// command line nor the robot's preset says.
-pub const DEFAULT_RAMP_SAMPLES: u64 = 200_000;
-
-/// A ramp's samples: the command line's, else the preset ramp's, else the default.
-fn ramp_samples(given: Option<u64>, preset: Option<u64>) -> u64 {
-    given.or(preset).unwrap_or(DEFAULT_RAMP_SAMPLES)
-}
+pub use crate::spec::DEFAULT_RAMP_SAMPLES;
 
 /// A gait by name (`--gait` here and on `centaur control`), for clap.
 pub fn gait_name(name: &str) -> Result<Gait, String> {
@@ -247,87 +244,70 @@ pub fn gait_name(name: &str) -> Result<Gait, String> {
 }
 
 impl HybridArgs {
-    /// `preset` with what the command line changes; checked against nothing yet (the
-    /// environment checks it with the robot's action dimension).
-    pub fn apply(&self, mut preset: ResidualConfig) -> ResidualConfig {
-        if let Some(s) = self.residual_scale {
-            preset.scale = vec![s];
+    /// The run spec's hybrid tables these flags set: each flag is sugar for one key
+    /// (`--steer-speed` is `hybrid.steering.speed`, `--rated-speed` is
+    /// `controller.rated_speed`, `--explore-ramp` is `exploration.ramp.residual`, …).
+    pub fn tables(&self) -> HybridTables {
+        let ramp = |off: bool, value: Option<f64>, samples: Option<u64>, bound: bool| {
+            if off {
+                Some(RampTable { off: true, ..RampTable::default() })
+            } else {
+                value.map(|v| RampTable {
+                    from: bound.then_some(v),
+                    residual: (!bound).then_some(v),
+                    samples,
+                    off: false,
+                })
+            }
+        };
+        HybridTables {
+            hybrid: HybridTableFields {
+                residual_scale: self.residual_scale,
+                parts: Some(match self.parts {
+                    HybridParts::Both => Parts::Both,
+                    HybridParts::Residual => Parts::Residual,
+                    HybridParts::Command => Parts::Command,
+                }),
+                steering: SteeringTable {
+                    speed: self.steer_speed,
+                    yaw_rate: self.steer_yaw_rate,
+                    cadence: self.steer_cadence,
+                    duty: self.steer_duty,
+                    swing: self.steer_swing,
+                    foothold: self.steer_foothold,
+                },
+                include_reference: None,
+                observe_state: self.observe_state.then_some(true),
+                fade: self.fade.as_deref().map(|f| Fade { start: f[0], end: f[1] }),
+                bound_ramp: ramp(self.no_bound_ramp, self.bound_ramp, self.bound_ramp_samples, true),
+            },
+            controller: ControllerTable {
+                gait: self.gait,
+                speed: self.speed,
+                yaw_rate: None,
+                body_height: self.body_height,
+                rated_speed: self.rated_speed,
+                period_scale: self.period_scale,
+                max_acceleration: self.max_acceleration,
+                swing_height: self.swing_height,
+                mpc_period: self.mpc_period,
+                torques: self.cheap_torques.then_some(Torques::Cheap),
+            },
+            exploration: ExplorationTable {
+                residual: self.explore_residual,
+                steering: self.explore_steering,
+                ramp: ramp(self.no_explore_ramp, self.explore_ramp, self.explore_ramp_samples, false),
+                warmup_with_policy: self.warmup_with_policy.then_some(true),
+            },
         }
-        if let Some(v) = self.speed {
-            preset.command.forward_velocity = v;
-        }
-        if let Some(g) = self.gait {
-            preset.command.gait = g;
-        }
-        if let Some(s) = self.steer_speed {
-            preset.steering.speed = s;
-        }
-        if let Some(s) = self.steer_yaw_rate {
-            preset.steering.yaw_rate = s;
-        }
-        if let Some(s) = self.steer_cadence {
-            preset.steering.cadence = s;
-        }
-        if let Some(s) = self.steer_duty {
-            preset.steering.duty = s;
-        }
-        if let Some(s) = self.steer_swing {
-            preset.steering.swing = s;
-        }
-        if let Some(s) = self.steer_foothold {
-            preset.steering.foothold = s;
-        }
-        match self.parts {
-            HybridParts::Both => {}
-            HybridParts::Residual => preset.steering = Steering::OFF,
-            HybridParts::Command => preset.joint_residual = false,
-        }
-        if self.explore_residual.is_some() || self.explore_steering.is_some() {
-            let e = preset.exploration.unwrap_or(Exploration { residual: 1.0, steering: 1.0 });
-            preset.exploration = Some(Exploration {
-                residual: self.explore_residual.unwrap_or(e.residual),
-                steering: self.explore_steering.unwrap_or(e.steering),
-            });
-        }
-        if self.no_explore_ramp {
-            preset.exploration_ramp = None;
-        }
-        if let Some(residual) = self.explore_ramp {
-            let samples = ramp_samples(self.explore_ramp_samples, preset.exploration_ramp.map(|r| r.samples));
-            preset.exploration_ramp = Some(ExplorationRamp { residual, samples });
-        }
-        if self.no_bound_ramp {
-            preset.bound_ramp = None;
-        }
-        if let Some(from) = self.bound_ramp {
-            let samples = ramp_samples(self.bound_ramp_samples, preset.bound_ramp.map(|r| r.samples));
-            preset.bound_ramp = Some(BoundRamp { from, samples });
-        }
-        preset.warmup_with_policy |= self.warmup_with_policy;
-        if self.period_scale.is_some() {
-            preset.period_scale = self.period_scale;
-        }
-        if self.rated_speed.is_some() {
-            preset.rated_speed = self.rated_speed;
-        }
-        if self.max_acceleration.is_some() {
-            preset.max_acceleration = self.max_acceleration;
-        }
-        if self.body_height.is_some() {
-            preset.command.body_height = self.body_height;
-        }
-        if self.swing_height.is_some() {
-            preset.swing_height = self.swing_height;
-        }
-        if self.mpc_period.is_some() {
-            preset.mpc_period = self.mpc_period;
-        }
-        preset.cheap_torques |= self.cheap_torques;
-        preset.include_state |= self.observe_state;
-        if let Some([start, end]) = self.fade.as_deref() {
-            preset.fade = Some(Fade { start: *start, end: *end });
-        }
-        preset
+    }
+
+    /// `preset` with what the command line changes ([`HybridArgs::tables`] over it, as a
+    /// spec's tables are); checked against nothing yet (the environment checks it with the
+    /// robot's action dimension). clap's `requires` rules out the one refusal of
+    /// [`HybridTables::apply`] (ramp samples without a start).
+    pub fn apply(&self, preset: ResidualConfig) -> ResidualConfig {
+        self.tables().apply(preset).expect("clap requires a ramp's start with its samples")
     }
 }
 
@@ -501,6 +481,7 @@ pub fn run_example(name: &str, opts: &ExperimentOptions) -> std::process::ExitCo
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::hybrid::{BoundRamp, Exploration, ExplorationRamp, Steering};
     use crate::registry::residual_config;
 
     #[test]
@@ -521,6 +502,96 @@ mod tests {
     }
 
     /// `preset` with the hybrid options `args` applied, as a command line parses them.
+    /// The configuration that meets every Minitaur bar, once as the sixteen flags it was
+    /// run with and once as its spec: the same learner, hybrid and budget, so the same run.
+    #[test]
+    fn the_bars_spec_resolves_to_what_its_flags_gave() {
+        use crate::spec::{Purpose, RunSpec};
+        let flags = [
+            "--explore-steering",
+            "1.0",
+            "--residual-scale",
+            "0.5",
+            "--explore-residual",
+            "0.15",
+            "--explore-ramp",
+            "0.3",
+            "--steer-cadence",
+            "0.75",
+            "--steer-speed",
+            "2.5",
+            "--rated-speed",
+            "4.5",
+            "--speed",
+            "3.0",
+            "--max-acceleration",
+            "15",
+        ];
+        let preset = crate::registry::residual_config_for("minitaur", AlgoKind::Ppo).unwrap();
+        let by_flags = parse_hybrid(preset, &flags).unwrap();
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/minitaur_hybrid_bars.toml");
+        let spec = RunSpec::read(&path, &[]).unwrap().resolve(Purpose::Compare).unwrap();
+        assert_eq!(spec.hybrid.as_ref(), Some(&by_flags));
+        assert_eq!(spec.learner_config(), tuned_config("minitaur", AlgoKind::Ppo));
+        assert_eq!(
+            (spec.seeds, spec.steps, spec.envs, spec.eval_episodes, spec.eval_every),
+            (5, 1_000_000, 4, 10, 100_000)
+        );
+        assert_eq!(spec.hybrid_learner, None);
+        // The same flags over an empty spec give the same spec.
+        let bare = RunSpec {
+            schema: 1,
+            robot: "minitaur".into(),
+            algo: "ppo".into(),
+            steps: 1_000_000,
+            ..RunSpec::default()
+        };
+        let tables = {
+            use clap::Parser;
+            #[derive(clap::Parser)]
+            struct Line {
+                #[command(flatten)]
+                hybrid: HybridArgs,
+            }
+            Line::try_parse_from([&["x"][..], &flags].concat()).unwrap().hybrid.tables()
+        };
+        assert_eq!(bare.resolve_with(Purpose::Compare, &tables).unwrap(), spec);
+    }
+
+    /// `--config FILE` and `--hybrid-config FILE` become a spec's `[learner]` and
+    /// `[hybrid_learner]` over the defaults: the learners they parsed to before.
+    #[test]
+    fn run_files_resolve_as_the_learners_they_parsed_to() {
+        use crate::spec::{Purpose, RunSpec, run_file_tables};
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
+        let mut compared = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            let text = std::fs::read_to_string(&path).unwrap();
+            if text.contains("schema =") {
+                continue;
+            }
+            let (algo, settings) = parse_run_config(AlgoKind::Ppo, &text, &path).unwrap();
+            let (env, learner) = run_file_tables(&text, "x").unwrap();
+            let spec = RunSpec {
+                schema: 1,
+                robot: "minitaur".into(),
+                algo: "ppo".into(),
+                steps: 1_000_000,
+                env,
+                learner: Some(learner.clone()),
+                hybrid_learner: Some(learner),
+                ..RunSpec::default()
+            };
+            let resolved = spec.resolve(Purpose::Compare).unwrap();
+            assert_eq!(resolved.learner_config(), algo, "{}", path.display());
+            assert_eq!(resolved.hybrid_learner_config(), Some(algo), "{}", path.display());
+            assert_eq!(resolved.env, settings, "{}", path.display());
+            compared += 1;
+        }
+        assert!(compared >= 5, "the run files in configs/ were compared ({compared})");
+    }
+
     fn parse_hybrid(preset: ResidualConfig, args: &[&str]) -> Result<ResidualConfig, clap::Error> {
         use clap::Parser;
         #[derive(clap::Parser)]

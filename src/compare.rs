@@ -12,7 +12,7 @@
 //! | `learning_curves.png`, `.svg` | mean training return across seeds against steps, with a band of ± one standard deviation across seeds |
 //! | `eval_curves.png`, `.svg`; `eval_curves_wall.png`, `.svg` | the deterministic evaluations at each budget (`--eval-every`): IQM over seeds with its 95 % CI, against steps and against training wall-clock seconds |
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use centaur_rl::{AlgoConfig, UpdateMetrics};
@@ -25,6 +25,7 @@ use crate::experiment::{
 use crate::hybrid::ResidualConfig;
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
 use crate::settings::EnvSettings;
+use crate::spec::ResolvedSpec;
 use crate::stats::{Interval, iqm_with_ci};
 
 /// What to compare.
@@ -74,6 +75,38 @@ pub struct CompareOptions {
     /// costs the hybrid's training alone. Its seeds must have been run with the same options
     /// but for the hybrid's setup.
     pub pure_from: Option<PathBuf>,
+    /// The resolved run spec these options came from, written as `spec.json` into `out`
+    /// (`None`: none is written).
+    pub spec: Option<ResolvedSpec>,
+    /// The command line that asked for the comparison, for the header of `results.md`.
+    pub command: Option<String>,
+}
+
+impl CompareOptions {
+    /// The comparison a resolved spec describes, into `out`, one seed at a time on one
+    /// thread, neither resumed nor replacing.
+    pub fn from_spec(spec: &ResolvedSpec, out: PathBuf) -> CompareOptions {
+        CompareOptions {
+            env: spec.robot.clone(),
+            algo: spec.learner_config(),
+            hybrid_algo: spec.hybrid_learner_config(),
+            seeds: spec.seeds,
+            steps: spec.steps,
+            out,
+            n_envs: spec.envs,
+            threads: 1,
+            jobs: 1,
+            eval_episodes: spec.eval_episodes,
+            residual: spec.hybrid.clone().expect("a comparison's spec has a hybrid"),
+            eval_every: (spec.eval_every > 0).then_some(spec.eval_every),
+            resume: false,
+            overwrite: false,
+            env_settings: spec.env.clone(),
+            pure_from: None,
+            spec: Some(spec.clone()),
+            command: None,
+        }
+    }
 }
 
 /// Across-seed statistics of one agent.
@@ -518,6 +551,7 @@ pub fn run_compare(
     opts: &CompareOptions,
     progress: &mut (dyn FnMut(u64, Phase, &UpdateMetrics) + Send),
 ) -> Result<CompareSummary, ExperimentError> {
+    let started = std::time::Instant::now();
     crate::rundir::check_not_file(&opts.out)
         .map_err(|source| ExperimentError::Io { path: opts.out.clone(), source })?;
     if let Some(from) = &opts.pure_from {
@@ -566,6 +600,9 @@ pub fn run_compare(
         if opts.resume && !opts.overwrite {
             check_resumable(&exp)?;
         }
+    }
+    if let Some(spec) = &opts.spec {
+        write_spec(&opts.out, spec)?;
     }
     let run_seed = |seed: u64, progress: &mut dyn FnMut(u64, Phase, &UpdateMetrics)| {
         let exp = seed_options(seed);
@@ -680,7 +717,111 @@ pub fn run_compare(
             }
         }
     }
+    let path = opts.out.join("results.md");
+    crate::rundir::write_atomic(
+        &path,
+        &results_markdown(opts, &summary, &runs, started.elapsed().as_secs_f64()),
+    )
+    .map_err(|source| ExperimentError::Io { path: path.clone(), source })?;
     Ok(summary)
+}
+
+/// Writes `spec.json` into `dir` (created if missing). On a resumed or extended comparison
+/// a recorded spec of another identity is refused: the seeds already there were run with
+/// other options.
+fn write_spec(dir: &Path, spec: &ResolvedSpec) -> Result<(), ExperimentError> {
+    let path = dir.join("spec.json");
+    if let Ok(text) = std::fs::read_to_string(&path)
+        && let Ok(recorded) = serde_json::from_str::<crate::spec::SpecRecord>(&text)
+        && recorded.identity != spec.identity()
+    {
+        return Err(ExperimentError::SpecChanged {
+            dir: dir.to_path_buf(),
+            recorded: recorded.identity,
+            given: spec.identity(),
+        });
+    }
+    std::fs::create_dir_all(dir).map_err(|source| ExperimentError::Io { path: dir.to_path_buf(), source })?;
+    crate::rundir::write_atomic(&path, &spec.record_json())
+        .map_err(|source| ExperimentError::Io { path: path.clone(), source })
+}
+
+/// The machine a result was measured on: the CPU model and its logical cores.
+pub fn host_description() -> String {
+    let model = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, m)| m.trim().to_string())
+        })
+        .unwrap_or_else(|| std::env::consts::ARCH.to_string());
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    format!("{model}, {cores} logical cores, {}", std::env::consts::OS)
+}
+
+/// `results.md`: the command and the spec in its header, then the tables over seeds (IQM
+/// with 95 % bootstrap CIs), the head-to-head, the host and the wall time, and the plots.
+pub fn results_markdown(
+    opts: &CompareOptions,
+    s: &CompareSummary,
+    runs: &[ExperimentSummary],
+    elapsed: f64,
+) -> String {
+    use std::fmt::Write as _;
+    let mut md = String::new();
+    let learner = opts.algo.kind().name().to_uppercase();
+    let _ = writeln!(md, "# {learner} on {}: pure RL, the hybrid and the controller alone\n", s.env);
+    let _ = writeln!(md, "Generated by `centaur compare`; do not edit by hand (rerun the command).\n");
+    if let Some(command) = &opts.command {
+        let _ = writeln!(md, "```sh\n{command}\n```\n");
+    }
+    if let Some(spec) = &opts.spec {
+        let _ = writeln!(
+            md,
+            "Spec identity `{}` (the resolved spec is `spec.json` beside this page).\n",
+            spec.identity()
+        );
+    }
+    let _ = writeln!(
+        md,
+        "{} seeds × {} steps per agent, {} deterministic evaluation episodes per agent and seed; IQM over seeds with 95 % stratified-bootstrap CIs.\n",
+        s.seeds, s.steps, opts.eval_episodes
+    );
+    md.push_str(&s.markdown_table());
+    if s.budgets.len() > 1 {
+        md.push_str("\n## By training budget (deterministic evaluation)\n\n");
+        md.push_str(&s.budget_table());
+    }
+    md.push_str("\n## The hybrid against pure RL\n\n");
+    md.push_str(&s.head_to_head.text());
+    md.push_str("\n## Seeds, host and wall time\n\n| seed | hybrid return | pure RL return | controller return | hybrid training wall (s) | pure RL training wall (s) |\n|---:|---:|---:|---:|---:|---:|\n");
+    for (k, r) in runs.iter().enumerate() {
+        let _ = writeln!(
+            md,
+            "| {k} | {:.2} ({} falls of {}) | {:.2} ({} falls of {}) | {:.2} | {:.0} | {:.0} |",
+            r.hybrid.return_mean,
+            r.hybrid.falls,
+            r.hybrid.episodes,
+            r.pure_rl.return_mean,
+            r.pure_rl.falls,
+            r.pure_rl.episodes,
+            r.controller.return_mean,
+            r.hybrid.wall_seconds,
+            r.pure_rl.wall_seconds
+        );
+    }
+    let _ = writeln!(
+        md,
+        "\nHost: {}; threads per agent {}, seeds at once {}. This invocation took {:.0} s (seeds kept by `--resume` cost nothing).\n",
+        host_description(),
+        opts.threads,
+        opts.jobs,
+        elapsed
+    );
+    md.push_str("![learning curves](learning_curves.png)\n\n![evaluation by budget](eval_curves.png)\n\n![evaluation by wall-clock](eval_curves_wall.png)\n");
+    md
 }
 
 #[cfg(test)]

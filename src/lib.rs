@@ -14,6 +14,7 @@
 //! | [`eval`] | `centaur eval`: a checkpoint on any configuration of its environment |
 //! | [`experiment`], [`compare`], [`train`] | pure RL against the hybrid, over seeds; `centaur train` |
 //! | [`recording`], [`plot`] | MCAP recordings for Foxglove; learning-curve plots |
+//! | [`spec`] | run specs: one TOML file holds everything a run is, resolved once and recorded as `spec.json` |
 //! | [`settings`] | `[env]`: a robot environment's settings over its preset, from a run's TOML |
 //! | [`rundir`] | atomic writes; run directories refused when taken, unless replaced |
 //! | `cli` (feature `cli`, default) | the examples' and the binary's command line and progress bars |
@@ -39,6 +40,7 @@ pub mod registry;
 pub mod residual;
 pub mod rundir;
 pub mod settings;
+pub mod spec;
 pub mod stats;
 pub mod sweep;
 pub mod train;

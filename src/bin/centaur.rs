@@ -8,10 +8,11 @@ use std::process::ExitCode;
 use centaur::cli::{HybridArgs, TrainingProgress, positive_count, progress_style};
 use centaur::compare::{CompareOptions, run_compare};
 use centaur::control::{ControlOptions, Push, check_out_dir, run_control, write_summary};
+use centaur::experiment::Phase;
 use centaur::experiment::{Condition, RobustnessOptions, robustness_table, run_robustness};
-use centaur::experiment::{Phase, tuned_config};
-use centaur::registry::{residual_config, residual_config_for};
-use centaur::train::{TrainOptions, parse_run_config, read_config_file, read_run_record, resume, train};
+use centaur::registry::residual_config;
+use centaur::spec::{Purpose, RunSpec, SCHEMA_VERSION, run_file_tables};
+use centaur::train::{TrainOptions, read_config_file, read_run_record, resume, train};
 use centaur_envs::minitaur::MotorInverse;
 use centaur_mpc::{Gait, MpcSolver};
 use centaur_rl::AlgoKind;
@@ -50,6 +51,10 @@ enum Command {
     /// configuration of it (`--config` with an [env] table); prints the table and writes
     /// eval.json (eval_FILE.json with --config FILE) beside the checkpoint.
     Eval(EvalArgs),
+    /// Check a run spec and print it resolved: every value explicit (the learner's every
+    /// hyperparameter, the hybrid's whole setup), as a run records it in spec.json, with its
+    /// identity. Nothing runs; a bad spec is refused naming the key.
+    Spec(SpecArgs),
     /// Train a grid (or list) of run settings × seeds in parallel, resumably; writes one run
     /// directory per point and seed, sweep.json (IQM with 95 % CIs per point) and
     /// sweep_curves.{png,svg}.
@@ -468,18 +473,26 @@ fn parse_speed_schedule(s: &str) -> Result<SpeedSchedule, String> {
 
 #[derive(Args)]
 struct CompareArgs {
+    /// A run spec (TOML; see `centaur::spec`): robot, learner, seeds, budget, [env],
+    /// [learner], [hybrid_learner], [hybrid], [controller], [exploration]. The flags below
+    /// that it also sets override it; --env, --algo, --config and --hybrid-config go in it
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["env", "algo", "config", "hybrid_config"])]
+    spec: Option<PathBuf>,
+    /// Override one key of --spec, e.g. `--set controller.rated_speed=4.0` (repeatable)
+    #[arg(long = "set", value_name = "KEY=VALUE", requires = "spec")]
+    sets: Vec<String>,
     /// Robot environment with a controller: minitaur, minitaur-fast, ant, walker2d, humanoid.
-    #[arg(long)]
-    env: String,
+    #[arg(long, required_unless_present = "spec")]
+    env: Option<String>,
     /// Algorithm: ppo, a2c, sac, sac1, td3 or ddpg.
-    #[arg(long, value_parser = parse_algo)]
-    algo: AlgoKind,
-    /// Number of seeds (0..seeds).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=10_000))]
-    seeds: u64,
-    /// Training steps per agent and seed.
+    #[arg(long, value_parser = parse_algo, required_unless_present = "spec")]
+    algo: Option<AlgoKind>,
+    /// Number of seeds (0..seeds) [default: the spec's, else 5].
     #[arg(long, allow_negative_numbers = true)]
-    steps: u64,
+    seeds: Option<u64>,
+    /// Training steps per agent and seed [default: the spec's].
+    #[arg(long, allow_negative_numbers = true, required_unless_present = "spec")]
+    steps: Option<u64>,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
@@ -493,9 +506,9 @@ struct CompareArgs {
     /// --pure-from may reuse the agents of a comparison run without it
     #[arg(long, value_name = "FILE")]
     hybrid_config: Option<PathBuf>,
-    /// Parallel environments per agent (default: 4 for PPO and A2C, 1 otherwise).
-    #[arg(long, allow_negative_numbers = true, value_parser = positive_count)]
-    envs: Option<usize>,
+    /// Parallel environments per agent [default: the spec's, else 4 for PPO and A2C, 1 otherwise].
+    #[arg(long, allow_negative_numbers = true)]
+    envs: Option<u64>,
     /// Threads stepping each agent's environments; with more than one, a seed's two agents
     /// also train side by side (results unchanged).
     #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = positive_count)]
@@ -503,13 +516,13 @@ struct CompareArgs {
     /// Seeds run at once, each on its own --threads (results unchanged).
     #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = positive_count)]
     jobs: usize,
-    /// Evaluation episodes per agent and seed.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = positive_count)]
-    eval_episodes: usize,
+    /// Evaluation episodes per agent and seed [default: the spec's, else 10].
+    #[arg(long, allow_negative_numbers = true)]
+    eval_episodes: Option<u64>,
     /// Evaluate both learners deterministically every this many training steps (and at
-    /// the end); 0: at the end only.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 100_000)]
-    eval_every: u64,
+    /// the end); 0: at the end only [default: the spec's, else 100000].
+    #[arg(long, allow_negative_numbers = true)]
+    eval_every: Option<u64>,
     /// Keep the seeds already finished in --out with the same options and run the rest (a
     /// killed comparison loses at most the seeds it was running); a seed holding a run of
     /// other options is refused before anything trains.
@@ -523,69 +536,126 @@ struct CompareArgs {
     /// with the same options but for the hybrid's (refused, naming the difference, otherwise)
     #[arg(long, value_name = "DIR")]
     pure_from: Option<PathBuf>,
-    /// The hybrid's setup.
+    /// The hybrid's setup (each flag sets one key of the spec's [hybrid], [controller] or
+    /// [exploration], over the spec's).
     #[command(flatten)]
     hybrid: HybridArgs,
 }
 
+/// The run spec a comparison's flags describe: `--spec FILE` with its `--set`s, or the
+/// flags themselves (`--config` as a `[learner]` over the defaults and its `[env]`), with
+/// `--seeds`, `--steps`, `--envs`, `--eval-episodes` and `--eval-every` over either.
+fn compare_spec(args: &CompareArgs) -> Result<RunSpec, String> {
+    let mut spec = match &args.spec {
+        Some(path) => RunSpec::read(path, &args.sets).map_err(|e| e.to_string())?,
+        None => {
+            let algo = args.algo.expect("clap requires --algo without --spec");
+            let mut spec = RunSpec {
+                schema: SCHEMA_VERSION,
+                robot: args.env.clone().expect("clap requires --env without --spec"),
+                algo: algo.name().to_string(),
+                steps: args.steps.expect("clap requires --steps without --spec"),
+                ..RunSpec::default()
+            };
+            if let Some(path) = &args.config {
+                let text = read_config_file(path).map_err(|e| e.to_string())?;
+                let (settings, learner) =
+                    run_file_tables(&text, &path.display().to_string()).map_err(|e| e.to_string())?;
+                spec.env = settings;
+                spec.learner = Some(learner);
+            }
+            if let Some(path) = &args.hybrid_config {
+                let text = read_config_file(path).map_err(|e| e.to_string())?;
+                let (settings, learner) =
+                    run_file_tables(&text, &path.display().to_string()).map_err(|e| e.to_string())?;
+                if !settings.is_empty() {
+                    return Err(format!(
+                        "{}: --hybrid-config takes the hybrid's hyperparameters only; the robot's [env] settings go in --config, for all three agents",
+                        path.display()
+                    ));
+                }
+                spec.hybrid_learner = Some(learner);
+            }
+            spec
+        }
+    };
+    spec.seeds = args.seeds.or(spec.seeds);
+    spec.steps = args.steps.unwrap_or(spec.steps);
+    spec.envs = args.envs.or(spec.envs);
+    spec.eval_episodes = args.eval_episodes.or(spec.eval_episodes);
+    spec.eval_every = args.eval_every.or(spec.eval_every);
+    Ok(spec)
+}
+
+/// Arguments of `centaur spec`.
+#[derive(Args)]
+struct SpecArgs {
+    /// The run spec (TOML).
+    file: PathBuf,
+    /// Override one key, e.g. `--set controller.rated_speed=4.0` (repeatable)
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
+    /// Resolve it as `centaur train` does (one agent on `robot`) even where the robot has a
+    /// controller [default: a robot with a controller as `centaur compare` does, any other
+    /// environment, `<robot>-residual` included, as `centaur train` does]
+    #[arg(long)]
+    train: bool,
+}
+
+/// `centaur spec`: a spec checked and printed resolved.
+fn spec_command(args: SpecArgs) -> ExitCode {
+    let resolved = RunSpec::read(&args.file, &args.sets).and_then(|s| {
+        let purpose = if args.train { Purpose::Train } else { s.purpose() };
+        s.resolve(purpose)
+    });
+    match resolved {
+        Ok(resolved) => {
+            print!("{}", resolved.record_json());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The command line as typed, each argument quoted where a shell would need it.
+fn command_line() -> String {
+    let quote = |a: String| {
+        if !a.is_empty() && a.chars().all(|c| c.is_ascii_alphanumeric() || "-_./=:,+".contains(c)) {
+            a
+        } else {
+            format!("'{}'", a.replace('\'', "'\\''"))
+        }
+    };
+    let mut args = std::env::args();
+    let program = args.next().map(|p| {
+        std::path::Path::new(&p).file_name().map_or(p.clone(), |f| f.to_string_lossy().into_owned())
+    });
+    program.into_iter().chain(args.map(quote)).collect::<Vec<_>>().join(" ")
+}
+
 /// `centaur compare`: pure RL against the hybrid over several seeds.
 fn compare(args: CompareArgs) -> ExitCode {
-    let (algo, env_settings) = match &args.config {
-        Some(path) => {
-            match read_config_file(path).and_then(|text| parse_run_config(args.algo, &text, path)) {
-                Ok(parsed) => parsed,
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    return ExitCode::FAILURE;
-                }
-            }
-        }
-        None => (tuned_config(&args.env, args.algo), Default::default()),
-    };
-    let residual = match residual_config_for(&args.env, args.algo) {
-        Ok(r) => args.hybrid.apply(r),
+    let resolved = compare_spec(&args).and_then(|spec| {
+        spec.resolve_with(Purpose::Compare, &args.hybrid.tables()).map_err(|e| e.to_string())
+    });
+    let resolved = match resolved {
+        Ok(r) => r,
         Err(e) => {
             eprintln!("error: {e}");
             return ExitCode::FAILURE;
         }
     };
-    let hybrid_algo = match &args.hybrid_config {
-        Some(path) => {
-            match read_config_file(path).and_then(|text| parse_run_config(args.algo, &text, path)) {
-                Ok((h, settings)) if settings.is_empty() => Some(h),
-                Ok(_) => {
-                    eprintln!(
-                        "error: {}: --hybrid-config takes the hybrid's hyperparameters only; the robot's [env] settings go in --config, for all three agents",
-                        path.display()
-                    );
-                    return ExitCode::FAILURE;
-                }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    return ExitCode::FAILURE;
-                }
-            }
-        }
-        None => None,
-    };
-    let on_policy = matches!(args.algo, AlgoKind::Ppo | AlgoKind::A2c);
     let opts = CompareOptions {
-        env: args.env,
-        algo,
-        hybrid_algo,
-        seeds: args.seeds,
-        steps: args.steps,
-        out: args.out,
-        n_envs: args.envs.unwrap_or(if on_policy { 4 } else { 1 }),
         threads: args.threads,
         jobs: args.jobs,
-        eval_episodes: args.eval_episodes,
-        residual,
-        eval_every: (args.eval_every > 0).then_some(args.eval_every),
         resume: args.resume,
         overwrite: args.overwrite,
-        env_settings,
         pure_from: args.pure_from,
+        command: Some(command_line()),
+        ..CompareOptions::from_spec(&resolved, args.out)
     };
     let seeds = opts.seeds.max(1);
     let bar = ProgressBar::new(seeds * 2 * opts.steps);
@@ -620,7 +690,12 @@ fn compare(args: CompareArgs) -> ExitCode {
             }
             println!("\nThe hybrid against pure RL (IQMs over seeds):\n");
             print!("{}", summary.head_to_head.text());
-            println!("\nwrote {}", opts.out.join("compare.json").display());
+            println!(
+                "\nwrote {}, {} and {}",
+                opts.out.join("compare.json").display(),
+                opts.out.join("results.md").display(),
+                opts.out.join("spec.json").display()
+            );
             ExitCode::SUCCESS
         }
         Err(e) => {
@@ -741,6 +816,7 @@ fn main() -> ExitCode {
         Command::Robustness(args) => return robustness(args),
         Command::Eval(args) => return eval(args),
         Command::Sweep(args) => return sweep(args),
+        Command::Spec(args) => return spec_command(args),
     };
     train_command(args)
 }

@@ -60,6 +60,21 @@ pub enum ExperimentError {
         /// What was asked for.
         option: &'static str,
     },
+    /// A run spec refused.
+    #[error(transparent)]
+    Spec(#[from] crate::spec::SpecError),
+    /// A comparison resumed or extended with another spec than it recorded.
+    #[error(
+        "{dir} records the spec {recorded} (spec.json), not the one given ({given}): its seeds were run with other options; choose another --out, or --overwrite"
+    )]
+    SpecChanged {
+        /// The comparison directory.
+        dir: PathBuf,
+        /// The identity in its `spec.json`.
+        recorded: String,
+        /// The identity of the spec given.
+        given: String,
+    },
     /// A robot environment error (building a perturbed robot).
     #[error("robot: {0}")]
     Robot(#[from] centaur_envs::RobotEnvError),
