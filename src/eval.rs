@@ -14,7 +14,7 @@ use centaur_rl::{AlgoKind, Checkpoint, Policy, RlError};
 use serde::Serialize;
 
 use crate::experiment::{AgentStats, ExperimentError, evaluate_policy};
-use crate::hybrid::Fade;
+use crate::hybrid::{Fade, ResidualConfig};
 use crate::registry::{EnvSource, RegistryError};
 use crate::rundir::write_atomic;
 use crate::settings::{EnvSettings, split_run_toml};
@@ -130,17 +130,27 @@ pub fn run_eval(opts: &EvalOptions) -> Result<EvalReport, EvalError> {
     let learner = AlgoKind::from_name(&checkpoint.algo).ok_or_else(|| {
         EvalError::Refused(format!("{}: unknown algorithm `{}`", file.display(), checkpoint.algo))
     })?;
+    // A hybrid is rebuilt with the setup it recorded (a spec's or a comparison's), when
+    // evaluated on the environment it was trained on; else with the learner's preset.
+    // A recorded setup that does not parse is refused, not replaced by the preset.
+    let recorded_residual: Option<ResidualConfig> = match checkpoint.has_meta("residual") {
+        true if Some(&env) == trained_env.as_ref() => {
+            Some(checkpoint.get_meta("residual").map_err(RlError::from)?)
+        }
+        _ => None,
+    };
     // The environment trained on, rebuilt today, must be the one the checkpoint records
     // (whatever the evaluation changes on top of it with --config).
     if let Ok(recorded) = checkpoint.get_meta::<String>("env_config")
         && Some(&env) == trained_env.as_ref()
         && !opts.allow_env_change
     {
-        let today = EnvSource::with_body(&env, body.clone())
-            .for_learner(learner)?
-            .with_settings(trained.clone())?
-            .make()?
-            .config_text();
+        let mut today =
+            EnvSource::with_body(&env, body.clone()).for_learner(learner)?.with_settings(trained.clone())?;
+        if let Some(residual) = recorded_residual.clone() {
+            today = today.with_residual(residual)?;
+        }
+        let today = today.make()?.config_text();
         if let Some(difference) = today.and_then(|today| config_difference(&recorded, &today)) {
             return Err(EvalError::Refused(format!(
                 "{}: `{env}` is no longer the environment this policy was trained on (a preset or default changed since): {difference}; evaluate anyway with --allow-env-change",
@@ -148,7 +158,10 @@ pub fn run_eval(opts: &EvalOptions) -> Result<EvalReport, EvalError> {
             )));
         }
     }
-    let source = EnvSource::with_body(&env, body).for_learner(learner)?.with_settings(settings)?;
+    let mut source = EnvSource::with_body(&env, body).for_learner(learner)?.with_settings(settings)?;
+    if let Some(residual) = recorded_residual.clone() {
+        source = source.with_residual(residual)?;
+    }
     let policy = Policy::from_checkpoint(&checkpoint).map_err(RlError::from)?;
     let stats = if env == "pendulum" || env.starts_with("modular:") {
         if opts.fade.is_some() {

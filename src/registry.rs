@@ -388,6 +388,9 @@ pub struct EnvSource {
     /// The learner a hybrid `<robot>-residual` is built for: its residual preset
     /// ([`residual_config_for`]); PPO's unless [`EnvSource::for_learner`] says otherwise.
     learner: AlgoKind,
+    /// A hybrid's setup given whole (a run spec's, a run's record), replacing the learner's
+    /// preset ([`EnvSource::with_residual`]).
+    residual: Option<ResidualConfig>,
 }
 
 impl EnvSource {
@@ -417,10 +420,23 @@ impl EnvSource {
         self.learner
     }
 
-    /// The residual preset of the hybrid this source builds (`None`: not a hybrid).
+    /// The setup of the hybrid this source builds: the one given by
+    /// [`EnvSource::with_residual`], else the learner's preset (`None`: not a hybrid).
     pub fn residual(&self) -> Option<ResidualConfig> {
         let robot = self.name.strip_suffix("-residual")?;
-        residual_config_for(robot, self.learner).ok()
+        self.residual.clone().or_else(|| residual_config_for(robot, self.learner).ok())
+    }
+
+    /// The same hybrid `<robot>-residual` with `residual` as its setup instead of the
+    /// learner's preset, checked by making one; refused for an environment that is not a
+    /// hybrid.
+    pub fn with_residual(self, residual: ResidualConfig) -> Result<EnvSource, RegistryError> {
+        if self.name.strip_suffix("-residual").and_then(robot).and_then(|r| r.residual).is_none() {
+            return Err(RegistryError::NoController { name: self.name.clone() });
+        }
+        let source = EnvSource { residual: Some(residual), ..self };
+        source.make()?;
+        Ok(source)
     }
 
     /// The same environment with `[env]` settings over its preset, checked by making one.
@@ -439,7 +455,13 @@ impl EnvSource {
     /// names other than `modular:FILE.json`, which requires it.
     pub fn with_body(name: &str, body: Option<String>) -> EnvSource {
         let body = if name.starts_with("modular:") { body } else { None };
-        EnvSource { name: name.to_string(), body, settings: EnvSettings::default(), learner: AlgoKind::Ppo }
+        EnvSource {
+            name: name.to_string(),
+            body,
+            settings: EnvSettings::default(),
+            learner: AlgoKind::Ppo,
+            residual: None,
+        }
     }
 
     /// The environment's name.
@@ -465,7 +487,12 @@ impl EnvSource {
                     "the run records no body for this file",
                 ),
             }),
-            (None, _) => make_env_for(&self.name, &self.settings, self.learner),
+            (None, _) => match (&self.residual, self.name.strip_suffix("-residual")) {
+                (Some(residual), Some(robot)) => {
+                    Ok(Box::new(make_residual_env_with(robot, residual.clone(), &self.settings)?))
+                }
+                _ => make_env_for(&self.name, &self.settings, self.learner),
+            },
         }
     }
 

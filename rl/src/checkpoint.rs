@@ -189,6 +189,11 @@ impl Checkpoint {
         self.meta.insert(key.to_string(), v);
     }
 
+    /// Whether the metadata holds `key` (to tell a missing value from a corrupt one).
+    pub fn has_meta(&self, key: &str) -> bool {
+        self.meta.contains_key(key)
+    }
+
     /// Reads a metadata value.
     pub fn get_meta<T: DeserializeOwned>(&self, key: &str) -> Result<T, CheckpointError> {
         let v = self.meta.get(key).ok_or_else(|| self.meta_err(format!("missing `{key}`")))?;

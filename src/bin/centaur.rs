@@ -9,7 +9,7 @@ use centaur::cli::{HybridArgs, TrainingProgress, positive_count, progress_style}
 use centaur::compare::{CompareOptions, run_compare};
 use centaur::control::{ControlOptions, Push, check_out_dir, run_control, write_summary};
 use centaur::experiment::Phase;
-use centaur::experiment::{Condition, RobustnessOptions, robustness_table, run_robustness};
+use centaur::experiment::{Condition, RobustnessOptions, recorded_hybrid, robustness_table, run_robustness};
 use centaur::registry::residual_config;
 use centaur::spec::{Purpose, RunSpec, SCHEMA_VERSION, run_file_tables};
 use centaur::train::{TrainOptions, read_config_file, read_run_record, resume, train};
@@ -295,9 +295,10 @@ struct TrainArgs {
 /// Arguments of `centaur robustness`.
 #[derive(Args)]
 struct RobustnessArgs {
-    /// Robot environment the run trained on (the study covers minitaur).
-    #[arg(long, default_value = "minitaur")]
-    env: String,
+    /// Robot environment the run trained on (the study covers minitaur) [default: the one
+    /// the run records]
+    #[arg(long)]
+    env: Option<String>,
     /// Run directory (of `residual_ppo_minitaur` or one seed of `centaur compare`).
     #[arg(long)]
     run: PathBuf,
@@ -311,25 +312,27 @@ struct RobustnessArgs {
     /// writes robustness_nominal_motor.json instead of robustness.json
     #[arg(long)]
     nominal_motor: bool,
-    /// The hybrid's setup the run was trained with (the robot's preset by default; a run
-    /// whose `experiment.json` records another is refused, naming both). `--fade START END`
-    /// evaluates the hybrid behind a safety fade whatever it was trained with, writing
-    /// robustness_fade.json (robustness_nominal_motor_fade.json with --nominal-motor).
+    /// Overrides of the hybrid's setup, over the one the run records in experiment.json (a
+    /// flag that changes what the policy was trained with is warned about; a record from
+    /// before the setup was data takes the robot's preset with these flags and is checked
+    /// against its text). `--fade START END` evaluates the hybrid behind a safety fade
+    /// whatever it was trained with, writing robustness_fade.json
+    /// (robustness_nominal_motor_fade.json with --nominal-motor).
     #[command(flatten)]
     hybrid: HybridArgs,
 }
 
 /// `centaur robustness`.
 fn robustness(args: RobustnessArgs) -> ExitCode {
-    let residual = match residual_config(&args.env) {
-        Ok(r) => args.hybrid.apply(r),
+    let (env, residual) = match robustness_setup(&args) {
+        Ok(r) => r,
         Err(e) => {
             eprintln!("error: {e}");
             return ExitCode::FAILURE;
         }
     };
     let opts = RobustnessOptions {
-        env: args.env,
+        env,
         run: args.run.clone(),
         residual,
         episodes: args.episodes.max(1),
@@ -585,6 +588,27 @@ fn compare_spec(args: &CompareArgs) -> Result<RunSpec, String> {
     spec.eval_episodes = args.eval_episodes.or(spec.eval_episodes);
     spec.eval_every = args.eval_every.or(spec.eval_every);
     Ok(spec)
+}
+
+/// The robot and the hybrid's setup of `centaur robustness`: the run's recorded ones with
+/// the flags over them (a change to what the policy was trained with is warned about), or
+/// for a record from before the setup was data, the robot's preset with the flags.
+fn robustness_setup(args: &RobustnessArgs) -> Result<(String, centaur::hybrid::ResidualConfig), String> {
+    let (recorded_env, recorded) = recorded_hybrid(&args.run).map_err(|e| e.to_string())?;
+    let env = args.env.clone().unwrap_or(recorded_env);
+    let Some(recorded) = recorded else {
+        return Ok((env.clone(), args.hybrid.apply(residual_config(&env).map_err(|e| e.to_string())?)));
+    };
+    let residual = args.hybrid.tables().apply(recorded.clone()).map_err(|e| e.to_string())?;
+    let without_fade =
+        |r: &centaur::hybrid::ResidualConfig| centaur::hybrid::ResidualConfig { fade: None, ..r.clone() };
+    if without_fade(&residual) != without_fade(&recorded) {
+        eprintln!(
+            "warning: {} trained its hybrid with {recorded:?}; evaluating it with {residual:?}, as the flags ask",
+            args.run.display()
+        );
+    }
+    Ok((env, residual))
 }
 
 /// Arguments of `centaur spec`.

@@ -17,8 +17,9 @@ use crate::registry::{EnvSource, make_residual_env_with, make_robot_env_with, re
 use crate::residual::ResidualEnv;
 
 /// A trained policy's deterministic episodes (episode `k` resets with `seed + k`) on a robot
-/// environment, or on a hybrid `<robot>-residual` with the robot's residual preset for the
-/// source's learner (behind the safety `fade` if given:
+/// environment, or on a hybrid `<robot>-residual` with the source's setup (a run's recorded
+/// one, else the robot's residual preset for the source's learner; behind the safety `fade`
+/// if given:
 /// [`crate::hybrid::ResidualConfig::fade`]), with the source's `[env]` settings over the
 /// preset; the first episode recorded to `record` if given. A policy of
 /// other dimensions is refused with both shapes, a fade on an environment that is not a
@@ -36,8 +37,13 @@ pub fn evaluate_policy(
     let shape = (policy.obs_dim(), policy.act_dim());
     let (mut driver, needed) = match hybrid {
         Some(r) => {
-            let preset = residual_config_for(r, source.learner())?;
-            let env = make_residual_env_with(r, ResidualConfig { fade, ..preset }, settings)?;
+            // The source's setup: the one it was given (a run's record), else the preset.
+            let residual = match source.residual() {
+                Some(residual) => residual,
+                None => residual_config_for(r, source.learner())?,
+            };
+            let fade = fade.or(residual.fade);
+            let env = make_residual_env_with(r, ResidualConfig { fade, ..residual }, settings)?;
             let needed = (env.observation_space().dim(), env.action_space().dim());
             (Driver::Hybrid { env: Box::new(env), policy }, needed)
         }

@@ -44,6 +44,7 @@ pub use presets::tuned_config;
 pub use robustness::{Condition, RobustnessOptions, RobustnessRow, robustness_table, run_robustness};
 pub(crate) use runner::check_pure_source;
 pub use runner::{
-    EXPERIMENT_FILES, TrainedWith, check_resumable, check_trained_with, finished_experiment, run_experiment,
+    EXPERIMENT_FILES, TrainedWith, check_resumable, check_trained_with, finished_experiment, recorded_hybrid,
+    run_experiment,
 };
 pub use summary::{AgentStats, BudgetEval, ExperimentSummary, cost_of_transport};

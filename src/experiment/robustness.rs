@@ -23,7 +23,7 @@ use serde::Serialize;
 
 use super::evaluation::{Driver, EpisodePush, evaluate_pushed};
 use super::options::ExperimentError;
-use super::runner::check_trained_with;
+use super::runner::{check_trained_with, recorded_hybrid};
 use super::summary::AgentStats;
 use crate::hybrid::{ActionMapping, HybridError, ResidualConfig};
 use crate::registry::controller_config;
@@ -140,7 +140,11 @@ pub fn run_robustness(opts: &RobustnessOptions) -> Result<Vec<RobustnessRow>, Ex
             env: opts.env.clone(),
         });
     }
-    let trained = check_trained_with(&opts.run, &opts.residual)?;
+    // The run is checked against the setup it recorded (the robot's preset as given for
+    // records from before the setup was data); `opts.residual` may differ from it where the
+    // caller overrode a value on purpose (`centaur robustness` warns then).
+    let checked = recorded_hybrid(&opts.run)?.1.unwrap_or_else(|| opts.residual.clone());
+    let trained = check_trained_with(&opts.run, &checked)?;
     let motor_inverse = opts.motor_inverse.or(trained.controller_motor).unwrap_or_default();
     let mut controller_cfg = controller_config(&opts.env)?;
     opts.residual.rate_controller(&mut controller_cfg)?;

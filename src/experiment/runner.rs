@@ -125,7 +125,19 @@ fn train_one(
     }
     csv.flush().map_err(io_err(&csv_path))?;
     let checkpoint = dir.join("checkpoint");
-    algo.save(&checkpoint)?;
+    // The checkpoint names what it acts on, so that `centaur eval` and an embedding need no
+    // flag: the environment (the hybrid's `<robot>-residual`), its settings and the hybrid's
+    // whole setup.
+    let mut saved = algo.to_checkpoint();
+    let hybrid = phase == Phase::TrainHybrid;
+    saved.set_meta("env", if hybrid { format!("{}-residual", opts.env) } else { opts.env.clone() });
+    if !opts.env_settings.is_empty() {
+        saved.set_meta("env_settings", &opts.env_settings);
+    }
+    if hybrid {
+        saved.set_meta("residual", &opts.residual);
+    }
+    saved.write(&checkpoint).map_err(RlError::from)?;
     Ok(Trained { checkpoint, rows, wall, steps: algo.steps_done(), budgets: evals })
 }
 
@@ -221,6 +233,34 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<DirLock, ExperimentError>
     Ok(lock)
 }
 
+/// The hybrid a run directory (one seed of `centaur compare`, or an example's run)
+/// recorded in its `experiment.json`: the robot and the hybrid's whole setup, which the
+/// studies that reuse the run build from, so that no flag has to be typed again. `None` for
+/// the setup: a record written before the setup was stored as data (its robot's preset,
+/// with the flags it was trained with, is then checked against its text by
+/// [`check_trained_with`]).
+pub fn recorded_hybrid(dir: &Path) -> Result<(String, Option<ResidualConfig>), ExperimentError> {
+    let record = read_record(dir)?;
+    Ok((record.env, record.residual))
+}
+
+fn read_record(dir: &Path) -> Result<ExperimentRecord, ExperimentError> {
+    let path = dir.join("experiment.json");
+    let text = crate::train::read_config_file(&path).map_err(|e| match e {
+        crate::train::TrainError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
+            ExperimentError::NotAnExperiment { dir: dir.to_path_buf() }
+        }
+        other => ExperimentError::Io {
+            path: path.clone(),
+            source: std::io::Error::new(std::io::ErrorKind::InvalidData, other.to_string()),
+        },
+    })?;
+    serde_json::from_str(&text).map_err(|e| ExperimentError::Io {
+        path: path.clone(),
+        source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
+    })
+}
+
 /// Checks that the run in `dir` trained its hybrid with `residual`, the setup its
 /// `experiment.json` records. A run evaluated with another setup (a different rating,
 /// steering span or parts) would be judged on a controller it never saw. A rating equal to
@@ -236,15 +276,7 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<DirLock, ExperimentError>
 /// compared: a run may be evaluated with or without it. `centaur robustness` and
 /// `examples/embed_controller` check with it.
 pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<TrainedWith, ExperimentError> {
-    let path = dir.join("experiment.json");
-    let text = std::fs::read_to_string(&path).map_err(|source| match source.kind() {
-        std::io::ErrorKind::NotFound => ExperimentError::NotAnExperiment { dir: dir.to_path_buf() },
-        _ => ExperimentError::Io { path: path.clone(), source },
-    })?;
-    let record: ExperimentRecord = serde_json::from_str(&text).map_err(|e| ExperimentError::Io {
-        path: path.clone(),
-        source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
-    })?;
+    let record = read_record(dir)?;
     // The studies that check with this run the robot's preset environment: settings that
     // only perturbed training (motor strength drawn at reset, pushes) leave its policies
     // fit for it, they tell the controller the motor it was told and give the policies the
