@@ -602,7 +602,7 @@ pub fn run_compare(
         }
     }
     if let Some(spec) = &opts.spec {
-        write_spec(&opts.out, spec)?;
+        check_spec(&opts.out, spec)?;
     }
     let run_seed = |seed: u64, progress: &mut dyn FnMut(u64, Phase, &UpdateMetrics)| {
         let exp = seed_options(seed);
@@ -657,6 +657,11 @@ pub fn run_compare(
         hybrid_learner: opts.hybrid_algo.as_ref().map(|h| format!("{h:?}")),
         head_to_head,
     };
+    if let Some(spec) = &opts.spec {
+        let path = opts.out.join("spec.json");
+        crate::rundir::write_atomic(&path, &spec.record_json())
+            .map_err(|source| ExperimentError::Io { path: path.clone(), source })?;
+    }
     let path = opts.out.join("compare.json");
     let text = serde_json::to_string_pretty(&summary)
         .map_err(|e| ExperimentError::Io { path: path.clone(), source: e.into() })?;
@@ -726,12 +731,11 @@ pub fn run_compare(
     Ok(summary)
 }
 
-/// Writes `spec.json` into `dir` (created if missing). On a resumed or extended comparison
-/// a recorded spec of another identity is refused: the seeds already there were run with
-/// other options.
-fn write_spec(dir: &Path, spec: &ResolvedSpec) -> Result<(), ExperimentError> {
+/// Refuses to resume or extend a comparison whose `spec.json` (written when it finished,
+/// beside `compare.json`) records another identity: its seeds were run with other options.
+fn check_spec(dir: &Path, spec: &ResolvedSpec) -> Result<(), ExperimentError> {
     let path = dir.join("spec.json");
-    if let Ok(text) = std::fs::read_to_string(&path)
+    if let Ok(text) = crate::train::read_config_file(&path)
         && let Ok(recorded) = serde_json::from_str::<crate::spec::SpecRecord>(&text)
         && recorded.identity != spec.identity()
     {
@@ -741,9 +745,7 @@ fn write_spec(dir: &Path, spec: &ResolvedSpec) -> Result<(), ExperimentError> {
             given: spec.identity(),
         });
     }
-    std::fs::create_dir_all(dir).map_err(|source| ExperimentError::Io { path: dir.to_path_buf(), source })?;
-    crate::rundir::write_atomic(&path, &spec.record_json())
-        .map_err(|source| ExperimentError::Io { path: path.clone(), source })
+    Ok(())
 }
 
 /// The machine a result was measured on: the CPU model and its logical cores.

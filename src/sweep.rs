@@ -535,6 +535,7 @@ fn execute(
             checkpoint_every,
             eval_every: grid.eval_every,
             overwrite: false,
+            spec: None,
         };
         train(&opts, &mut |_| {})
     };

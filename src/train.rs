@@ -48,6 +48,7 @@ use crate::registry::{EnvSource, RegistryError};
 use crate::residual::start_as_controller;
 use crate::rundir::{Claim, DirLock, claim, lock_dir, write_atomic};
 use crate::settings::{EnvSettings, split_run_toml};
+use crate::spec::ResolvedSpec;
 
 /// The default checkpoint period of `centaur train`, in environment steps.
 pub const DEFAULT_CHECKPOINT_EVERY: u64 = 100_000;
@@ -56,8 +57,9 @@ pub const DEFAULT_CHECKPOINT_EVERY: u64 = 100_000;
 pub const MAX_CONFIG_BYTES: u64 = 1 << 20;
 
 /// The files of a run directory, in the order a run writes them.
-pub const RUN_FILES: [&str; 10] = [
+pub const RUN_FILES: [&str; 11] = [
     "run.json",
+    "spec.json",
     "metrics.csv",
     "episodes.csv",
     "evaluations.csv",
@@ -99,6 +101,10 @@ pub struct TrainOptions {
     pub eval_every: u64,
     /// Replace a run already in `out` (its files only) instead of refusing.
     pub overwrite: bool,
+    /// A resolved run spec ([`crate::spec::Purpose::Train`]) giving the learner's settings,
+    /// the `[env]` settings and, on `<robot>-residual`, the hybrid's whole setup, instead of
+    /// `config` (which must then be `None`); recorded in `run.json` and as `spec.json`.
+    pub spec: Option<ResolvedSpec>,
 }
 
 /// `run.json`: everything a run was started with, so that `--resume` rebuilds it exactly.
@@ -138,6 +144,10 @@ pub struct RunRecord {
     /// environment is the same. Absent in runs recorded before it was kept.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub env_config: Option<String>,
+    /// The resolved run spec the run was started from (`centaur train --spec`): its learner,
+    /// `[env]` settings and hybrid setup are what a resume rebuilds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spec: Option<ResolvedSpec>,
 }
 
 /// Where the environment a run recorded (`recorded`, [`centaur_gym::Env::config_text`])
@@ -346,6 +356,14 @@ pub fn read_config_file(path: &Path) -> Result<String, TrainError> {
         .map_err(|_| TrainError::Config { path: path.to_path_buf(), message: "not UTF-8 text".into() })
 }
 
+/// `source` with the hybrid setup of `spec`, where it has one.
+fn spec_source(source: EnvSource, spec: Option<&ResolvedSpec>) -> Result<EnvSource, TrainError> {
+    match spec.and_then(|s| s.hybrid.clone()) {
+        Some(residual) => Ok(source.with_residual(residual)?),
+        None => Ok(source),
+    }
+}
+
 /// Makes `dir` ready for a new run: creates it, refuses one that already holds a run unless
 /// `overwrite` (then removes the run's files, nothing else).
 fn prepare_new_run_dir(dir: &Path, overwrite: bool) -> Result<DirLock, TrainError> {
@@ -439,11 +457,21 @@ fn new_learner(
 pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> Result<Summary, TrainError> {
     validate(opts)?;
     let config_text = opts.config.as_deref().map(read_config_file).transpose()?;
-    let (config, settings) = match (&opts.config, &config_text) {
-        (Some(p), Some(text)) => parse_run_config(opts.algo, text, p)?,
+    let (config, settings) = match (&opts.spec, &opts.config, &config_text) {
+        (Some(_), Some(path), _) => {
+            return Err(TrainError::Config {
+                path: path.clone(),
+                message: "a run spec holds the learner's settings: give --spec or --config, not both".into(),
+            });
+        }
+        (Some(spec), ..) => (spec.learner_config(), spec.env.clone()),
+        (None, Some(p), Some(text)) => parse_run_config(opts.algo, text, p)?,
         _ => (AlgoConfig::default_for(opts.algo), EnvSettings::default()),
     };
-    let source = EnvSource::read(&opts.env)?.for_learner(opts.algo)?.with_settings(settings)?;
+    let source = spec_source(
+        EnvSource::read(&opts.env)?.for_learner(opts.algo)?.with_settings(settings)?,
+        opts.spec.as_ref(),
+    )?;
     let built = source.make()?;
     check_checkpoint_period(opts, &config, built.max_episode_steps())?;
     let env_config = built.config_text();
@@ -467,7 +495,12 @@ pub fn train(opts: &TrainOptions, progress: &mut dyn FnMut(&UpdateMetrics)) -> R
         env_settings: source.settings().clone(),
         centaur_version: env!("CARGO_PKG_VERSION").to_string(),
         env_config,
+        spec: opts.spec.clone(),
     };
+    if let Some(spec) = &opts.spec {
+        let path = opts.out.join("spec.json");
+        write_atomic(&path, &spec.record_json()).map_err(io_err(&path))?;
+    }
     let run_json = opts.out.join("run.json");
     write_atomic(&run_json, &(serde_json::to_string_pretty(&record).expect("the record serialises") + "\n"))
         .map_err(io_err(&run_json))?;
@@ -508,9 +541,12 @@ pub fn resume(
     let _held = lock_dir(dir).map_err(|c| claim_err(dir, c))?;
     let kind = AlgoKind::from_name(&record.algo)
         .ok_or_else(|| fail(format!("unknown algorithm `{}`", record.algo)))?;
-    let source = EnvSource::with_body(&record.env, record.body.clone())
-        .for_learner(kind)?
-        .with_settings(record.env_settings.clone())?;
+    let source = spec_source(
+        EnvSource::with_body(&record.env, record.body.clone())
+            .for_learner(kind)?
+            .with_settings(record.env_settings.clone())?,
+        record.spec.as_ref(),
+    )?;
     if let (Some(recorded), Some(today)) = (&record.env_config, source.make()?.config_text())
         && let Some(difference) = config_difference(recorded, &today)
     {
@@ -523,9 +559,10 @@ pub fn resume(
     if !ckpt_path.exists() {
         // Killed before its first checkpoint: start again, exactly as the run began.
         let config_file = record.config_file.clone().unwrap_or_else(|| PathBuf::from("run.json"));
-        let config = match &record.config {
-            Some(text) => parse_run_config(kind, text, &config_file)?.0,
-            None => AlgoConfig::default_for(kind),
+        let config = match (&record.spec, &record.config) {
+            (Some(spec), _) => spec.learner_config(),
+            (None, Some(text)) => parse_run_config(kind, text, &config_file)?.0,
+            (None, None) => AlgoConfig::default_for(kind),
         };
         let algo = new_learner(config, record.seed, record.steps, &source, record.n_envs)?;
         let logs = RunLogs::create(dir, &source)?;
@@ -764,6 +801,10 @@ fn write_checkpoint(
     }
     if let Some(config) = &record.env_config {
         checkpoint.set_meta("env_config", config);
+    }
+    if let Some(residual) = record.spec.as_ref().and_then(|s| s.hybrid.as_ref()) {
+        // The hybrid's whole setup, so that an evaluation rebuilds it without the spec.
+        checkpoint.set_meta("residual", residual);
     }
     checkpoint.set_meta("run_metrics_rows", logs.rows.len());
     checkpoint.set_meta("run_episode_rows", logs.episodes.rows);

@@ -33,6 +33,7 @@ fn train_writes_every_artefact() {
         checkpoint_every: 0,
         eval_every: 0,
         overwrite: false,
+        spec: None,
     };
     let mut records = 0;
     let s = train(&opts, &mut |_| records += 1).unwrap();
@@ -128,6 +129,7 @@ fn pendulum_run(algo: AlgoKind, steps: u64, out: PathBuf, config: &Path) -> Trai
         checkpoint_every: 0,
         eval_every: 0,
         overwrite: false,
+        spec: None,
     }
 }
 
@@ -233,6 +235,7 @@ fn evaluations_come_due_where_the_rollout_does_not_divide_the_interval() {
         checkpoint_every: 4_000,
         eval_every: 4_000,
         overwrite: false,
+        spec: None,
     };
     let summary = train(&opts, &mut |_| {}).unwrap();
     let evals = centaur::train::read_evaluations(&out.join("evaluations.csv")).unwrap();
@@ -264,6 +267,7 @@ fn a_killed_run_resumes_to_the_uninterrupted_result() {
         checkpoint_every: 4096,
         eval_every: 8192,
         overwrite: false,
+        spec: None,
     };
     let uninterrupted = train(&opts, &mut |_| {}).unwrap();
     assert_eq!(uninterrupted.seed, 11, "without --seed the config file's seed stands");
@@ -363,6 +367,7 @@ fn an_off_policy_run_resumes_from_a_mid_run_copy() {
         checkpoint_every: 500,
         eval_every: 0,
         overwrite: false,
+        spec: None,
     };
     let snapshot = |to: &std::path::Path| {
         std::fs::create_dir_all(to).unwrap();
@@ -1150,6 +1155,7 @@ fn the_env_table_of_a_run_file_configures_the_environment() {
         checkpoint_every: 0,
         eval_every: 0,
         overwrite: false,
+        spec: None,
     };
     train(&opts, &mut |_| {}).unwrap();
     let rows = MetricsCsv::read(&out.join("metrics.csv")).unwrap();
@@ -1520,4 +1526,94 @@ fn the_shipped_run_files_parse() {
         seen += 1;
     }
     assert!(seen >= 2, "{seen} run files in {}", dir.display());
+}
+
+/// A hybrid trained from a run spec (a setup that is not the robot's preset: a wider residual
+/// and two steered parts) records its resolved spec, resumes from `run.json` alone to the
+/// uninterrupted result bit for bit, and is evaluated from its checkpoint alone with the
+/// setup it trained with.
+#[test]
+fn a_spec_trained_hybrid_resumes_and_evaluates_from_its_record_alone() {
+    let dir = out_dir("spec-runs");
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec_path = dir.join("hybrid.toml");
+    std::fs::write(
+        &spec_path,
+        "schema = 1\nrobot = \"minitaur-residual\"\nalgo = \"ppo\"\nsteps = 4096\nenvs = 1\neval_every = 0\n\
+         [learner]\nn_steps = 128\nbatch_size = 64\nn_epochs = 2\n\
+         [hybrid]\nresidual_scale = 0.5\nsteering = { speed = 2.5, cadence = 0.75 }\n\
+         [controller]\nspeed = 3.0\nrated_speed = 4.5\n",
+    )
+    .unwrap();
+    let resolved = centaur::spec::RunSpec::read(&spec_path, &[])
+        .unwrap()
+        .resolve(centaur::spec::Purpose::Train)
+        .unwrap();
+    assert_eq!(resolved.hybrid.as_ref().map(|h| h.steering.dim()), Some(2));
+    let whole = dir.join("whole");
+    let opts = TrainOptions {
+        env: resolved.robot.clone(),
+        algo: AlgoKind::Ppo,
+        steps: resolved.steps,
+        seed: None,
+        out: whole.clone(),
+        config: None,
+        threads: 1,
+        n_envs: resolved.envs,
+        eval_episodes: 10,
+        checkpoint_every: 1024,
+        eval_every: 0,
+        overwrite: false,
+        spec: Some(resolved.clone()),
+    };
+    train(&opts, &mut |_| {}).unwrap();
+    let recorded: centaur::spec::SpecRecord =
+        serde_json::from_str(&std::fs::read_to_string(whole.join("spec.json")).unwrap()).unwrap();
+    assert_eq!(recorded.spec, resolved);
+
+    // The same spec from the command line, killed after its second checkpoint, resumed.
+    let killed = dir.join("killed");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["train", "--checkpoint-every", "1024", "--eval-episodes", "10", "--spec"])
+        .arg(&spec_path)
+        .arg("--out")
+        .arg(&killed)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let ckpt = killed.join("checkpoint");
+    let started = std::time::Instant::now();
+    loop {
+        let steps =
+            centaur_rl::Checkpoint::read(&ckpt).ok().and_then(|c| c.get_meta::<u64>("steps_done").ok());
+        if steps.is_some_and(|s| s >= 2048) {
+            break;
+        }
+        assert!(child.try_wait().unwrap().is_none(), "the run ended before it could be killed");
+        assert!(started.elapsed().as_secs() < 120, "no second checkpoint after 120 s");
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(!killed.join("summary.json").exists(), "the run finished before the kill");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["train", "--resume"])
+        .arg(&killed)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(metric_bits(&killed), metric_bits(&whole));
+    assert_eq!(summary_bits(&killed), summary_bits(&whole));
+
+    // `centaur eval` with the checkpoint alone rebuilds the spec's hybrid (10 actions: 8
+    // joints and 2 steered parts, where the preset's has 9).
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["eval", "--episodes", "1", "--checkpoint"])
+        .arg(whole.join("checkpoint"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("minitaur-residual"));
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -366,6 +366,8 @@ fn bad_residuals_and_configs_are_refused() {
         env_settings: Default::default(),
         pure_from: None,
         hybrid_algo: None,
+        spec: None,
+        command: None,
     };
     let err = centaur::compare::run_compare(&opts, &mut |_, _, _| {}).unwrap_err();
     assert!(err.to_string().contains("gamma"), "{err}");

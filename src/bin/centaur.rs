@@ -242,15 +242,24 @@ fn eval(args: EvalArgs) -> ExitCode {
 /// Arguments of `centaur train`.
 #[derive(Args)]
 struct TrainArgs {
+    /// A run spec (TOML; see `centaur::spec`) giving the environment (`robot`; the hybrid is
+    /// `<robot>-residual`, with its [hybrid], [controller] and [exploration]), the learner
+    /// and its [learner] settings, the budget and [env]; --steps, --envs, --eval-episodes and
+    /// --eval-every override it, --env, --algo and --config go in it
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["env", "algo", "config", "resume"])]
+    spec: Option<PathBuf>,
+    /// Override one key of --spec, e.g. `--set learner.learning_rate=1e-4` (repeatable)
+    #[arg(long = "set", value_name = "KEY=VALUE", requires = "spec")]
+    sets: Vec<String>,
     /// Environment name (see `centaur train --env ?` for the list; `modular:FILE.json` for a
     /// modular robot described in a file).
-    #[arg(long, required_unless_present = "resume")]
+    #[arg(long, required_unless_present_any = ["resume", "spec"])]
     env: Option<String>,
     /// Algorithm: ppo, a2c, sac, sac1, td3 or ddpg.
-    #[arg(long, value_parser = parse_algo, required_unless_present = "resume")]
+    #[arg(long, value_parser = parse_algo, required_unless_present_any = ["resume", "spec"])]
     algo: Option<AlgoKind>,
-    /// Environment steps to train for.
-    #[arg(long, allow_negative_numbers = true, required_unless_present = "resume")]
+    /// Environment steps to train for [default: the spec's].
+    #[arg(long, allow_negative_numbers = true, required_unless_present_any = ["resume", "spec"])]
     steps: Option<u64>,
     /// Seed [default: the config file's `seed`, else 0].
     #[arg(long, allow_negative_numbers = true)]
@@ -265,20 +274,21 @@ struct TrainArgs {
     /// Threads stepping the environments (results do not depend on it).
     #[arg(long, allow_negative_numbers = true, default_value_t = 1)]
     threads: usize,
-    /// Number of parallel environments.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 1)]
-    envs: usize,
-    /// Deterministic evaluation episodes at the end (at least 10).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 10)]
-    eval_episodes: usize,
+    /// Number of parallel environments [default: the spec's, else 1].
+    #[arg(long, allow_negative_numbers = true)]
+    envs: Option<usize>,
+    /// Deterministic evaluation episodes at the end (at least 10) [default: the spec's, else 10].
+    #[arg(long, allow_negative_numbers = true)]
+    eval_episodes: Option<usize>,
     /// Environment steps between checkpoints (0: only at the end); each checkpoint starts
     /// fresh episodes so that a resumed run continues exactly.
     #[arg(long, allow_negative_numbers = true, default_value_t = centaur::train::DEFAULT_CHECKPOINT_EVERY)]
     checkpoint_every: u64,
     /// Environment steps between deterministic evaluations of the checkpoint, written to
-    /// evaluations.csv (0: only the final one); a multiple of --checkpoint-every.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
-    eval_every: u64,
+    /// evaluations.csv (0: only the final one); a multiple of --checkpoint-every [default:
+    /// the spec's, else 0].
+    #[arg(long, allow_negative_numbers = true)]
+    eval_every: Option<u64>,
     /// Replace the run already in --out (its run files only).
     #[arg(long, conflicts_with = "resume")]
     overwrite: bool,
@@ -290,6 +300,48 @@ struct TrainArgs {
         conflicts_with_all = ["env", "algo", "steps", "seed", "out", "config", "envs", "eval_episodes", "checkpoint_every", "eval_every"]
     )]
     resume: Option<PathBuf>,
+}
+
+/// The options of `centaur train`: from the flags, or from `--spec` with the flags over it.
+fn train_options(args: &TrainArgs, out: PathBuf) -> Result<TrainOptions, String> {
+    let Some(path) = &args.spec else {
+        return Ok(TrainOptions {
+            env: args.env.clone().expect("clap requires --env"),
+            algo: args.algo.expect("clap requires --algo"),
+            steps: args.steps.expect("clap requires --steps"),
+            seed: args.seed,
+            out,
+            config: args.config.clone(),
+            threads: args.threads,
+            n_envs: args.envs.unwrap_or(1),
+            eval_episodes: args.eval_episodes.unwrap_or(10),
+            checkpoint_every: args.checkpoint_every,
+            eval_every: args.eval_every.unwrap_or(0),
+            overwrite: args.overwrite,
+            spec: None,
+        });
+    };
+    let mut spec = RunSpec::read(path, &args.sets).map_err(|e| e.to_string())?;
+    spec.steps = args.steps.unwrap_or(spec.steps);
+    spec.envs = args.envs.map(|n| n as u64).or(spec.envs);
+    spec.eval_episodes = args.eval_episodes.map(|n| n as u64).or(spec.eval_episodes);
+    spec.eval_every = args.eval_every.or(spec.eval_every);
+    let resolved = spec.resolve(Purpose::Train).map_err(|e| e.to_string())?;
+    Ok(TrainOptions {
+        env: resolved.robot.clone(),
+        algo: resolved.kind(),
+        steps: resolved.steps,
+        seed: args.seed,
+        out,
+        config: None,
+        threads: args.threads,
+        n_envs: resolved.envs,
+        eval_episodes: resolved.eval_episodes,
+        checkpoint_every: args.checkpoint_every,
+        eval_every: resolved.eval_every,
+        overwrite: args.overwrite,
+        spec: Some(resolved),
+    })
 }
 
 /// Arguments of `centaur robustness`.
@@ -847,19 +899,21 @@ fn main() -> ExitCode {
 
 /// `centaur train`.
 fn train_command(args: TrainArgs) -> ExitCode {
-    let (steps, eval_episodes, out) = match &args.resume {
-        Some(dir) => match read_run_record(dir) {
-            Ok(r) => (r.steps, r.eval_episodes, dir.clone()),
-            Err(e) => {
-                eprintln!("error: {e}");
-                return ExitCode::FAILURE;
-            }
-        },
-        None => (
-            args.steps.expect("clap requires --steps"),
-            args.eval_episodes,
-            args.out.clone().expect("clap requires --out"),
-        ),
+    let resolved = match &args.resume {
+        Some(dir) => read_run_record(dir)
+            .map(|r| (r.steps, r.eval_episodes, dir.clone(), None))
+            .map_err(|e| e.to_string()),
+        None => {
+            let out = args.out.clone().expect("clap requires --out");
+            train_options(&args, out.clone()).map(|o| (o.steps, o.eval_episodes, out, Some(o)))
+        }
+    };
+    let (steps, eval_episodes, out, opts) = match resolved {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
     };
     let bar = ProgressBar::new(steps);
     bar.set_style(
@@ -873,25 +927,10 @@ fn train_command(args: TrainArgs) -> ExitCode {
             bar.set_message(format!("return {:.1}", m.episode_return_mean));
         }
     };
-    let result = match &args.resume {
-        Some(dir) => resume(dir, args.threads, &mut progress),
-        None => {
-            let opts = TrainOptions {
-                env: args.env.expect("clap requires --env"),
-                algo: args.algo.expect("clap requires --algo"),
-                steps,
-                seed: args.seed,
-                out: out.clone(),
-                config: args.config,
-                threads: args.threads,
-                n_envs: args.envs,
-                eval_episodes,
-                checkpoint_every: args.checkpoint_every,
-                eval_every: args.eval_every,
-                overwrite: args.overwrite,
-            };
-            train(&opts, &mut progress)
-        }
+    // Without options the run is resumed, in its own directory.
+    let result = match &opts {
+        Some(opts) => train(opts, &mut progress),
+        None => resume(&out, args.threads, &mut progress),
     };
     bar.finish_and_clear();
     match result {
