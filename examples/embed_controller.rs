@@ -12,24 +12,45 @@
 //! `--background-mpc` solves the MPC on the controller's worker thread
 //! (`MpcExecution::Background`), so that no tick waits for a solve; with `--realtime` its
 //! plans arrive as late as they would on the robot. Allocations are counted on the loop's
-//! thread only. A checkpoint inside a run directory is checked against the hybrid setup
-//! its `experiment.json` records (the Minitaur preset's): a policy trained with another
-//! (e.g. before the preset's 3.5 m/s rating) is refused, naming both — retrain it with
-//! `residual_ppo_minitaur`; so is one trained with `[env]` settings that change the task
-//! (those that only perturbed training, motor strength drawn at reset and pushes, are taken,
-//! and the motor its controller was told, `motor_inverse`, is told it here too).
+//! thread only. The hybrid is rebuilt with the setup its run recorded (the checkpoint's
+//! own, written by `centaur compare` and `centaur train --spec`, else its run directory's
+//! `experiment.json`; the Minitaur preset's for a checkpoint with neither), so a policy
+//! trained with any setup runs as trained, with no flag. A checkpoint inside a run
+//! directory is also checked against that directory's record: one trained with `[env]`
+//! settings that change the task is refused (those that only perturbed training, motor
+//! strength drawn at reset and pushes, are taken, and the motor its controller was told,
+//! `motor_inverse`, is told it here too).
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use centaur::deploy::{HybridStack, Simulated};
 use centaur::envs::minitaur::MotorInverse;
-use centaur::experiment::check_trained_with;
+use centaur::experiment::{check_trained_with, recorded_hybrid};
+use centaur::hybrid::ResidualConfig;
 use centaur::registry::{controller_config, make_robot_env_with, residual_config};
 use centaur::settings::EnvSettings;
 use centaur_mpc::MpcExecution;
 use centaur_rl::Policy;
 use centaur_test_support::{CountingAllocator, thread_allocations};
+
+/// The hybrid setup a checkpoint's run recorded: the checkpoint's own (`residual`, written by
+/// `centaur compare` and `centaur train --spec`), else its run directory's `experiment.json`.
+fn recorded_setup(checkpoint: &Path, run: Option<&Path>) -> Option<ResidualConfig> {
+    let from_checkpoint = centaur_rl::Checkpoint::read(checkpoint).ok().and_then(|c| {
+        if !c.has_meta("residual") {
+            return None;
+        }
+        match c.get_meta::<ResidualConfig>("residual") {
+            Ok(r) => Some(r),
+            Err(e) => {
+                eprintln!("embed_controller: {e}");
+                std::process::exit(1);
+            }
+        }
+    });
+    from_checkpoint.or_else(|| run.and_then(|r| recorded_hybrid(r).ok()).and_then(|(_, r)| r))
+}
 
 #[global_allocator]
 static GLOBAL: CountingAllocator = CountingAllocator;
@@ -40,7 +61,14 @@ fn main() {
     let checkpoint = PathBuf::from(
         arg("--checkpoint").unwrap_or_else(|| "runs/residual_ppo_minitaur/hybrid/checkpoint".into()),
     );
-    let seconds: f64 = arg("--seconds").and_then(|s| s.parse().ok()).unwrap_or(10.0);
+    let seconds: f64 = match arg("--seconds").map(|s| s.parse::<f64>()) {
+        None => 10.0,
+        Some(Ok(s)) if s.is_finite() && s > 0.0 && s <= 3600.0 => s,
+        Some(_) => {
+            eprintln!("embed_controller: --seconds must be a number of seconds in (0, 3600]");
+            std::process::exit(2);
+        }
+    };
     let realtime = args.iter().any(|a| a == "--realtime");
     let background = args.iter().any(|a| a == "--background-mpc");
     let policy = if args.iter().any(|a| a == "--controller-only") {
@@ -58,20 +86,24 @@ fn main() {
         }
     };
     let has_policy = policy.is_some();
-    let residual = residual_config("minitaur").expect("the Minitaur has a hybrid preset");
+    // The hybrid's setup: the one its run recorded (in the checkpoint, else in the run
+    // directory's experiment.json), else the Minitaur preset's.
+    let run = checkpoint.parent().and_then(Path::parent).filter(|r| r.join("experiment.json").is_file());
+    let recorded = if has_policy { recorded_setup(&checkpoint, run) } else { None };
+    let residual =
+        recorded.unwrap_or_else(|| residual_config("minitaur").expect("the Minitaur has a hybrid preset"));
     // A checkpoint inside a run directory: its hybrid must have been trained with this setup,
     // and its controller is told the motor it was told in training.
     let mut settings =
         EnvSettings { max_episode_steps: Some((seconds / 0.01) as usize + 1), ..EnvSettings::default() };
-    if let Some(run) =
-        checkpoint.parent().and_then(Path::parent).filter(|r| r.join("experiment.json").is_file())
+    if let Some(run) = run
         && has_policy
     {
         match check_trained_with(run, &residual) {
             Ok(trained) => {
                 if trained.controller_motor == Some(MotorInverse::Drawn) {
                     eprintln!(
-                        "embed_controller: {} was trained with the controller told the motor drawn at reset (the default until 2026-11-27); it is told so here too",
+                        "embed_controller: {} was trained with the controller told the motor drawn at reset (the earlier default); it is told so here too",
                         run.display()
                     );
                 }

@@ -17,7 +17,7 @@
 //! scale 0.25): `--speed V`, `--steer-speed S`, `--steer-yaw-rate S`, `--residual-scale X`,
 //! `--parts both|residual|command`, `--explore-residual σ`, `--explore-steering σ`,
 //! `--rated-speed V` (the trot's rating: 3.5 m/s in the preset, so the steering reaches
-//! 3.5 m/s; `--rated-speed 3.0 --steer-speed 1.0` reproduces the preset of 2026-11-27 and
+//! 3.5 m/s; `--rated-speed 3.0 --steer-speed 1.0` reproduces an earlier preset and
 //! `--rated-speed 2.5 --steer-speed 1.0` the runs measured before it, see the README).
 
 use std::process::ExitCode;

@@ -16,8 +16,8 @@ use crate::mpc::Gait;
 use crate::registry::residual_config_for;
 use crate::settings::EnvSettings;
 use crate::spec::{
-    ControllerTable, ExplorationTable, HybridTableFields, HybridTables, Parts, RampTable, SteeringTable,
-    Torques,
+    ControllerTable, ExplorationTable, HybridTableFields, HybridTables, Parts, Purpose, RampTable, RunSpec,
+    SCHEMA_VERSION, SteeringTable, Torques, run_file_tables,
 };
 use crate::train::{parse_run_config, read_config_file};
 
@@ -153,7 +153,7 @@ pub struct HybridArgs {
     /// A rising exploration of the joint residual (PPO and A2C): the learner's σ is held at
     /// least at a floor rising log-linearly from the initial σ to SIGMA (policy units) over
     /// the first --explore-ramp-samples training samples, then released [default: the
-    /// robot's: none (Walker2d's from commit c58109b until its rising bound: 0.3)]
+    /// robot's: none (Walker2d's before its rising bound: 0.3)]
     #[arg(long, value_name = "SIGMA", conflicts_with = "no_explore_ramp")]
     pub explore_ramp: Option<f64>,
     /// Training samples over which --explore-ramp rises [default: the robot's ramp's, else
@@ -345,7 +345,17 @@ pub struct ExampleArgs {
     /// Do not write the MCAP recordings
     #[arg(long)]
     pub no_record: bool,
-    /// The hybrid's setup.
+    /// A run spec (TOML; see `centaur::spec`) for the example's robot and learner: its
+    /// [env], [learner], [hybrid_learner], [hybrid], [controller] and [exploration], its
+    /// budget and evaluations; the flags here override it (its seeds are compare's: the
+    /// example trains one, --seed)
+    #[arg(long, value_name = "FILE", conflicts_with = "config")]
+    pub spec: Option<PathBuf>,
+    /// Override one key of --spec, e.g. `--set controller.rated_speed=4.0` (repeatable)
+    #[arg(long = "set", value_name = "KEY=VALUE", requires = "spec")]
+    pub sets: Vec<String>,
+    /// The hybrid's setup (each flag sets one key of the spec's [hybrid], [controller] or
+    /// [exploration]).
     #[command(flatten)]
     pub hybrid: HybridArgs,
 }
@@ -404,32 +414,63 @@ impl ExampleArgs {
     /// The experiment these arguments describe, with `defaults` filling in what they leave
     /// out. Fails (with a message) only when the `--config` file cannot be read.
     pub fn options(&self, defaults: &ExampleDefaults<'_>) -> Result<ExperimentOptions, String> {
-        let (algo, env_settings) = match &self.config {
+        let mut spec = match &self.spec {
             Some(path) => {
-                let text = read_config_file(path).map_err(|e| e.to_string())?;
-                parse_run_config(defaults.algo, &text, path).map_err(|e| e.to_string())?
+                let spec = RunSpec::read(path, &self.sets).map_err(|e| e.to_string())?;
+                if spec.robot != defaults.env || spec.algo != defaults.algo.name() {
+                    return Err(format!(
+                        "{}: a spec of {} on {}; this example runs {} on {} (`centaur compare --spec` runs any)",
+                        path.display(),
+                        spec.algo,
+                        spec.robot,
+                        defaults.algo.name(),
+                        defaults.env
+                    ));
+                }
+                spec
             }
-            None => (tuned_config(defaults.env, defaults.algo), EnvSettings::default()),
+            None => {
+                let mut spec = RunSpec {
+                    schema: SCHEMA_VERSION,
+                    robot: defaults.env.to_string(),
+                    algo: defaults.algo.name().to_string(),
+                    steps: defaults.steps,
+                    envs: Some(defaults.envs as u64),
+                    // An example evaluates at the end only.
+                    eval_every: Some(0),
+                    ..RunSpec::default()
+                };
+                if let Some(path) = &self.config {
+                    let text = read_config_file(path).map_err(|e| e.to_string())?;
+                    let (settings, learner) =
+                        run_file_tables(&text, &path.display().to_string()).map_err(|e| e.to_string())?;
+                    spec.env = settings;
+                    spec.learner = Some(learner);
+                }
+                spec
+            }
         };
-        let preset = residual_config_for(defaults.env, defaults.algo).map_err(|e| e.to_string())?;
-        let residual = self.hybrid.apply(preset);
-        let n_envs = self.envs.unwrap_or(defaults.envs).max(1);
+        spec.steps = self.steps.unwrap_or(spec.steps);
+        spec.envs = self.envs.map(|n| n as u64).or(spec.envs);
+        spec.eval_episodes = Some(self.eval_episodes as u64);
+        let resolved =
+            spec.resolve_with(Purpose::Compare, &self.hybrid.tables()).map_err(|e| e.to_string())?;
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         Ok(ExperimentOptions {
-            env: defaults.env.to_string(),
-            algo,
-            steps: self.steps.unwrap_or(defaults.steps),
+            env: resolved.robot.clone(),
+            algo: resolved.learner_config(),
+            steps: resolved.steps,
             seed: self.seed,
             out: self.out.clone().unwrap_or_else(|| free_run_dir(&Path::new("runs").join(defaults.name))),
-            n_envs,
-            threads: self.threads.unwrap_or(cores).clamp(1, n_envs),
-            eval_episodes: self.eval_episodes,
-            residual,
+            n_envs: resolved.envs,
+            threads: self.threads.unwrap_or(cores).clamp(1, resolved.envs),
+            eval_episodes: resolved.eval_episodes,
+            residual: resolved.hybrid.clone().ok_or("the example's robot has a hybrid")?,
             record: !self.no_record,
-            eval_every: None,
+            eval_every: (resolved.eval_every > 0).then_some(resolved.eval_every),
             overwrite: self.overwrite,
-            hybrid_algo: None,
-            env_settings,
+            hybrid_algo: resolved.hybrid_learner_config(),
+            env_settings: resolved.env.clone(),
             pure_from: None,
         })
     }
@@ -723,7 +764,7 @@ mod tests {
 
     #[test]
     fn the_exploration_ramp_is_the_presets_unless_given_or_switched_off() {
-        // A preset with a ramp (Walker2d's had one from commit c58109b until the rising bound).
+        // A preset with a ramp (Walker2d's had one before the rising bound).
         let walker = ExplorationRamp { residual: 0.3, samples: 100_000 };
         let with = ResidualConfig {
             exploration: Some(Exploration { residual: 0.01, steering: 0.5 }),

@@ -123,8 +123,8 @@ pub struct ControlOptions {
     /// (default: false, a gait or speed outside the offers is refused).
     pub unrated: bool,
     /// Minitaur: turn the controller's torques into actions with the motor model drawn at
-    /// reset (`MotorInverse::Drawn`, the default until 2026-11-27, to reproduce figures
-    /// measured then) instead of the nominal one (default: false: the nominal motor, since a
+    /// reset (`MotorInverse::Drawn`, the earlier default, to reproduce figures
+    /// measured with it) instead of the nominal one (default: false: the nominal motor, since a
     /// controller on the robot does not know its motors' drawn strength, damping and battery
     /// voltage).
     pub drawn_motor: bool,

@@ -76,7 +76,7 @@ fn modular(config: ModularConfig, s: &EnvSettings) -> Result<Box<dyn RobotEnv>, 
 
 /// The Minitaur's hybrid: a quarter of the leg model's range around a 2 m/s trot whose
 /// speed the policy steers within ±1.5 m/s, so to 3.5 m/s; the trot is rated 3.5 m/s here
-/// (since 2026-11-27; the controller's own rating is 2.5 m/s, where it clamped the steering:
+/// (the controller's own rating is 2.5 m/s, where it clamped the steering:
 /// the hybrid plateaued at ≈ 22.4 from 500k samples; rated 3.0 with ±1 m/s its IQM over 5
 /// seeds was 25.3 at 1M and over 3 seeds 26.4 at 2M, below pure PPO's 26.8; rated 3.5 with
 /// ±1.5 m/s 26.5 at 1M and 27.9 at 2M, with no falls at either; the controller alone trots
@@ -116,13 +116,13 @@ fn ant_residual(_: AlgoKind) -> ResidualConfig {
 /// cycle for the walk's 0.8 s; [`ResidualConfig::period_scale`]): the controller's clock sets
 /// the hybrid's cadence, and on the walk's own it ran at ≈ 2.9 m/s, every foot touching
 /// down each 0.8 s, where pure PPO runs at 3.6–4.4 m/s with strides of 0.36–0.66 s.
-/// 5 seeds × 1M (2026-11-29, night): 4,773.7 with 2/50 falls at 3.89 m/s, above pure PPO's
+/// 5 seeds × 1M: 4,773.7 with 2/50 falls at 3.89 m/s, above pure PPO's
 /// 4,172.2 at every 100k budget; at 0.5 of the period the same 4,773.8 but its walk alone
 /// falls in 13/50, at 0.7 4,614.8, at 0.8 4,219.6 with 10/50 falls, on the walk's own clock (the preset until then) 3,910.5 with 0/50, below pure PPO
 /// from 800k. The faster walk alone is weaker (1,604.0, 2/50 falls, against 1,786.3 without
 /// a fall on its own clock) and the hybrid falls below it at 100k–200k samples (README,
 /// "Walker2d: the controller's clock sets the cadence"). The rising exploration (σ 0.01
-/// rising to 0.3 over 100k on the same bound, commit c58109b) scored 3,785.3 with 14/50
+/// rising to 0.3 over 100k on the same bound) scored 3,785.3 with 14/50
 /// falls on the walk's own clock; with the residual bounded at 10 % of the range the walk
 /// bounded the hybrid at ≈ 2,035 (1.0 m/s).
 ///
@@ -158,7 +158,7 @@ fn walker2d_residual(kind: AlgoKind) -> ResidualConfig {
 /// policy steers within ±0.1 m/s (the walk is rated 0.5 m/s); a gentle start with σ 0.1 on
 /// the residual and 0.5 on the steering. With 30 % the hybrid fell in 2 of 20 evaluation
 /// episodes at 57k samples (seeds 0–1, PPO's defaults), with 10 % in none (both level with
-/// the controller alone at 200k). Until the controller walked (2026-11-28) it was 30 %
+/// the controller alone at 200k). Until the controller walked it was 30 %
 /// around standing (stepping in place), at PPO's own exploration.
 fn humanoid_residual(_: AlgoKind) -> ResidualConfig {
     ResidualConfig {

@@ -214,9 +214,9 @@ impl Env for ResidualEnv {
     }
 
     /// The robot's configuration, the residual setup and the controller's whole
-    /// configuration (gains, weights, offers; since 2026-11-28): a run resumed or a
+    /// configuration (gains, weights, offers): a run resumed or a
     /// checkpoint evaluated on a controller whose preset changed since is refused, naming
-    /// the first difference (records from before hold no `controller` and are not checked
+    /// the first difference (older records hold no `controller` and are not checked
     /// for it). Runs of `centaur compare` also check the residual setup they were trained
     /// with ([`crate::experiment::check_trained_with`]).
     fn config_text(&self) -> Option<String> {

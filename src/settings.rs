@@ -76,8 +76,8 @@ pub struct EnvSettings {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub motor_strength: Option<[f64; 2]>,
     /// Minitaur: the motor model a controller's torques are turned into actions with,
-    /// `"nominal"` (the default since 2026-11-27: the data sheet's) or `"drawn"` (the motor
-    /// drawn at reset, the default until then; [`centaur_envs::minitaur::MotorInverse`]).
+    /// `"nominal"` (the default: the data sheet's) or `"drawn"` (the motor
+    /// drawn at reset, the earlier default; [`centaur_envs::minitaur::MotorInverse`]).
     /// Changes the hybrid's reference action, so it is a task key, not a training-only one
     /// (the studies that rerun a trained hybrid tell its controller the same motor,
     /// [`crate::experiment::TrainedWith`]).

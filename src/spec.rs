@@ -76,6 +76,9 @@ pub const SEEDS_RANGE: (u64, u64) = (1, 10_000);
 pub const STEPS_RANGE: (u64, u64) = (1, 10_000_000_000);
 /// The most deterministic evaluations during one run (`steps / eval_every`).
 pub const MAX_EVALUATIONS: u64 = 1000;
+/// The shortest interval between evaluations (steps): each evaluates `eval_episodes` whole
+/// episodes, so one every few steps would cost far more than the training.
+pub const MIN_EVAL_EVERY: u64 = 128;
 /// Parallel environments per agent.
 pub const ENVS_RANGE: (u64, u64) = (1, 4096);
 /// Evaluation episodes per agent and seed.
@@ -505,8 +508,13 @@ fn spec_key(part: &str) -> String {
 /// the command against the gait's offer and rating), naming the spec key of what is wrong.
 pub fn check_residual(robot: &str, residual: &ResidualConfig) -> Result<(), SpecError> {
     let named = |e: HybridError| match e {
-        HybridError::BadSetting { part, value, expected } => range(&spec_key(part), value, expected),
-        HybridError::BadScale { value } => range("hybrid.residual_scale", value, "a finite bound ≥ 0"),
+        // Floats in their shortest round-trip form (`1e308`, not 309 digits).
+        HybridError::BadSetting { part, value, expected } => {
+            range(&spec_key(part), format!("{value:?}"), expected)
+        }
+        HybridError::BadScale { value } => {
+            range("hybrid.residual_scale", format!("{value:?}"), "a finite bound ≥ 0")
+        }
         HybridError::NothingToLearn => {
             range("hybrid.parts", "command", "a part with something to learn (the steering is off)")
         }
@@ -778,13 +786,13 @@ impl RunSpec {
         let eval_episodes =
             check_count("eval_episodes", self.eval_episodes.unwrap_or(10), EVAL_EPISODES_RANGE)? as usize;
         let eval_every = check_count("eval_every", self.eval_every.unwrap_or(100_000), (0, STEPS_RANGE.1))?;
-        if eval_every > 0 && steps / eval_every > MAX_EVALUATIONS {
+        let fewest = MIN_EVAL_EVERY.max(steps.div_ceil(MAX_EVALUATIONS));
+        if eval_every > 0 && eval_every < fewest {
             return Err(range(
                 "eval_every",
                 eval_every,
                 format!(
-                    "0 or at least steps / {MAX_EVALUATIONS} = {} (at most {MAX_EVALUATIONS} evaluations a run)",
-                    steps.div_ceil(MAX_EVALUATIONS)
+                    "0 (at the end only) or at least {fewest} steps ({MIN_EVAL_EVERY}, and at most {MAX_EVALUATIONS} evaluations a run)"
                 ),
             ));
         }

@@ -157,16 +157,16 @@ pub struct RunRecord {
 /// without it was written before it existed, with the controller told the drawn motor
 /// ([`centaur_envs::minitaur::MotorInverse::legacy`]), and today's default is the nominal one.
 /// Lists of gait offers (objects with a `gait` key, `ControllerConfig::gaits`) are compared
-/// by gait: an offer added since (the Minitaur's bound and pronk, 2026-11-29) is no
+/// by gait: an offer added since (the Minitaur's bound and pronk) is no
 /// difference to a run that never commanded it, while an offer the record holds must be
-/// today's. A record that is not JSON (written before 2026-11-27) is not compared.
+/// today's. A record that is not JSON (an older one) is not compared.
 pub fn config_difference(recorded: &str, today: &str) -> Option<String> {
     fn first(path: &str, r: &serde_json::Value, t: Option<&serde_json::Value>) -> Option<String> {
         match (r, t) {
             (serde_json::Value::Object(r), Some(serde_json::Value::Object(t))) => {
                 let legacy_inverse = match (path, r.get("motor_inverse"), t.get("motor_inverse")) {
                     ("robot", None, Some(today)) if today != "drawn" => Some(format!(
-                        "robot.motor_inverse: recorded absent (the drawn motor, until 2026-11-27), today {today}"
+                        "robot.motor_inverse: recorded absent (the drawn motor, the earlier default), today {today}"
                     )),
                     _ => None,
                 };
@@ -854,7 +854,7 @@ fn run_segments(
     // Whether the checkpoint of the segment that ran to `target` (a multiple of
     // `checkpoint_every`, or the run's end) is evaluated. A learner finishes the rollout
     // that crosses a target, so its checkpoint (and the evaluation's row) may come a few
-    // steps after it: the target decides, not the steps done (until 2026-12-06 the steps
+    // steps after it: the target decides, not the steps done (formerly the steps
     // done did, and a rollout that did not divide `eval_every` silently evaluated nothing).
     let due = |target: u64| {
         record.eval_every > 0

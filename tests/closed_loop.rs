@@ -295,7 +295,7 @@ fn the_ant_trots_at_the_commanded_speed() {
 }
 
 /// The controller issue's CI row: the Ant trots 10 s at 1.0 m/s within 15 %, yaw drift
-/// below 0.2 rad (seed 0; seeds 0–4 made 0.95–0.98 m/s on 2026-11-26).
+/// below 0.2 rad (seed 0; seeds 0–4 made 0.95–0.98 m/s).
 #[test]
 fn the_ant_trots_at_one_metre_per_second() {
     assert_meets_target(&run("ant", Gait::Trot, 1.0, 1.0, None), 1.0);
@@ -483,7 +483,7 @@ fn the_humanoid_balances_by_stepping_in_place() {
     // Point feet: a stand command steps in place. It fell within 1.5 s when it tried to
     // stand still on them.
     // Three seeds: each stays up 10 s and creeps forward less than 0.08 m/s (0.02–0.03 m/s
-    // measured on seeds 0–4, 0.22–0.27 m in 10 s, since 2026-11-28; 0.04–0.06 m/s on seeds
+    // measured on seeds 0–4, 0.22–0.27 m in 10 s; 0.04–0.06 m/s on seeds
     // 0–9 with the weaker foothold position feedback before); without that feedback it
     // walked off at 0.12 m/s. Its yaw wanders less than 0.1 rad on seeds 0–4 (up to 0.67 on
     // seeds 0–9 before): the median of the three stays below 0.2 rad.
@@ -500,9 +500,9 @@ fn the_humanoid_balances_by_stepping_in_place() {
 fn the_humanoid_walks_at_the_commanded_speed() {
     // 0.3 and 0.5 m/s (the two rows) for 10 s after a 1 s ramp, the issue's
     // tolerances: no fall, mean speed within 15 %, yaw drift below 0.2 rad. At 0.3 m/s it
-    // fell on 4 of seeds 0–4 before the 2026-11-28 preset; at 0.5 m/s it fell on 3 of seeds
-    // 0–19 and drifted up to 0.59 rad on 2 more before the stronger posture task (the same
-    // day; since, 40 of 40 seeds at either speed).
+    // fell on 4 of seeds 0–4 before the present preset; at 0.5 m/s it fell on 3 of seeds
+    // 0–19 and drifted up to 0.59 rad on 2 more before the stronger posture task (since,
+    // 40 of 40 seeds at either speed).
     for speed in [0.3, 0.5] {
         assert_meets_target(&run("humanoid", Gait::Walk, speed, 1.0, None), speed);
     }
@@ -620,7 +620,7 @@ fn centaur_control_writes_the_summary_and_refuses_bad_options() {
     let _ = std::fs::remove_dir_all(&out);
     let o = pushed("y");
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("lateral (y) push"));
-    // The controller told the motor drawn at reset (the default until 2026-11-27): recorded
+    // The controller told the motor drawn at reset (the earlier default): recorded
     // in the summary; refused on a robot without the Minitaur's motor model.
     let drawn = |env: &str| {
         let args = ["control", "--env", env, "--drawn-motor", "--seconds", "1", "--out"];

@@ -336,8 +336,8 @@ fn bad_residuals_and_configs_are_refused() {
     );
     assert!(make_residual_env("walker2d", ResidualConfig { scale: vec![-1.0], ..walker_walk() }).is_err());
     assert!(make_residual_env("hopper", ResidualConfig::default()).is_err(), "no controller for the Hopper");
-    // A gait the robot does not offer: refused, naming those it does (until 2026-11-28 the
-    // controller stood instead, without a word).
+    // A gait the robot does not offer: refused, naming those it does (the
+    // controller used to stand instead, without a word).
     match make_residual_env("walker2d", ResidualConfig::default()) {
         Err(e @ RegistryError::Hybrid(HybridError::Controller(ConfigError::GaitNotOffered { .. }))) => {
             assert!(e.to_string().contains("walk (0–1 m/s; straight only)"), "{e}")
@@ -788,7 +788,7 @@ fn an_untrained_ant_hybrid_explores_gently() {
 #[test]
 fn an_untrained_walker2d_hybrid_explores_gently() {
     // The 1.0 m/s walk scores ≈ 1790 over its 1000 steps on its own clock, ≈ 1600 at the
-    // preset's 0.6 of its period (its 0.5 m/s walk ≈ 1400 before its tuning of 2026-11-29).
+    // preset's 0.6 of its period (its 0.5 m/s walk ≈ 1400 before its tuning).
     // On a residual bounded at 0.1, PPO's own σ = 1 scored 61 % of it in the first rollout
     // (falls), σ 0.1 99.8 %. Today's preset explores at σ 0.3 from the start on a residual
     // whose bound rises from 1/30 of 1.0 (the same 0.01 action units): 1,616.2 against the
@@ -801,7 +801,7 @@ fn an_untrained_walker2d_hybrid_explores_gently() {
 #[test]
 fn an_untrained_humanoid_hybrid_explores_gently() {
     // The 0.3 m/s walk stays up for the whole 1000-step episode, ≈ 5.2 per step; the first
-    // rollout at the preset's σ 0.1 scored 100.1 % of it (seed 0, 2026-11-28).
+    // rollout at the preset's σ 0.1 scored 100.1 % of it (seed 0).
     assert_explores_gently("humanoid", 1000, 4000.0);
 }
 

@@ -485,7 +485,7 @@ impl ControllerConfig {
     /// 0.42–0.48 m/s). A standing Ant is not re-centred: planted two-dof legs cannot move
     /// the body sideways without sliding their feet.
     ///
-    /// Measured on seeds 0–4 (2026-11-26): before the servo, with the torques held 50 ms, a
+    /// Measured on seeds 0–4: before the servo, with the torques held 50 ms, a
     /// 0.6 s trot and swing gains 200/20, it trotted 0.3 m/s but made only 0.34–0.59 and
     /// 0.24–0.41 m/s at 0.6 and 1.0; the servo alone raised 1.0 m/s to 0.41–0.52, and the
     /// 0.3 s trot with the stiffer swing to 0.95–0.98.
@@ -534,7 +534,7 @@ impl ControllerConfig {
         // (1.03–1.17 m/s at 1.2), the static walk to 0.3 (0.294–0.298; at 0.4 one seed made
         // 0.32). Pace, bound and gallop stay up at 0.3 m/s but fall short or turn up to 1 rad,
         // so they are not offered. Turning (`centaur control --yaw-rate ±0.3, ±0.5
-        // --measure-from 1`, seeds 0–4, 2026-11-28): the trot at 0.3, 0.6 and 1.0 m/s and the
+        // --measure-from 1`, seeds 0–4): the trot at 0.3, 0.6 and 1.0 m/s and the
         // walk at 0.3 m/s turn within 0.01 rad/s of the command on every seed; at 1.2 m/s the
         // trot lagged on one seed (−0.37 for −0.5, −0.11 for −0.3), so it turns to 1.0 m/s.
         c.gaits = vec![
@@ -581,7 +581,7 @@ impl ControllerConfig {
         c.body_kd_vel = [80.0; 3];
         // The walk's own tuning, measured with `control_probe walker2d walk 1.0 11
         // --measure-from 1 --set unrated=1` and the probe's `duty`, `offer_default_weights`
-        // and `offer_w_ang` keys over seeds 0–4 (2026-11-29). With the gait table's stance
+        // and `offer_w_ang` keys over seeds 0–4. With the gait table's stance
         // fraction (0.6) and the configuration's weights it made only 0.67–0.73 m/s: its
         // 0.32 s swings asked the swing hip for ~140 N·m (limit 100; a hip at its limit 28 %
         // of the time on seed 0), and the MPC braked each stance to pitch the torso upright,
@@ -650,8 +650,8 @@ impl ControllerConfig {
         c.gait_period_scale = 0.7;
         // Footholds: velocity feedback 0.1 s on top of the capture point's √(h/g) ≈ 0.29 s,
         // position feedback 0.3/s. Measured with `control_probe humanoid walk … --set
-        // unrated=1` over seeds 0–19 (2026-11-28), 10 s after a 1 s ramp:
-        // - until then (0.2 s, 0.15/s, 50 ms stages, yaw weight 10) the walk fell on 4 of
+        // unrated=1` over seeds 0–19, 10 s after a 1 s ramp:
+        // - before (0.2 s, 0.15/s, 50 ms stages, yaw weight 10) the walk fell on 4 of
         //   seeds 0–4 at 0.3 m/s (its speed ran away to 0.45–0.56 m/s, its heading swung);
         // - 0.1 s and 0.3/s: 20/20 up at 0.3 m/s, 15/20 at 0.5 m/s; 0.3 s or 0.5 s (with 0.15/s) fell
         //   within 1.3–5 s on every seed, 0 s ran away to 0.7–0.85 m/s;
@@ -666,7 +666,7 @@ impl ControllerConfig {
         c.position_leash = 0.5;
         // Walking started more reliably from a slower speed ramp.
         c.max_acceleration = 0.3;
-        // The WBC's posture task 4 × the default 0.05 (2026-11-28, same probe, seeds 0–39):
+        // The WBC's posture task 4 × the default 0.05 (same probe, seeds 0–39):
         // with the weaker task the arms and the abdomen swung freely against the legs, the
         // torso's heading swung with them (point feet cannot hold it), and at 0.5 m/s the walk
         // fell on 3 of seeds 0–19 and drifted 0.24–0.59 rad on 2 more. With 0.15–0.3 it walks
@@ -677,12 +677,12 @@ impl ControllerConfig {
         // Rated 0.5 m/s: 0.6 m/s meets the target unperturbed (above), but 4 N·s
         // pushed from its right it fell on 4 of seeds 0–4 (at 0.5 m/s, on 1 of 5 from either
         // side; 37 of 40 over seeds 0–9 from the four sides). A stand command steps in place.
-        // Turning (`centaur control --yaw-rate … --measure-from 1`, 2026-11-28): ±0.5 rad/s
+        // Turning (`centaur control --yaw-rate … --measure-from 1`): ±0.5 rad/s
         // at 0.3 and 0.4 m/s within 0.04 rad/s on every seed (0–4; 0–9 at 0.4 m/s); at
         // 0.5 m/s +0.5 rad/s fell on seed 1 of 0–4, so it turns at up to 0.5 rad/s to
         // 0.4 m/s and, slower, at up to 0.3 rad/s to 0.5 m/s: ±0.3 rad/s at 0.45 and 0.5 m/s
         // held on seeds 0–9 (40 of 40 up, 0.280–0.313 rad/s, 0.49–0.55 m/s along the heading;
-        // same probe, 2026-11-28, late evening).
+        // same probe).
         c.gaits = vec![
             GaitOffer::new(Gait::Stand, 0.0),
             GaitOffer::new(Gait::Walk, 0.5).turning(0.5, 0.4).then_turning(0.3, 0.5),
@@ -771,12 +771,12 @@ impl ControllerConfig {
         // at 0.6 m/s it turned on 5 of 5 seeds (+0.46–0.50, −0.41–0.46 rad/s commanded ±0.5;
         // ±0.28–0.30 commanded ±0.3), so trots above 0.6 m/s are not staggered
         // (`control_probe --set stagger=… --set turn_swing_height=… --set turn_yaw_weight=…
-        // --set turn_max_speed=…`, 2026-11-27). Straight trots (no yaw command) are
+        // --set turn_max_speed=…`). Straight trots (no yaw command) are
         // unchanged, bit for bit.
         //
         // Right turns still lagged: 0.35–0.44 rad/s commanded −0.5 (seeds 0–4), the yaw error
         // pinned at its 0.3 rad leash, and at 0.6 m/s each ±0.5 rad/s row fell on a seed. What
-        // lifted them, together (2026-11-28, `control_probe --set turn_yaw_rate_weight=…
+        // lifted them, together (`control_probe --set turn_yaw_rate_weight=…
         // --set turn_period=…`, seeds 0–19): the MPC's yaw-rate weight 10 while staggered
         // (0.3 otherwise), a 5 cm swing (3 cm before), the WBC's yaw weight 40 (20 before) and
         // posture weight 0.1 (0.05 before), and a 5 % shorter cycle while staggered. Over
@@ -794,7 +794,7 @@ impl ControllerConfig {
         c.turn_max_speed = 0.6;
         // The whole-body QP's posture task 0.01 (the default 0.05) on straight trots: the
         // weaker pull toward the nominal joint accelerations leaves the legs to the body and
-        // swing tasks at speed. Measured with `centaur control --unrated` (2026-11-28, seeds
+        // swing tasks at speed. Measured with `centaur control --unrated` (seeds
         // 0–4 unless said): 2.75 m/s on 5 of 5 seeds (3 of 5 before), 3.0 m/s on 8 of seeds
         // 0–9 (none of 0–4 before; 0 and 0.002–0.005 did the same on 0–4, 0.02 held 1 of 5),
         // 0.3–2.5 m/s, the walk, pushes and 10 % action noise as before with less tilt; a
@@ -812,8 +812,8 @@ impl ControllerConfig {
         // fall height as the body pitched ±0.2 rad; with half the cycle at the standing height it
         // stays up but lags (0.77–0.88 m/s for 1.0, 1.31–1.49 for 2.0, seeds 0–9). At 0.19 m and
         // half the table's cycle (0.15 s) the bound holds 0–2.5 m/s on seeds 0–9 (`control_probe
-        // minitaur bound V 11 --set unrated=1 --set period=0.5 --height 0.19 --measure-from 1`,
-        // 2026-11-29; at 2.0 m/s 1.79–1.92, at 2.5 2.12–2.34, one seed just outside 15 %), under 10
+        // minitaur bound V 11 --set unrated=1 --set period=0.5 --height 0.19 --measure-from 1`;
+        // at 2.0 m/s 1.79–1.92, at 2.5 2.12–2.34, one seed just outside 15 %), under 10
         // % action noise at 0.3, 1.0 and 2.0 m/s and 4 N·s side pushes at 1.0 and 2.0 m/s (seeds
         // 0–4; the trot fell under −y pushes at 2.0 m/s on 2 of 5; with the rise below, 4 of 5 each
         // way at 2.0 m/s). It also turns where the trot cannot: with its two front or two hind feet
@@ -834,17 +834,17 @@ impl ControllerConfig {
         // straight only. The gallop is still refused: higher and faster (0.4–0.6 ×, 0.19–0.20 m) it
         // held 1 m/s on seeds 0–4 but drifted 0.09–0.30 rad in yaw and fell at 2 m/s on 2–4 of 5
         // (at 0.4 ×: up, at 1.1–1.6 m/s and 1.6 rad of drift). The pace is refused
-        // for another reason: it holds straight runs (on the controller of 2026-11-28, seeds
+        // for another reason: it holds straight runs (on an earlier controller, seeds
         // 0–4: 0.3–1.0 m/s, and at 0.3 and 0.6 m/s under 10 % action noise and 2 N·s
         // pushes), but a ±0.5 rad/s yaw-rate command topples it within 11 s on seeds 0–2
         // at 0.3 m/s (a lateral pair in contact cannot yaw, and only the trot is staggered
         // for turning), and at 1.0 m/s 10 % action noise fells it on 4 of 5 seeds.
         // The trot's cycle is 0.7 × the table's: at the table's period it fell at 2.5 m/s on
         // 2 of 3 seeds; at 0.7 × it trots 2.5 m/s (2.39 measured) on 5 of 5 and 2.75 m/s on
-        // 3 of 5, and 0.3–2.0 m/s as before (`control_probe --set period=…`, 2026-11-25).
+        // 3 of 5, and 0.3–2.0 m/s as before (`control_probe --set period=…`).
         // Turning: the staggered trot turns within 15 % of ±0.5 rad/s to `turn_max_speed`
         // (above); faster, unstaggered, it turned at 0.00–0.03 rad/s commanded ±0.3 or ±0.5
-        // at 0.8–2.5 m/s (seeds 0–4, 2026-11-28), so it is rated straight there. The walk
+        // at 0.8–2.5 m/s (seeds 0–4), so it is rated straight there. The walk
         // turned at 0.06–0.13 rad/s commanded ±0.3 or ±0.5 at 0.3 and 0.5 m/s and fell in
         // three of the eight rows (on seed 3 twice, seed 0 once, of 0–4): straight only.
         c.gaits = vec![

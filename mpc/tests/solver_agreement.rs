@@ -6,7 +6,7 @@
 //! flat: forces that cancel between feet do not move the body, only the force weight `R`
 //! (1e-5; 1e-4 on the Ant) weighs them, so an objective within `δ` of the optimum leaves
 //! them free by ≈ √(δ/R). Measured on the 884 problems of
-//! `every_robot_every_gait_agrees_with_clarabel` (2026-11-25): at the default tolerance 1e-8
+//! `every_robot_every_gait_agrees_with_clarabel`: at the default tolerance 1e-8
 //! the objectives agree to 4.5e-9 (relative) while the forces differ by a median of 7e-7
 //! (Humanoid) to 5e-5 m g (Solo12) per robot and by 1.8e-3 m g at worst (Ant); at 1e-11, on
 //! the 729 problems both solvers solve to that tolerance, by a median of 6e-10 to 2.2e-6 m g

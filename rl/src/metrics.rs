@@ -111,11 +111,11 @@ impl UpdateMetrics {
     ];
 
     /// The number of columns of files written before `value_mean`, `reward_mean` and
-    /// `kl_coef` were logged (2026-11-25 and earlier).
+    /// `kl_coef` were logged (older logs).
     pub const COLUMNS_V1: usize = 18;
 
     /// The number of columns of files written before `critic_learning_rate` was logged
-    /// (2026-11-27 and earlier).
+    /// (older logs).
     pub const COLUMNS_V2: usize = 21;
 
     /// The values in [`UpdateMetrics::COLUMNS`] order.

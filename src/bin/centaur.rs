@@ -30,6 +30,8 @@ struct Cli {
     command: Command,
 }
 
+// Parsed once per process: the size of the largest variant (compare's flags) costs nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum Command {
     /// Train a learner on an environment; writes run.json, metrics.csv, checkpoint (also
@@ -359,7 +361,7 @@ struct RobustnessArgs {
     episodes: usize,
     /// The controller (alone and in the hybrid) turns its torques into actions with the
     /// nominal motor model, whatever the run was trained with (by default: the one it was
-    /// trained with, the nominal one since 2026-11-27, before then the one drawn at reset,
+    /// trained with, the nominal one in newer runs, in older ones the one drawn at reset,
     /// whose strength, damping and battery voltage a controller on the robot would not know);
     /// writes robustness_nominal_motor.json instead of robustness.json
     #[arg(long)]
@@ -486,7 +488,7 @@ struct ControlArgs {
     #[arg(long)]
     unrated: bool,
     /// Minitaur: turn the controller's torques into actions with the motor model drawn at
-    /// reset (which a controller on the robot would not know; the default until 2026-11-27)
+    /// reset (which a controller on the robot would not know; the earlier default)
     /// instead of the nominal one
     #[arg(long)]
     drawn_motor: bool,

@@ -141,7 +141,7 @@ pub enum ExperimentError {
         dir: PathBuf,
     },
     /// `centaur compare --resume` found a seed's directory holding a run of other options
-    /// than these: resuming would replace it (until 2026-12-06 it did, without a word).
+    /// than these: resuming would replace it (it used to, without a word).
     #[error(
         "{dir}: it holds a run of other options than these (recorded …{recorded}…, here …{given}…); resuming would replace it: give the options it ran with, or choose another --out (--overwrite replaces the whole comparison)"
     )]
@@ -322,8 +322,8 @@ impl ExperimentOptions {
         // those runs keep their fingerprint (`--resume`, `--pure-from`).
         let base = strip_new_defaults(base);
         // The motor the Minitaur's controller is told is written as a mark at the end, not
-        // as a setting: its default changed on 2026-11-27 from the drawn motor to the
-        // nominal one, and runs before then (no mark) are the runs told the drawn motor,
+        // as a setting: its default changed from the drawn motor to the
+        // nominal one, and runs from before the change (no mark) are the runs told the drawn motor,
         // by default or by `[env] motor_inverse = "drawn"`.
         let settings = EnvSettings { motor_inverse: None, ..self.env_settings.clone() };
         // Runs on the preset keep the fingerprint they had before settings existed.
@@ -346,7 +346,7 @@ impl ExperimentOptions {
 }
 
 /// Learner settings added after runs were made, as `Debug` writes them at their defaults:
-/// a fingerprint leaves them out (PPO's critic burn-in, 2026-11-30).
+/// a fingerprint leaves them out (PPO's critic burn-in).
 const NEW_DEFAULTS: [&str; 1] = [", actor_burn_in_steps: 0"];
 
 fn strip_new_defaults(mut fingerprint: String) -> String {
@@ -357,8 +357,8 @@ fn strip_new_defaults(mut fingerprint: String) -> String {
 }
 
 /// The end of the fingerprint of a run whose Minitaur controller is told the nominal motor
-/// ([`centaur_envs::MinitaurConfig::motor_inverse`], the default since 2026-11-27): absent in
-/// those told the drawn motor, the default before then. Pure RL does not depend on it
+/// ([`centaur_envs::MinitaurConfig::motor_inverse`], the default now): absent in
+/// those told the drawn motor, the earlier default. Pure RL does not depend on it
 /// ([`pure_part`] leaves it out).
 pub(crate) const NOMINAL_MOTOR_MARK: &str = "; the controller told the nominal motor";
 

@@ -112,7 +112,7 @@ pub struct RobustnessOptions {
     /// controller alone and inside the hybrid (`None`: the one the run was trained with,
     /// [`super::TrainedWith::controller_motor`]; [`MotorInverse::Nominal`]: the data
     /// sheet's, as a controller on the robot would know it; [`MotorInverse::Drawn`]: the
-    /// motor drawn at reset, strength included, the default until 2026-11-27).
+    /// motor drawn at reset, strength included, the earlier default).
     pub motor_inverse: Option<MotorInverse>,
 }
 

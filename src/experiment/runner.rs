@@ -176,12 +176,12 @@ struct ExperimentRecord {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pure_from: Option<PathBuf>,
     /// The motor the controller was told, on a Minitaur ([`controller_motor`]). Records
-    /// written before the change of 2026-11-27 lack it: theirs was the one in their `[env]` settings, or
-    /// else the drawn motor ([`MotorInverse::legacy`]).
+    /// written before the controller's motor was recorded lack it: theirs was the one in their
+    /// `[env]` settings, or else the drawn motor ([`MotorInverse::legacy`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     controller_motor: Option<MotorInverse>,
     /// The robot's controller preset the hybrid ran on (`ControllerConfig`, every gain and
-    /// weight), since 2026-11-28; older records lack it and are not checked for it.
+    /// weight), in newer records; older ones lack it and are not checked for it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     controller: Option<serde_json::Value>,
 }
@@ -271,7 +271,7 @@ fn read_record(dir: &Path) -> Result<ExperimentRecord, ExperimentError> {
 /// ([`crate::settings::TRAINING_ONLY`]: motor strength drawn at reset, pushes), set the
 /// motor the controller is told or put the body state in the observation, both returned
 /// ([`TrainedWith`]), since the callers run the robot's preset environment with them. A run
-/// whose record holds the controller's preset (since 2026-11-28) is refused when today's
+/// whose record holds the controller's preset (newer records do) is refused when today's
 /// differs, naming the first difference. The safety fade ([`crate::hybrid::Fade`]) is not
 /// compared: a run may be evaluated with or without it. `centaur robustness` and
 /// `examples/embed_controller` check with it.
@@ -324,8 +324,8 @@ pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<Train
     Err(ExperimentError::SetupMismatch { run: dir.to_path_buf(), trained, given: format!("{residual:?}") })
 }
 
-/// Records written before `experiment.json` stored the hybrid's setup as data (up to
-/// 2026-11-27) hold it only as `ResidualConfig`'s `Debug` text inside the fingerprint, in
+/// Records written before `experiment.json` stored the hybrid's setup as data hold it
+/// only as `ResidualConfig`'s `Debug` text inside the fingerprint, in
 /// one of three forms: with every field below; without `rated_speed` (written before it
 /// existed); without it and `warmup_with_policy`. The forms are written out here field by
 /// field, so that fields added to the setup later leave them as they were.
@@ -935,8 +935,8 @@ mod tests {
     }
 
     /// A record holding the controller's preset is checked against today's: the same
-    /// passes, a changed gain is refused naming it, and a record without one (written before
-    /// 2026-11-28) is not checked for it.
+    /// passes, a changed gain is refused naming it, and a record without one (an older
+    /// record) is not checked for it.
     #[test]
     fn a_run_trained_on_another_controller_preset_is_refused() {
         let dir = temp_dir("controller-changed");
@@ -991,7 +991,7 @@ mod tests {
     }
 
     /// The motor the controller was told is read back for the studies: as recorded; in a
-    /// record from before it was (2026-11-27), the one its `[env]` settings name, or else the
+    /// record from before it was, the one its `[env]` settings name, or else the
     /// drawn motor, the default then. Setting it is no task change.
     #[test]
     fn the_studies_learn_which_motor_the_controller_was_told() {
@@ -1018,14 +1018,14 @@ mod tests {
     }
 
     /// Records from before the setup was stored as data, in the exact text of two real runs:
-    /// the main example's of 2026-11-26 (before `warmup_with_policy` and `rated_speed`, trained
-    /// at the trot's own 2.5 m/s) and a `centaur compare` seed's of 2026-11-27 (rated 3.0).
+    /// the main example's (before `warmup_with_policy` and `rated_speed`, trained
+    /// at the trot's own 2.5 m/s) and a `centaur compare` seed's on an earlier preset (rated 3.0).
     #[test]
     fn records_from_before_the_setup_was_data_are_matched_by_their_text() {
         const OLDEST: &str = "ResidualConfig { scale: [0.25], joint_residual: true, steering: Steering { speed: 1.0, yaw_rate: 0.0 }, exploration: Some(Exploration { residual: 0.3, steering: 0.5 }), include_reference: true, command: Command { forward_velocity: 2.0, lateral_velocity: 0.0, yaw_rate: 0.0, body_height: None, gait: Trot } }";
         const RATED: &str = "ResidualConfig { scale: [0.25], joint_residual: true, steering: Steering { speed: 1.0, yaw_rate: 0.0 }, exploration: Some(Exploration { residual: 0.3, steering: 0.5 }), warmup_with_policy: false, include_reference: true, command: Command { forward_velocity: 2.0, lateral_velocity: 0.0, yaw_rate: 0.0, body_height: None, gait: Trot }, rated_speed: Some(3.0) }";
         let dir = temp_dir("legacy-record");
-        // The preset of 2026-11-27: steered ±1 m/s, rated 3.0.
+        // An earlier preset: steered ±1 m/s, rated 3.0.
         let preset = ResidualConfig {
             steering: crate::hybrid::Steering { speed: 1.0, ..crate::hybrid::Steering::OFF },
             rated_speed: Some(3.0),
@@ -1130,7 +1130,7 @@ mod tests {
         assert_eq!(opts.pure_fingerprint(), own_learner.pure_fingerprint());
         assert!(own_learner.fingerprint().ends_with(super::super::options::NOMINAL_MOTOR_MARK));
         assert_eq!(own_learner.hybrid_learner().kind(), centaur_rl::AlgoKind::Ppo);
-        // PPO's critic burn-in (added 2026-11-30) is left out at its default, so runs made
+        // PPO's critic burn-in is left out at its default, so runs made
         // before it keep their fingerprint; set, it is the hybrid's and marks it.
         assert!(!own_learner.fingerprint().contains("actor_burn_in_steps"));
         assert!(own_learner.fingerprint().contains("critic_learning_rate: None, anneal_lr"));
@@ -1149,7 +1149,7 @@ mod tests {
         ] {
             assert_ne!(opts.pure_fingerprint(), other_pure.pure_fingerprint());
         }
-        // The Minitaur's default motor inverse (nominal since 2026-11-27) marks the
+        // The Minitaur's default motor inverse (now the nominal one) marks the
         // fingerprint: a run on the old default (no mark) is not kept as this one, but its
         // pure-RL agent, which never uses the inverse, can be reused.
         assert!(opts.fingerprint().ends_with(super::super::options::NOMINAL_MOTOR_MARK));

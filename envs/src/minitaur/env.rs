@@ -119,7 +119,7 @@ pub struct MinitaurConfig {
     /// Periodic pushes on the base during every episode (default: none).
     pub pushes: Option<PushSchedule>,
     /// Which motor model [`RobotEnv::action_for_torques`] inverts (default:
-    /// [`MotorInverse::Nominal`] since 2026-11-27; [`MotorInverse::Drawn`] before). Always
+    /// [`MotorInverse::Nominal`]; earlier [`MotorInverse::Drawn`]). Always
     /// recorded; a recorded configuration without it was written before it existed, with
     /// the drawn motor ([`MotorInverse::legacy`]).
     pub motor_inverse: MotorInverse,
@@ -140,8 +140,9 @@ pub struct MinitaurConfig {
 pub enum MotorInverse {
     /// The motor drawn at reset — battery voltage, viscous damping and motor strength
     /// included: the controller is told the randomised motor, which a controller on the
-    /// robot would not know (strength and damping at least). The default up to 2026-11-27:
-    /// every controller and hybrid figure measured before then was measured so.
+    /// robot would not know (strength and damping at least). The earlier default: every
+    /// controller and hybrid figure measured before the nominal motor became the default was
+    /// measured so.
     Drawn,
     /// The nominal motor of [`MinitaurConfig::motor_control`], whatever was drawn: the
     /// controller knows only the data sheet, as it would on the robot. The default.
