@@ -9,17 +9,14 @@ use centaur_rl::{AlgoKind, UpdateMetrics};
 
 use crate::experiment::{
     EXPERIMENT_FILES, ExperimentError, ExperimentOptions, ExperimentResult, Phase, run_experiment,
-    tuned_config,
 };
 use crate::hybrid::{Fade, ResidualConfig};
 use crate::mpc::Gait;
-use crate::registry::residual_config_for;
-use crate::settings::EnvSettings;
 use crate::spec::{
     ControllerTable, ExplorationTable, HybridTableFields, HybridTables, Parts, Purpose, RampTable, RunSpec,
     SCHEMA_VERSION, SteeringTable, Torques, run_file_tables,
 };
-use crate::train::{parse_run_config, read_config_file};
+use crate::train::read_config_file;
 
 /// The progress-bar style of the examples and the command line.
 pub fn progress_style() -> indicatif::ProgressStyle {
@@ -339,14 +336,14 @@ pub struct ExampleArgs {
     #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = positive_count)]
     pub eval_episodes: usize,
     /// TOML file of hyperparameters for both agents [default: the tuned set for the robot and
-    /// algorithm, see `tuned_config`], with the robot's settings in an [env] table
+    /// algorithm, see `tuned_config`], with the robot's settings in an `[env]` table
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Do not write the MCAP recordings
     #[arg(long)]
     pub no_record: bool,
     /// A run spec (TOML; see `centaur::spec`) for the example's robot and learner: its
-    /// [env], [learner], [hybrid_learner], [hybrid], [controller] and [exploration], its
+    /// `[env]`, `[learner]`, `[hybrid_learner]`, `[hybrid]`, `[controller]` and `[exploration]`, its
     /// budget and evaluations; the flags here override it (its seeds are compare's: the
     /// example trains one, --seed)
     #[arg(long, value_name = "FILE", conflicts_with = "config")]
@@ -354,8 +351,8 @@ pub struct ExampleArgs {
     /// Override one key of --spec, e.g. `--set controller.rated_speed=4.0` (repeatable)
     #[arg(long = "set", value_name = "KEY=VALUE", requires = "spec")]
     pub sets: Vec<String>,
-    /// The hybrid's setup (each flag sets one key of the spec's [hybrid], [controller] or
-    /// [exploration]).
+    /// The hybrid's setup (each flag sets one key of the spec's `[hybrid]`, `[controller]` or
+    /// `[exploration]`).
     #[command(flatten)]
     pub hybrid: HybridArgs,
 }
@@ -522,8 +519,10 @@ pub fn run_example(name: &str, opts: &ExperimentOptions) -> std::process::ExitCo
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::experiment::tuned_config;
     use crate::hybrid::{BoundRamp, Exploration, ExplorationRamp, Steering};
     use crate::registry::residual_config;
+    use crate::train::parse_run_config;
 
     #[test]
     fn an_example_moves_past_a_directory_with_a_run_or_held_by_another_process() {

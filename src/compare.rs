@@ -735,7 +735,7 @@ pub fn run_compare(
 /// beside `compare.json`) records another identity: its seeds were run with other options.
 fn check_spec(dir: &Path, spec: &ResolvedSpec) -> Result<(), ExperimentError> {
     let path = dir.join("spec.json");
-    if let Ok(text) = crate::train::read_config_file(&path)
+    if let Ok(text) = crate::rundir::read_text_bounded(&path, crate::spec::MAX_SPEC_BYTES)
         && let Ok(recorded) = serde_json::from_str::<crate::spec::SpecRecord>(&text)
         && recorded.identity != spec.identity()
     {

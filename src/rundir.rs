@@ -123,6 +123,32 @@ pub fn claim(dir: &Path, files: &[&'static str], replace: bool) -> Result<DirLoc
     Ok(lock)
 }
 
+/// Why a text file was not read ([`read_text_bounded`]).
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    /// It could not be opened or read.
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    /// It is larger than the bound.
+    #[error("larger than {} KiB; not a config file", .0 >> 10)]
+    TooLarge(u64),
+    /// It is not UTF-8 text.
+    #[error("not UTF-8 text")]
+    NotText,
+}
+
+/// A text file read once, at most `max` bytes: `/dev/zero` or a huge file is refused, not read
+/// forever (config files, run specs, run records).
+pub fn read_text_bounded(path: &Path, max: u64) -> Result<String, ReadError> {
+    use std::io::Read as _;
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)?.take(max + 1).read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > max {
+        return Err(ReadError::TooLarge(max));
+    }
+    String::from_utf8(bytes).map_err(|_| ReadError::NotText)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

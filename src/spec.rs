@@ -70,6 +70,9 @@ pub const SCHEMA_VERSION: u32 = 1;
 /// preset says.
 pub const DEFAULT_RAMP_SAMPLES: u64 = 200_000;
 
+/// The largest spec file read (1 MiB, as every config file).
+pub const MAX_SPEC_BYTES: u64 = 1 << 20;
+
 /// Seeds a spec may ask for (compare's range).
 pub const SEEDS_RANGE: (u64, u64) = (1, 10_000);
 /// Training steps per agent and seed.
@@ -706,7 +709,7 @@ impl RunSpec {
     /// `--set` overrides applied before it is typed.
     pub fn read(path: &Path, sets: &[String]) -> Result<RunSpec, SpecError> {
         let source_name = path.display().to_string();
-        let text = crate::train::read_config_file(path)
+        let text = crate::rundir::read_text_bounded(path, MAX_SPEC_BYTES)
             .map_err(|e| SpecError::Parse { source_name: source_name.clone(), message: e.to_string() })?;
         let mut table: toml::Table = toml::from_str(&text)
             .map_err(|e| SpecError::Parse { source_name: source_name.clone(), message: e.to_string() })?;

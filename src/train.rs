@@ -31,7 +31,6 @@
 //! A directory that already holds a run is refused unless the run is resumed or
 //! `overwrite` is set (which removes the run's files, and only those).
 
-use std::io::Read;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -342,18 +341,10 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> TrainError + '_ {
 
 /// Reads a config file once, bounded by [`MAX_CONFIG_BYTES`].
 pub fn read_config_file(path: &Path) -> Result<String, TrainError> {
-    let mut bytes = Vec::new();
-    std::fs::File::open(path)
-        .and_then(|f| f.take(MAX_CONFIG_BYTES + 1).read_to_end(&mut bytes))
-        .map_err(io_err(path))?;
-    if bytes.len() as u64 > MAX_CONFIG_BYTES {
-        return Err(TrainError::Config {
-            path: path.to_path_buf(),
-            message: format!("larger than {} KiB; not a config file", MAX_CONFIG_BYTES >> 10),
-        });
-    }
-    String::from_utf8(bytes)
-        .map_err(|_| TrainError::Config { path: path.to_path_buf(), message: "not UTF-8 text".into() })
+    crate::rundir::read_text_bounded(path, MAX_CONFIG_BYTES).map_err(|e| match e {
+        crate::rundir::ReadError::Io(source) => TrainError::Io { path: path.to_path_buf(), source },
+        other => TrainError::Config { path: path.to_path_buf(), message: other.to_string() },
+    })
 }
 
 /// `source` with the hybrid setup of `spec`, where it has one.

@@ -50,7 +50,7 @@ enum Command {
     /// writes robustness.json into the run directory.
     Robustness(RobustnessArgs),
     /// Evaluate a trained policy deterministically on its environment or another
-    /// configuration of it (`--config` with an [env] table); prints the table and writes
+    /// configuration of it (`--config` with an `[env]` table); prints the table and writes
     /// eval.json (eval_FILE.json with --config FILE) beside the checkpoint.
     Eval(EvalArgs),
     /// Check a run spec and print it resolved: every value explicit (the learner's every
@@ -185,7 +185,7 @@ struct EvalArgs {
     /// A run directory (its `checkpoint`) or a checkpoint file.
     #[arg(long)]
     checkpoint: PathBuf,
-    /// A run file whose [env] table replaces the settings the policy was trained with.
+    /// A run file whose `[env]` table replaces the settings the policy was trained with.
     #[arg(long)]
     config: Option<PathBuf>,
     /// Evaluate on another environment than the checkpoint's (its spaces must fit).
@@ -245,8 +245,8 @@ fn eval(args: EvalArgs) -> ExitCode {
 #[derive(Args)]
 struct TrainArgs {
     /// A run spec (TOML; see `centaur::spec`) giving the environment (`robot`; the hybrid is
-    /// `<robot>-residual`, with its [hybrid], [controller] and [exploration]), the learner
-    /// and its [learner] settings, the budget and [env]; --steps, --envs, --eval-episodes and
+    /// `<robot>-residual`, with its `[hybrid]`, `[controller]` and `[exploration]`), the learner
+    /// and its `[learner]` settings, the budget and `[env]`; --steps, --envs, --eval-episodes and
     /// --eval-every override it, --env, --algo and --config go in it
     #[arg(long, value_name = "FILE", conflicts_with_all = ["env", "algo", "config", "resume"])]
     spec: Option<PathBuf>,
@@ -530,8 +530,8 @@ fn parse_speed_schedule(s: &str) -> Result<SpeedSchedule, String> {
 
 #[derive(Args)]
 struct CompareArgs {
-    /// A run spec (TOML; see `centaur::spec`): robot, learner, seeds, budget, [env],
-    /// [learner], [hybrid_learner], [hybrid], [controller], [exploration]. The flags below
+    /// A run spec (TOML; see `centaur::spec`): robot, learner, seeds, budget, `[env]`,
+    /// `[learner]`, `[hybrid_learner]`, `[hybrid]`, `[controller]`, `[exploration]`. The flags below
     /// that it also sets override it; --env, --algo, --config and --hybrid-config go in it
     #[arg(long, value_name = "FILE", conflicts_with_all = ["env", "algo", "config", "hybrid_config"])]
     spec: Option<PathBuf>,
@@ -554,11 +554,11 @@ struct CompareArgs {
     #[arg(long)]
     out: PathBuf,
     /// TOML file with hyperparameters for both agents (default: the examples' settings for
-    /// this robot and algorithm, else the algorithm's defaults) and, in an [env] table, the
+    /// this robot and algorithm, else the algorithm's defaults) and, in an `[env]` table, the
     /// robot's settings over its preset for all three agents (as `centaur train` takes).
     #[arg(long)]
     config: Option<PathBuf>,
-    /// TOML file with the hybrid's own hyperparameters (no [env] table), replacing --config's
+    /// TOML file with the hybrid's own hyperparameters (no `[env]` table), replacing --config's
     /// for the hybrid only: each agent at its own tuning. Pure RL keeps --config's, so
     /// --pure-from may reuse the agents of a comparison run without it
     #[arg(long, value_name = "FILE")]
@@ -593,8 +593,8 @@ struct CompareArgs {
     /// with the same options but for the hybrid's (refused, naming the difference, otherwise)
     #[arg(long, value_name = "DIR")]
     pure_from: Option<PathBuf>,
-    /// The hybrid's setup (each flag sets one key of the spec's [hybrid], [controller] or
-    /// [exploration], over the spec's).
+    /// The hybrid's setup (each flag sets one key of the spec's `[hybrid]`, `[controller]` or
+    /// `[exploration]`, over the spec's).
     #[command(flatten)]
     hybrid: HybridArgs,
 }
