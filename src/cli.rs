@@ -598,6 +598,42 @@ mod tests {
         assert_eq!(bare.resolve_with(Purpose::Compare, &tables).unwrap(), spec);
     }
 
+    /// The main example with its named spec is the main example: the same options, so the
+    /// same fingerprint and the same run; a spec of another robot is refused.
+    #[test]
+    fn the_main_examples_spec_is_the_main_example() {
+        use clap::Parser;
+        #[derive(clap::Parser)]
+        struct Line {
+            #[command(flatten)]
+            run: ExampleArgs,
+        }
+        let defaults = ExampleDefaults {
+            name: "residual_ppo_minitaur",
+            env: "minitaur",
+            algo: AlgoKind::Ppo,
+            steps: 300_000,
+            envs: 4,
+        };
+        let options = |args: &[&str]| {
+            Line::try_parse_from([&["x", "--out", "/nonexistent/run"][..], args].concat())
+                .unwrap()
+                .run
+                .options(&defaults)
+        };
+        let spec = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/residual_ppo_minitaur.toml");
+        let plain = options(&[]).unwrap();
+        let by_spec = options(&["--spec", spec.to_str().unwrap()]).unwrap();
+        assert_eq!(by_spec.fingerprint(), plain.fingerprint());
+        assert_eq!(
+            (by_spec.residual.clone(), by_spec.eval_every, by_spec.n_envs),
+            (plain.residual.clone(), None, 4)
+        );
+        let ant = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/ant_ppo_hybrid.toml");
+        let e = options(&["--spec", ant.to_str().unwrap()]).unwrap_err();
+        assert!(e.contains("this example runs ppo on minitaur"), "{e}");
+    }
+
     /// `--config FILE` and `--hybrid-config FILE` become a spec's `[learner]` and
     /// `[hybrid_learner]` over the defaults: the learners they parsed to before.
     #[test]
