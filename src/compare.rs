@@ -84,9 +84,14 @@ pub struct CompareOptions {
 
 impl CompareOptions {
     /// The comparison a resolved spec describes, into `out`, one seed at a time on one
-    /// thread, neither resumed nor replacing.
-    pub fn from_spec(spec: &ResolvedSpec, out: PathBuf) -> CompareOptions {
-        CompareOptions {
+    /// thread, neither resumed nor replacing; refused for a spec without a hybrid (one
+    /// resolved for `train` on pure RL).
+    pub fn from_spec(spec: &ResolvedSpec, out: PathBuf) -> Result<CompareOptions, crate::spec::SpecError> {
+        let residual = spec.hybrid.clone().ok_or_else(|| crate::spec::SpecError::NotAHybrid {
+            table: "hybrid",
+            reason: format!("the spec of `{}` has no hybrid to compare", spec.robot),
+        })?;
+        Ok(CompareOptions {
             env: spec.robot.clone(),
             algo: spec.learner_config(),
             hybrid_algo: spec.hybrid_learner_config(),
@@ -97,7 +102,7 @@ impl CompareOptions {
             threads: 1,
             jobs: 1,
             eval_episodes: spec.eval_episodes,
-            residual: spec.hybrid.clone().expect("a comparison's spec has a hybrid"),
+            residual,
             eval_every: (spec.eval_every > 0).then_some(spec.eval_every),
             resume: false,
             overwrite: false,
@@ -105,7 +110,7 @@ impl CompareOptions {
             pure_from: None,
             spec: Some(spec.clone()),
             command: None,
-        }
+        })
     }
 }
 

@@ -581,6 +581,31 @@ pub struct SpecRecord {
 }
 
 impl ResolvedSpec {
+    /// Checks a resolved spec read back from a run (`run.json`, `spec.json`, which a user
+    /// may have edited): a known learner whose settings parse and validate, the hybrid's setup
+    /// in range. The accessors below may then be called.
+    pub fn check(&self) -> Result<(), SpecError> {
+        let kind =
+            AlgoKind::from_name(&self.algo).ok_or_else(|| range("algo", &self.algo, "a learner's name"))?;
+        for (key, value) in
+            [("learner", Some(&self.learner)), ("hybrid_learner", self.hybrid_learner.as_ref())]
+        {
+            if let Some(v) = value {
+                let config = typed(kind, v)
+                    .map_err(|message| SpecError::Parse { source_name: format!("[{key}]"), message })?;
+                config.validate().map_err(|e| SpecError::Parse {
+                    source_name: format!("[{key}]"),
+                    message: e.to_string(),
+                })?;
+            }
+        }
+        if let Some(residual) = &self.hybrid {
+            let robot = self.robot.strip_suffix("-residual").unwrap_or(&self.robot);
+            check_residual(robot, residual)?;
+        }
+        Ok(())
+    }
+
     /// The learner's kind.
     pub fn kind(&self) -> AlgoKind {
         AlgoKind::from_name(&self.algo).expect("a resolved spec names a known learner")
@@ -1085,6 +1110,23 @@ mod tests {
         assert_eq!(record.spec, faster);
         assert_eq!(record.identity, faster.identity());
         assert_eq!(record.spec.learner_config(), faster.learner_config());
+    }
+
+    /// Regression (the accessors' `expect`s): a resolved spec read back from an edited
+    /// record is checked, and a bad one refused with its key, before anything uses it.
+    #[test]
+    fn an_edited_resolved_spec_is_refused_not_trusted() {
+        let good = spec(MINITAUR).unwrap().resolve(Purpose::Compare).unwrap();
+        good.check().unwrap();
+        let e = ResolvedSpec { algo: "foo".into(), ..good.clone() }.check().unwrap_err();
+        assert!(matches!(&e, SpecError::Range { key, .. } if key == "algo"), "{e}");
+        let mut bad_learner = good.clone();
+        bad_learner.learner["gamma"] = serde_json::json!(2.0);
+        assert!(bad_learner.check().unwrap_err().to_string().contains("gamma"));
+        let mut bad_hybrid = good.clone();
+        bad_hybrid.hybrid.as_mut().unwrap().rated_speed = Some(f64::NAN);
+        let e = bad_hybrid.check().unwrap_err();
+        assert!(matches!(&e, SpecError::Range { key, .. } if key == "controller.rated_speed"), "{e}");
     }
 
     #[test]

@@ -530,6 +530,16 @@ pub fn resume(
         return serde_json::from_str(&text).map_err(|e| fail(format!("{}: {e}", summary_path.display())));
     }
     let _held = lock_dir(dir).map_err(|c| claim_err(dir, c))?;
+    if let Some(spec) = &record.spec {
+        // The record may have been edited: its spec is checked as a spec file is.
+        spec.check().map_err(|e| fail(format!("run.json's spec: {e}")))?;
+        if spec.robot != record.env || spec.algo != record.algo {
+            return Err(fail(format!(
+                "run.json's spec is of {} on {}, the record of {} on {}",
+                spec.algo, spec.robot, record.algo, record.env
+            )));
+        }
+    }
     let kind = AlgoKind::from_name(&record.algo)
         .ok_or_else(|| fail(format!("unknown algorithm `{}`", record.algo)))?;
     let source = spec_source(

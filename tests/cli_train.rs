@@ -1248,8 +1248,19 @@ fn a_run_directory_held_by_another_process_is_refused() {
     drop(held);
     train(&opts, &mut |_| {}).unwrap();
     // Another process (the CLI) is refused while this one holds the run: replacing it, or
-    // resuming it once unfinished (a finished run's resume only reads its summary).
-    let held = lock_dir(&out).unwrap();
+    // resuming it once unfinished (a finished run's resume only reads its summary). The
+    // lock is taken once free: a sibling test's child process may share the lock's open
+    // file for the instant between its fork and its exec (seen once in a parallel run).
+    let started = std::time::Instant::now();
+    let held = loop {
+        match lock_dir(&out) {
+            Ok(held) => break held,
+            Err(centaur::rundir::Claim::Busy) if started.elapsed().as_secs() < 2 => {
+                std::thread::sleep(std::time::Duration::from_millis(5))
+            }
+            Err(other) => panic!("the run's lock was not released: {other:?}"),
+        }
+    };
     let cli = |args: &[&str]| {
         std::process::Command::new(env!("CARGO_BIN_EXE_centaur")).args(args).arg(&out).output().unwrap()
     };

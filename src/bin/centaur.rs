@@ -719,8 +719,10 @@ fn compare(args: CompareArgs) -> ExitCode {
     let resolved = compare_spec(&args).and_then(|spec| {
         spec.resolve_with(Purpose::Compare, &args.hybrid.tables()).map_err(|e| e.to_string())
     });
-    let resolved = match resolved {
-        Ok(r) => r,
+    let base =
+        resolved.and_then(|r| CompareOptions::from_spec(&r, args.out.clone()).map_err(|e| e.to_string()));
+    let base = match base {
+        Ok(b) => b,
         Err(e) => {
             eprintln!("error: {e}");
             return ExitCode::FAILURE;
@@ -733,7 +735,7 @@ fn compare(args: CompareArgs) -> ExitCode {
         overwrite: args.overwrite,
         pure_from: args.pure_from,
         command: Some(command_line()),
-        ..CompareOptions::from_spec(&resolved, args.out)
+        ..base
     };
     let seeds = opts.seeds.max(1);
     let bar = ProgressBar::new(seeds * 2 * opts.steps);
