@@ -49,7 +49,7 @@ fn recorded_setup(checkpoint: &Path, run: Option<&Path>) -> Option<ResidualConfi
             }
         }
     });
-    from_checkpoint.or_else(|| run.and_then(|r| recorded_hybrid(r).ok()).and_then(|(_, r)| r))
+    from_checkpoint.or_else(|| run.and_then(|r| recorded_hybrid(r).ok()).map(|(_, r)| r))
 }
 
 #[global_allocator]
@@ -101,6 +101,12 @@ fn main() {
     {
         match check_trained_with(run, &residual) {
             Ok(trained) => {
+                if let Some(difference) = &trained.controller_changed {
+                    eprintln!(
+                        "embed_controller: warning: {} was trained on another controller preset than today's ({difference}); running today's",
+                        run.display()
+                    );
+                }
                 if trained.controller_motor == Some(MotorInverse::Drawn) {
                     eprintln!(
                         "embed_controller: {} was trained with the controller told the motor drawn at reset (the earlier default); it is told so here too",

@@ -599,7 +599,7 @@ mod tests {
     }
 
     /// The main example with its named spec is the main example: the same options, so the
-    /// same fingerprint and the same run; a spec of another robot is refused.
+    /// same identity and the same run; a spec of another robot is refused.
     #[test]
     fn the_main_examples_spec_is_the_main_example() {
         use clap::Parser;
@@ -624,7 +624,7 @@ mod tests {
         let spec = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/residual_ppo_minitaur.toml");
         let plain = options(&[]).unwrap();
         let by_spec = options(&["--spec", spec.to_str().unwrap()]).unwrap();
-        assert_eq!(by_spec.fingerprint(), plain.fingerprint());
+        assert_eq!(by_spec.identity(), plain.identity());
         assert_eq!(
             (by_spec.residual.clone(), by_spec.eval_every, by_spec.n_envs),
             (plain.residual.clone(), None, 4)

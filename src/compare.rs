@@ -61,7 +61,7 @@ pub struct CompareOptions {
     /// [`ExperimentOptions::eval_every`]).
     pub eval_every: Option<u64>,
     /// Keep the seeds already finished in `out` with the same options (their
-    /// `experiment.json` fingerprint), run the others (replacing a seed's partial run of
+    /// `experiment.json` identity), run the others (replacing a seed's partial run of
     /// these options); a seed's directory holding a run of other options is refused before
     /// anything trains ([`crate::experiment::check_resumable`]).
     pub resume: bool,

@@ -655,6 +655,42 @@ impl ResolvedSpec {
     }
 }
 
+/// The identity of a canonical JSON value: FNV-1a (64 bit) of its text, in hex. Objects
+/// are written with their keys sorted (`serde_json`'s map), floats in their shortest
+/// round-trip form, so equal values have equal identities on every platform.
+pub fn identity_of(value: &serde_json::Value) -> String {
+    format!("{:016x}", fnv1a(value.to_string().as_bytes()))
+}
+
+/// The first key path where two canonical JSON values differ, as
+/// `path: recorded …, given …` (`None`: equal). Keys are visited in sorted order; a key in
+/// one value only is a difference (`absent` on the other side).
+pub fn first_difference(recorded: &serde_json::Value, given: &serde_json::Value) -> Option<String> {
+    fn walk(path: &str, r: Option<&serde_json::Value>, g: Option<&serde_json::Value>) -> Option<String> {
+        use serde_json::Value::{Array, Object};
+        let sub = |k: &str| if path.is_empty() { k.to_string() } else { format!("{path}.{k}") };
+        match (r, g) {
+            (Some(Object(r)), Some(Object(g))) => {
+                let mut keys: Vec<&String> = r.keys().chain(g.keys()).collect();
+                keys.sort();
+                keys.dedup();
+                keys.into_iter().find_map(|k| walk(&sub(k), r.get(k), g.get(k)))
+            }
+            (Some(Array(r)), Some(Array(g))) if r.len() == g.len() => r
+                .iter()
+                .zip(g)
+                .enumerate()
+                .find_map(|(i, (r, g))| walk(&format!("{path}[{i}]"), Some(r), Some(g))),
+            (r, g) if r == g => None,
+            (r, g) => {
+                let show = |v: Option<&serde_json::Value>| v.map_or("absent".to_string(), |v| v.to_string());
+                Some(format!("{path}: recorded {}, given {}", show(r), show(g)))
+            }
+        }
+    }
+    walk("", Some(recorded), Some(given))
+}
+
 /// FNV-1a, 64 bit: a stable hash (the same on every platform and Rust version).
 fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
@@ -1004,6 +1040,25 @@ mod tests {
         }
         // A value cannot become a table.
         assert!(apply_set(&mut t, "controller.rated_speed.x=1").is_err());
+    }
+
+    /// The first difference is found on either side, by key path, in sorted key order;
+    /// equal values have equal identities, key order aside.
+    #[test]
+    fn the_first_difference_is_named_by_its_key_path() {
+        use serde_json::json;
+        let a = json!({"b": {"x": 1.0, "y": [1, 2]}, "a": 1});
+        assert_eq!(first_difference(&a, &a), None);
+        let b = json!({"a": 1, "b": {"x": 1.0, "y": [1, 3]}});
+        assert_eq!(first_difference(&a, &b).as_deref(), Some("b.y[1]: recorded 2, given 3"));
+        let c = json!({"a": 1, "b": {"x": 1.0, "y": [1, 2], "z": true}});
+        assert_eq!(first_difference(&a, &c).as_deref(), Some("b.z: recorded absent, given true"));
+        assert_eq!(first_difference(&c, &a).as_deref(), Some("b.z: recorded true, given absent"));
+        let d = json!({"a": 1, "b": {"x": 1.0, "y": [1]}});
+        assert_eq!(first_difference(&a, &d).as_deref(), Some("b.y: recorded [1,2], given [1]"));
+        let reordered = json!({"a": 1, "b": {"y": [1, 2], "x": 1.0}});
+        assert_eq!(identity_of(&a), identity_of(&reordered));
+        assert_ne!(identity_of(&a), identity_of(&b));
     }
 
     #[test]

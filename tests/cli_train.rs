@@ -771,7 +771,10 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
         compare_minitaur_ppo(&[&args[..], &["--resume", "--residual-scale", "0.1"]].concat(), &config, &out);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success(), "{stderr}");
-    assert!(stderr.contains("a run of other options") && stderr.contains("scale: [0."), "{stderr}");
+    assert!(
+        stderr.contains("a run of other options") && stderr.contains("residual.scale[0]: recorded"),
+        "{stderr}"
+    );
     assert_eq!(summaries(&out), before);
     assert_eq!(std::fs::read(out.join("seed_0").join("hybrid").join("checkpoint")).unwrap(), seed_0_ckpt);
     // A record that does not read is refused too, and left where it is.
@@ -859,7 +862,11 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
         assert!(err.contains(expected), "{extra:?}: {err}");
     };
     let other = out_dir("compare-ablation-other");
-    refused(&["--envs", "2"], &other, "its pure-RL agent was trained with other options");
+    refused(
+        &["--envs", "2"],
+        &other,
+        "other options than this run's (only the hybrid's setup may differ): envs: recorded",
+    );
     assert!(!other.join("seed_0").exists(), "a refused ablation wrote {}", other.display());
     let before = std::fs::read(out.join("compare.json")).unwrap();
     refused(&["--overwrite"], &out, "names the output directory itself");
@@ -963,17 +970,24 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     assert!(e.contains("applies to a hybrid"), "{e}");
     let e = eval_fade("hybrid", "minitaur-residual", 0.2, 0.1).unwrap_err().to_string();
     assert!(e.contains("fade.end"), "{e}");
-    // A record from before the switch (no `controller_motor`) was trained with the drawn
-    // motor, which the study then follows: another table.
+    // A record told the drawn motor is studied with it: another table. A record of an
+    // older Centaur (no identity) is refused as such, robustness.json kept.
     let record_path = seed_0.join("experiment.json");
     let record = std::fs::read_to_string(&record_path).unwrap();
-    let mut legacy: serde_json::Value = serde_json::from_str(&record).unwrap();
-    assert_eq!(legacy["controller_motor"], "nominal");
-    legacy.as_object_mut().unwrap().remove("controller_motor");
-    std::fs::write(&record_path, serde_json::to_string_pretty(&legacy).unwrap()).unwrap();
+    let mut edited: serde_json::Value = serde_json::from_str(&record).unwrap();
+    assert_eq!(edited["controller_motor"], "nominal");
+    edited["controller_motor"] = "drawn".into();
+    std::fs::write(&record_path, serde_json::to_string_pretty(&edited).unwrap()).unwrap();
     let o = robustness(&seed_0, &[]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_ne!(std::fs::read_to_string(seed_0.join("robustness.json")).unwrap(), before);
+    std::fs::write(seed_0.join("robustness.json"), &before).unwrap();
+    edited.as_object_mut().unwrap().remove("identity");
+    std::fs::write(&record_path, serde_json::to_string_pretty(&edited).unwrap()).unwrap();
+    let o = robustness(&seed_0, &[]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("recorded by an older Centaur"), "{o:?}");
+    assert_eq!(std::fs::read_to_string(seed_0.join("robustness.json")).unwrap(), before);
     std::fs::write(&record_path, record).unwrap();
     // The flags override the setup the run records, with a warning naming both: at another
     // rating it runs; without its steering the policy no longer fits and is refused.

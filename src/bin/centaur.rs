@@ -10,7 +10,6 @@ use centaur::compare::{CompareOptions, run_compare};
 use centaur::control::{ControlOptions, Push, check_out_dir, run_control, write_summary};
 use centaur::experiment::Phase;
 use centaur::experiment::{Condition, RobustnessOptions, recorded_hybrid, robustness_table, run_robustness};
-use centaur::registry::residual_config;
 use centaur::spec::{Purpose, RunSpec, SCHEMA_VERSION, run_file_tables};
 use centaur::train::{TrainOptions, read_config_file, read_run_record, resume, train};
 use centaur_envs::minitaur::MotorInverse;
@@ -645,14 +644,10 @@ fn compare_spec(args: &CompareArgs) -> Result<RunSpec, String> {
 }
 
 /// The robot and the hybrid's setup of `centaur robustness`: the run's recorded ones with
-/// the flags over them (a change to what the policy was trained with is warned about), or
-/// for a record from before the setup was data, the robot's preset with the flags.
+/// the flags over them (a change to what the policy was trained with is warned about).
 fn robustness_setup(args: &RobustnessArgs) -> Result<(String, centaur::hybrid::ResidualConfig), String> {
     let (recorded_env, recorded) = recorded_hybrid(&args.run).map_err(|e| e.to_string())?;
     let env = args.env.clone().unwrap_or(recorded_env);
-    let Some(recorded) = recorded else {
-        return Ok((env.clone(), args.hybrid.apply(residual_config(&env).map_err(|e| e.to_string())?)));
-    };
     let residual = args.hybrid.tables().apply(recorded.clone()).map_err(|e| e.to_string())?;
     let without_fade =
         |r: &centaur::hybrid::ResidualConfig| centaur::hybrid::ResidualConfig { fade: None, ..r.clone() };

@@ -2,7 +2,6 @@
 
 use std::path::{Path, PathBuf};
 
-use centaur_envs::minitaur::MotorInverse;
 use centaur_gym::EnvError;
 use centaur_rl::{AlgoConfig, RlError};
 
@@ -99,17 +98,14 @@ pub enum ExperimentError {
         /// The setup given.
         given: String,
     },
-    /// The run's controller was configured otherwise than the robot's preset is today (a
-    /// preset changed since it trained): its hybrid would be judged on a controller it never
-    /// saw.
+    /// A run directory whose `experiment.json` an older Centaur wrote (it holds no
+    /// identity, or not the hybrid's setup as data): nothing can tell what it ran.
     #[error(
-        "{run}: its hybrid was trained on another controller than today's preset for this robot (the preset changed since): {difference}; rerun it, or evaluate it with the commit it was trained at"
+        "{dir}/experiment.json was recorded by an older Centaur (it holds no run identity): rerun that run, or use it with the Centaur that wrote it"
     )]
-    ControllerChanged {
+    OlderRecord {
         /// The run directory.
-        run: PathBuf,
-        /// The first difference, `field: recorded …, today …`.
-        difference: String,
+        dir: PathBuf,
     },
     /// Another process is writing an experiment in the directory.
     #[error(
@@ -141,17 +137,15 @@ pub enum ExperimentError {
         dir: PathBuf,
     },
     /// `centaur compare --resume` found a seed's directory holding a run of other options
-    /// than these: resuming would replace it (it used to, without a word).
+    /// than these: resuming would replace it.
     #[error(
-        "{dir}: it holds a run of other options than these (recorded …{recorded}…, here …{given}…); resuming would replace it: give the options it ran with, or choose another --out (--overwrite replaces the whole comparison)"
+        "{dir}: it holds a run of other options than these ({difference}); resuming would replace it: give the options it ran with, or choose another --out (--overwrite replaces the whole comparison)"
     )]
     ResumeDiffers {
         /// The seed's directory.
         dir: PathBuf,
-        /// The recorded options around their first difference.
-        recorded: String,
-        /// These options around the same place.
-        given: String,
+        /// The first difference, `key: recorded …, given …`.
+        difference: String,
     },
     /// `centaur compare --resume` found a seed's record (`experiment.json`) it cannot read:
     /// resuming would replace a run it cannot tell to be this one.
@@ -166,15 +160,13 @@ pub enum ExperimentError {
     },
     /// A run whose pure-RL agent was to be reused was trained with other options.
     #[error(
-        "{from}: its pure-RL agent was trained with other options than this run's (only the hybrid's setup may differ): recorded …{recorded}…, here …{given}…"
+        "{from}: its pure-RL agent was trained with other options than this run's (only the hybrid's setup may differ): {difference}"
     )]
     PureRunDiffers {
         /// The run directory given to reuse.
         from: PathBuf,
-        /// The recorded options around their first difference.
-        recorded: String,
-        /// This run's options around the same place.
-        given: String,
+        /// The first difference, `key: recorded …, given …`.
+        difference: String,
     },
     /// A run whose pure-RL agent was to be reused has not finished (no `summary.json`, or
     /// its pure-RL files are missing).
@@ -288,54 +280,61 @@ pub struct ExperimentOptions {
     /// A finished run (a directory like this one's) whose pure-RL agent is reused instead of
     /// trained again: its training (metrics, evaluations during training, checkpoint, wall
     /// times) is copied, its final checkpoint evaluated again here. It must have been run
-    /// with the same options but for the hybrid's setup ([`ExperimentOptions::pure_fingerprint`]);
+    /// with the same options but for the hybrid's setup ([`ExperimentOptions::pure_identity`]);
     /// pure RL does not depend on the hybrid, so the figures are those of training it again
     /// with the code that wrote that run. `None`: train it.
     pub pure_from: Option<PathBuf>,
 }
 
 impl ExperimentOptions {
-    /// What decides the pure-RL agent's results: [`ExperimentOptions::fingerprint`] without
-    /// the hybrid's setup (its `ResidualConfig { … }`).
-    pub fn pure_fingerprint(&self) -> String {
-        pure_part(&self.fingerprint())
+    /// Everything that decides the pure-RL agent's results, as canonical JSON: the robot,
+    /// the learner (kind and every setting), budget, seed, environments, evaluation and the
+    /// `[env]` settings but for the motor the controller is told (pure RL has no
+    /// controller). Not `out`, `threads`, `record`, `overwrite` or `pure_from`.
+    pub fn pure_options(&self) -> serde_json::Value {
+        let settings = EnvSettings { motor_inverse: None, ..self.env_settings.clone() };
+        serde_json::json!({
+            "env": self.env,
+            "algo": self.algo.kind().name(),
+            "learner": crate::spec::learner_value(&self.algo),
+            "steps": self.steps,
+            "seed": self.seed,
+            "envs": self.n_envs,
+            "eval_episodes": self.eval_episodes,
+            "eval_every": self.eval_every,
+            "env_settings": serde_json::to_value(&settings).expect("[env] settings serialise"),
+        })
     }
 
-    /// Everything that decides the results (not `out`, `threads`, `record` or `overwrite`),
-    /// as Rust's `Debug` writes it (floats in their shortest round-trip form): a finished run
-    /// whose `experiment.json` holds the same text can be kept instead of run again.
-    pub fn fingerprint(&self) -> String {
-        let base = format!(
-            "{:?}",
-            (
-                &self.env,
-                &self.algo,
-                self.steps,
-                self.seed,
-                self.n_envs,
-                self.eval_episodes,
-                &self.residual,
-                self.eval_every
-            )
+    /// Everything that decides the run's results: [`ExperimentOptions::pure_options`] and
+    /// the hybrid's side (its setup, its own learner settings where set, the motor its
+    /// controller is told).
+    pub fn options(&self) -> serde_json::Value {
+        let mut options = self.pure_options();
+        let object = options.as_object_mut().expect("the options are an object");
+        object.insert("residual".into(), serde_json::to_value(&self.residual).expect("a setup serialises"));
+        object.insert(
+            "hybrid_learner".into(),
+            self.hybrid_algo.as_ref().map_or(serde_json::Value::Null, crate::spec::learner_value),
         );
-        // Learner settings added after runs were made are left out at their defaults, so that
-        // those runs keep their fingerprint (`--resume`, `--pure-from`).
-        let base = strip_new_defaults(base);
-        // The motor the Minitaur's controller is told is written as a mark at the end, not
-        // as a setting: its default changed from the drawn motor to the
-        // nominal one, and runs from before the change (no mark) are the runs told the drawn motor,
-        // by default or by `[env] motor_inverse = "drawn"`.
-        let settings = EnvSettings { motor_inverse: None, ..self.env_settings.clone() };
-        // Runs on the preset keep the fingerprint they had before settings existed.
-        let with = if settings.is_empty() { base } else { format!("{base} with {settings:?}") };
-        // The hybrid's own hyperparameters, where set, are written after the rest, so that
-        // runs without them keep their fingerprint and the pure part leaves them out.
-        let with = match &self.hybrid_algo {
-            Some(h) => format!("{with}{HYBRID_LEARNER_MARK}{}", strip_new_defaults(format!("{h:?}"))),
-            None => with,
-        };
-        let nominal = controller_motor(&self.env, &self.env_settings) == Some(MotorInverse::Nominal);
-        if nominal { with + NOMINAL_MOTOR_MARK } else { with }
+        object.insert(
+            "controller_motor".into(),
+            serde_json::to_value(controller_motor(&self.env, &self.env_settings))
+                .expect("a motor serialises"),
+        );
+        options
+    }
+
+    /// The run's identity ([`crate::spec::identity_of`] of [`ExperimentOptions::options`]):
+    /// a finished run whose `experiment.json` holds the same can be kept instead of run again.
+    pub fn identity(&self) -> String {
+        crate::spec::identity_of(&self.options())
+    }
+
+    /// Pure RL's identity: that of [`ExperimentOptions::pure_options`]; a run of another
+    /// hybrid with the same identity trained the same pure-RL agent (`--pure-from`).
+    pub fn pure_identity(&self) -> String {
+        crate::spec::identity_of(&self.pure_options())
     }
 
     /// The hyperparameters the hybrid trains with: [`ExperimentOptions::hybrid_algo`], else
@@ -344,28 +343,6 @@ impl ExperimentOptions {
         self.hybrid_algo.as_ref().unwrap_or(&self.algo)
     }
 }
-
-/// Learner settings added after runs were made, as `Debug` writes them at their defaults:
-/// a fingerprint leaves them out (PPO's critic burn-in).
-const NEW_DEFAULTS: [&str; 1] = [", actor_burn_in_steps: 0"];
-
-fn strip_new_defaults(mut fingerprint: String) -> String {
-    for d in NEW_DEFAULTS {
-        fingerprint = fingerprint.replace(d, "");
-    }
-    fingerprint
-}
-
-/// The end of the fingerprint of a run whose Minitaur controller is told the nominal motor
-/// ([`centaur_envs::MinitaurConfig::motor_inverse`], the default now): absent in
-/// those told the drawn motor, the earlier default. Pure RL does not depend on it
-/// ([`pure_part`] leaves it out).
-pub(crate) const NOMINAL_MOTOR_MARK: &str = "; the controller told the nominal motor";
-
-/// Where a fingerprint writes the hybrid's own hyperparameters
-/// ([`ExperimentOptions::hybrid_algo`]), before the motor's mark: pure RL does not depend on
-/// them ([`pure_part`] leaves them out).
-pub(crate) const HYBRID_LEARNER_MARK: &str = "; the hybrid learning with ";
 
 /// Training curve of one agent: `(env steps, mean training episode return)` per update.
 pub type Curve = Vec<(u64, f64)>;
@@ -390,36 +367,4 @@ pub enum Phase {
     TrainHybrid,
     /// Evaluating all three agents: reported once, with default metrics, as it starts.
     Evaluate,
-}
-
-/// A fingerprint without the hybrid's setup: what the pure-RL agent's results depend on
-/// (records of every age write the setup as one `ResidualConfig { … }`), nor the hybrid's own
-/// hyperparameters ([`HYBRID_LEARNER_MARK`]), nor the motor the controller is told
-/// ([`NOMINAL_MOTOR_MARK`]).
-pub(crate) fn pure_part(fingerprint: &str) -> String {
-    let fingerprint = fingerprint.strip_suffix(NOMINAL_MOTOR_MARK).unwrap_or(fingerprint);
-    let fingerprint = fingerprint.find(HYBRID_LEARNER_MARK).map_or(fingerprint, |i| &fingerprint[..i]);
-    match fingerprint.find("ResidualConfig {") {
-        Some(_) => fingerprint.replacen(&residual_part(fingerprint), "ResidualConfig { .. }", 1),
-        None => fingerprint.to_string(),
-    }
-}
-
-/// The `ResidualConfig { … }` part of a fingerprint (the whole fingerprint if it has none).
-pub(crate) fn residual_part(fingerprint: &str) -> String {
-    let Some(start) = fingerprint.find("ResidualConfig {") else { return fingerprint.to_string() };
-    let mut depth = 0usize;
-    for (i, c) in fingerprint[start..].char_indices() {
-        match c {
-            '{' => depth += 1,
-            '}' => {
-                depth -= 1;
-                if depth == 0 {
-                    return fingerprint[start..=start + i].to_string();
-                }
-            }
-            _ => {}
-        }
-    }
-    fingerprint[start..].to_string()
 }

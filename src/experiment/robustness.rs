@@ -140,11 +140,17 @@ pub fn run_robustness(opts: &RobustnessOptions) -> Result<Vec<RobustnessRow>, Ex
             env: opts.env.clone(),
         });
     }
-    // The run is checked against the setup it recorded (the robot's preset as given for
-    // records from before the setup was data); `opts.residual` may differ from it where the
-    // caller overrode a value on purpose (`centaur robustness` warns then).
-    let checked = recorded_hybrid(&opts.run)?.1.unwrap_or_else(|| opts.residual.clone());
+    // The run is checked against the setup it recorded; `opts.residual` may differ from it
+    // where the caller overrode a value on purpose (`centaur robustness` warns then), and
+    // today's controller preset from the one it ran on (warned about here).
+    let (_, checked) = recorded_hybrid(&opts.run)?;
     let trained = check_trained_with(&opts.run, &checked)?;
+    if let Some(difference) = &trained.controller_changed {
+        eprintln!(
+            "warning: {}: its hybrid was trained on another controller preset than today's ({difference}); evaluating it on today's",
+            opts.run.display()
+        );
+    }
     let motor_inverse = opts.motor_inverse.or(trained.controller_motor).unwrap_or_default();
     let mut controller_cfg = controller_config(&opts.env)?;
     opts.residual.rate_controller(&mut controller_cfg)?;

@@ -12,9 +12,7 @@ use centaur_mpc::LocomotionController;
 use centaur_rl::{Algorithm, MetricsCsv, Policy, RlError, UpdateMetrics};
 
 use super::evaluation::{Driver, evaluate};
-use super::options::{
-    Curve, ExperimentError, ExperimentOptions, ExperimentResult, Phase, io_err, pure_part, residual_part,
-};
+use super::options::{Curve, ExperimentError, ExperimentOptions, ExperimentResult, Phase, io_err};
 use super::summary::{AgentStats, BudgetEval, ExperimentSummary};
 use crate::hybrid::{ActionMapping, HybridError, ResidualConfig};
 use crate::plot::{PlotError, PlotLabels, Series, plot_curves};
@@ -163,10 +161,18 @@ struct ExperimentRecord {
     algo: String,
     steps: u64,
     seed: u64,
-    /// [`ExperimentOptions::fingerprint`].
-    fingerprint: String,
-    /// The hybrid's setup, as data. Records written before it was stored lack it; their
-    /// fingerprint's text is matched instead ([`legacy`]).
+    /// [`ExperimentOptions::identity`]; records of an older Centaur lack it (they are
+    /// refused as such: [`ExperimentError::OlderRecord`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    identity: Option<String>,
+    /// [`ExperimentOptions::pure_identity`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pure_identity: Option<String>,
+    /// [`ExperimentOptions::options`], whose identity the record holds: a difference is
+    /// named by its key.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    options: Option<serde_json::Value>,
+    /// The hybrid's setup, as data.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     residual: Option<ResidualConfig>,
     /// The `[env]` settings of both agents (absent: the preset).
@@ -175,28 +181,42 @@ struct ExperimentRecord {
     /// The run whose pure-RL agent this one reused ([`ExperimentOptions::pure_from`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pure_from: Option<PathBuf>,
-    /// The motor the controller was told, on a Minitaur ([`controller_motor`]). Records
-    /// written before the controller's motor was recorded lack it: theirs was the one in their
-    /// `[env]` settings, or else the drawn motor ([`MotorInverse::legacy`]).
+    /// The motor the controller was told, on a Minitaur ([`controller_motor`]; `None`:
+    /// another robot).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     controller_motor: Option<MotorInverse>,
     /// The robot's controller preset the hybrid ran on (`ControllerConfig`, every gain and
-    /// weight), in newer records; older ones lack it and are not checked for it.
+    /// weight).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     controller: Option<serde_json::Value>,
 }
 
 impl ExperimentRecord {
-    /// The motor the run's controller was told (`None`: not a Minitaur).
-    fn controller_motor(&self) -> Option<MotorInverse> {
-        let recorded = || self.env_settings.motor_inverse.unwrap_or_else(MotorInverse::legacy);
-        self.controller_motor.or_else(|| controller_motor(&self.env, &self.env_settings).map(|_| recorded()))
+    /// The record as this Centaur writes it: refused as [`ExperimentError::OlderRecord`]
+    /// where it lacks the identity, the options or the hybrid's setup.
+    fn current(self, dir: &Path) -> Result<CurrentRecord, ExperimentError> {
+        match (self.identity.clone(), self.pure_identity.clone(), self.options.clone(), self.residual.clone())
+        {
+            (Some(identity), Some(pure_identity), Some(options), Some(residual)) => {
+                Ok(CurrentRecord { identity, pure_identity, options, residual, record: self })
+            }
+            _ => Err(ExperimentError::OlderRecord { dir: dir.to_path_buf() }),
+        }
     }
+}
+
+/// An [`ExperimentRecord`] with every part this Centaur writes.
+struct CurrentRecord {
+    identity: String,
+    pure_identity: String,
+    options: serde_json::Value,
+    residual: ResidualConfig,
+    record: ExperimentRecord,
 }
 
 /// What a run's hybrid was trained with, as far as the studies that reuse it need to know
 /// ([`check_trained_with`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct TrainedWith {
     /// The motor the controller was told, on a Minitaur (`None`: another robot); the studies
     /// tell it the same unless asked otherwise.
@@ -204,6 +224,10 @@ pub struct TrainedWith {
     /// Whether both agents observed the robot's body state (`[env] observe_body_state`,
     /// the Minitaur's); the studies build their environments with it.
     pub observe_body_state: bool,
+    /// Where the robot's controller preset differs from the one the run recorded (a preset
+    /// changed since it trained): the first difference, `key: recorded …, given …`. The
+    /// studies run today's preset and warn with it.
+    pub controller_changed: Option<String>,
 }
 
 /// Creates the run directory, refusing one that already holds a run unless `overwrite`
@@ -220,7 +244,9 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<DirLock, ExperimentError>
         algo: opts.algo.kind().name().to_string(),
         steps: opts.steps,
         seed: opts.seed,
-        fingerprint: opts.fingerprint(),
+        identity: Some(opts.identity()),
+        pure_identity: Some(opts.pure_identity()),
+        options: Some(opts.options()),
         residual: Some(opts.residual.clone()),
         env_settings: opts.env_settings.clone(),
         pure_from: opts.pure_from.as_deref().map(crate::rundir::recorded_path),
@@ -235,13 +261,11 @@ fn prepare_run_dir(opts: &ExperimentOptions) -> Result<DirLock, ExperimentError>
 
 /// The hybrid a run directory (one seed of `centaur compare`, or an example's run)
 /// recorded in its `experiment.json`: the robot and the hybrid's whole setup, which the
-/// studies that reuse the run build from, so that no flag has to be typed again. `None` for
-/// the setup: a record written before the setup was stored as data (its robot's preset,
-/// with the flags it was trained with, is then checked against its text by
-/// [`check_trained_with`]).
-pub fn recorded_hybrid(dir: &Path) -> Result<(String, Option<ResidualConfig>), ExperimentError> {
-    let record = read_record(dir)?;
-    Ok((record.env, record.residual))
+/// studies that reuse the run build from, so that no flag has to be typed again. A record
+/// of an older Centaur is [`ExperimentError::OlderRecord`].
+pub fn recorded_hybrid(dir: &Path) -> Result<(String, ResidualConfig), ExperimentError> {
+    let record = read_record(dir)?.current(dir)?;
+    Ok((record.record.env, record.residual))
 }
 
 fn read_record(dir: &Path) -> Result<ExperimentRecord, ExperimentError> {
@@ -265,18 +289,18 @@ fn read_record(dir: &Path) -> Result<ExperimentRecord, ExperimentError> {
 /// `experiment.json` records. A run evaluated with another setup (a different rating,
 /// steering span or parts) would be judged on a controller it never saw. A rating equal to
 /// the controller's own for the gait is the same controller as none
-/// (`the_trots_own_rating_reproduces_the_old_preset_bit_for_bit`), so the two match. Records
-/// from before the setup was stored as data are matched by their text. A run trained with
-/// `[env]` settings is refused unless they only perturbed training
+/// (`the_trots_own_rating_reproduces_the_old_preset_bit_for_bit`), so the two match. A run
+/// trained with `[env]` settings is refused unless they only perturbed training
 /// ([`crate::settings::TRAINING_ONLY`]: motor strength drawn at reset, pushes), set the
 /// motor the controller is told or put the body state in the observation, both returned
-/// ([`TrainedWith`]), since the callers run the robot's preset environment with them. A run
-/// whose record holds the controller's preset (newer records do) is refused when today's
-/// differs, naming the first difference. The safety fade ([`crate::hybrid::Fade`]) is not
-/// compared: a run may be evaluated with or without it. `centaur robustness` and
-/// `examples/embed_controller` check with it.
+/// ([`TrainedWith`]), since the callers run the robot's preset environment with them. Where
+/// today's controller preset differs from the one recorded, the first difference is
+/// returned for a warning ([`TrainedWith::controller_changed`]). The safety fade
+/// ([`crate::hybrid::Fade`]) is not compared: a run may be evaluated with or without it.
+/// A record of an older Centaur is [`ExperimentError::OlderRecord`]. `centaur robustness`
+/// and `examples/embed_controller` check with it.
 pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<TrainedWith, ExperimentError> {
-    let record = read_record(dir)?;
+    let CurrentRecord { residual: trained, record, .. } = read_record(dir)?.current(dir)?;
     // The studies that check with this run the robot's preset environment: settings that
     // only perturbed training (motor strength drawn at reset, pushes) leave its policies
     // fit for it, they tell the controller the motor it was told and give the policies the
@@ -302,200 +326,30 @@ pub fn check_trained_with(dir: &Path, residual: &ResidualConfig) -> Result<Train
         Some(v) if Some(v) == own_rating => ResidualConfig { rated_speed: None, fade: None, ..r.clone() },
         _ => ResidualConfig { fade: None, ..r.clone() },
     };
-    let (same, trained) = match &record.residual {
-        Some(trained) => (unrated_if_own(trained) == unrated_if_own(residual), format!("{trained:?}")),
-        None => (
-            legacy::matches(&record.fingerprint, &unrated_if_own(residual), own_rating),
-            residual_part(&record.fingerprint),
-        ),
-    };
-    if same {
-        if let (Some(recorded), Ok(today)) = (&record.controller, controller_config(&record.env)) {
-            let today = serde_json::to_string(&today).unwrap_or_default();
-            if let Some(difference) = crate::train::config_difference(&recorded.to_string(), &today) {
-                return Err(ExperimentError::ControllerChanged { run: dir.to_path_buf(), difference });
-            }
-        }
-        return Ok(TrainedWith {
-            controller_motor: record.controller_motor(),
-            observe_body_state: record.env_settings.observe_body_state == Some(true),
+    if unrated_if_own(&trained) != unrated_if_own(residual) {
+        return Err(ExperimentError::SetupMismatch {
+            run: dir.to_path_buf(),
+            trained: format!("{trained:?}"),
+            given: format!("{residual:?}"),
         });
     }
-    Err(ExperimentError::SetupMismatch { run: dir.to_path_buf(), trained, given: format!("{residual:?}") })
-}
-
-/// Records written before `experiment.json` stored the hybrid's setup as data hold it
-/// only as `ResidualConfig`'s `Debug` text inside the fingerprint, in
-/// one of three forms: with every field below; without `rated_speed` (written before it
-/// existed); without it and `warmup_with_policy`. The forms are written out here field by
-/// field, so that fields added to the setup later leave them as they were.
-mod legacy {
-    use std::fmt;
-
-    use centaur_mpc::{Command, Gait};
-
-    use crate::hybrid::{Exploration, ResidualConfig, Steering};
-
-    /// Whether `fingerprint` holds `residual` (with no rating when it is the controller's
-    /// own, which is `own_rating`) in one of the old forms.
-    pub(super) fn matches(fingerprint: &str, residual: &ResidualConfig, own_rating: Option<f64>) -> bool {
-        // The old forms predate these parts: a setup with any of them set is not one of them.
-        let newer = residual.exploration_ramp.is_some()
-            || residual.fade.is_some()
-            || residual.bound_ramp.is_some()
-            || residual.period_scale.is_some()
-            || residual.max_acceleration.is_some()
-            || residual.swing_height.is_some()
-            || residual.mpc_period.is_some()
-            || residual.cheap_torques
-            || residual.include_state
-            || residual.steering.cadence != 0.0
-            || residual.steering.duty != 0.0
-            || residual.steering.swing != 0.0
-            || residual.steering.foothold != 0.0;
-        if newer {
-            return false;
+    let controller_changed = match (&record.controller, controller_config(&record.env)) {
+        (Some(recorded), Ok(today)) => {
+            let today = serde_json::to_value(&today).expect("a controller preset serialises");
+            crate::spec::first_difference(recorded, &today)
         }
-        let mut candidates = vec![residual.clone()];
-        if residual.rated_speed.is_none() && own_rating.is_some() {
-            // A run may also have recorded the controller's own rating explicitly.
-            candidates.push(ResidualConfig { rated_speed: own_rating, ..residual.clone() });
-        }
-        candidates.iter().any(|r| {
-            let unrated = r.rated_speed.is_none();
-            let forms = [
-                Some(Form { r, rating: true, warmup: true }),
-                unrated.then_some(Form { r, rating: false, warmup: true }),
-                (unrated && !r.warmup_with_policy).then_some(Form { r, rating: false, warmup: false }),
-            ];
-            forms.iter().flatten().any(|form| fingerprint.contains(&format!("{form:?}")))
-        })
-    }
-
-    /// One old form of `ResidualConfig`'s text.
-    struct Form<'a> {
-        r: &'a ResidualConfig,
-        rating: bool,
-        warmup: bool,
-    }
-
-    impl fmt::Debug for Form<'_> {
-        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-            // Every field named: a field added to the setup must be decided on here (an old
-            // record can only have run with it at its default).
-            let ResidualConfig {
-                scale,
-                joint_residual,
-                steering,
-                exploration,
-                // Records of this form predate the ramp: it can only be `None` here.
-                exploration_ramp: _,
-                warmup_with_policy,
-                include_reference,
-                command,
-                rated_speed,
-                // Records of this form predate the fade: it can only be `None` here.
-                fade: _,
-                // ... and the rising bound, the period scale and the command ramp.
-                bound_ramp: _,
-                period_scale: _,
-                max_acceleration: _,
-                // ... and the body state in the observation: it can only be off here.
-                include_state: _,
-                // ... and the swing height: it can only be the controller's own here.
-                swing_height: _,
-                // ... and the MPC period and the torque path: the controller's own here.
-                mpc_period: _,
-                cheap_torques: _,
-            } = self.r;
-            let mut s = f.debug_struct("ResidualConfig");
-            s.field("scale", scale)
-                .field("joint_residual", joint_residual)
-                .field("steering", &SteeringForm(steering))
-                .field("exploration", &exploration.as_ref().map(ExplorationForm));
-            if self.warmup {
-                s.field("warmup_with_policy", warmup_with_policy);
-            }
-            s.field("include_reference", include_reference).field("command", &CommandForm(command));
-            if self.rating {
-                s.field("rated_speed", rated_speed);
-            }
-            s.finish()
-        }
-    }
-
-    struct SteeringForm<'a>(&'a Steering);
-
-    impl fmt::Debug for SteeringForm<'_> {
-        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-            // Records of this form predate the cadence, the duty, the swing and the foothold:
-            // they can only be 0 here.
-            let Steering { speed, yaw_rate, cadence: _, duty: _, swing: _, foothold: _ } = self.0;
-            f.debug_struct("Steering").field("speed", speed).field("yaw_rate", yaw_rate).finish()
-        }
-    }
-
-    struct ExplorationForm<'a>(&'a Exploration);
-
-    impl fmt::Debug for ExplorationForm<'_> {
-        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-            let Exploration { residual, steering } = self.0;
-            f.debug_struct("Exploration").field("residual", residual).field("steering", steering).finish()
-        }
-    }
-
-    struct CommandForm<'a>(&'a Command);
-
-    impl fmt::Debug for CommandForm<'_> {
-        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-            let Command { forward_velocity, lateral_velocity, yaw_rate, body_height, gait } = self.0;
-            f.debug_struct("Command")
-                .field("forward_velocity", forward_velocity)
-                .field("lateral_velocity", lateral_velocity)
-                .field("yaw_rate", yaw_rate)
-                .field("body_height", body_height)
-                .field("gait", &GaitForm(*gait))
-                .finish()
-        }
-    }
-
-    /// A gait as the derived `Debug` of `Gait` wrote it when these records were made, spelt
-    /// out here so that a change to `Gait`'s `Debug` cannot change the frozen form.
-    struct GaitForm(Gait);
-
-    impl fmt::Debug for GaitForm {
-        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-            f.write_str(match self.0 {
-                Gait::Stand => "Stand",
-                Gait::Walk => "Walk",
-                Gait::Trot => "Trot",
-                Gait::Pace => "Pace",
-                Gait::Bound => "Bound",
-                Gait::Pronk => "Pronk",
-                Gait::Gallop => "Gallop",
-            })
-        }
-    }
-}
-
-/// The text of `a` and `b` around their first difference (up to 60 characters before it and
-/// 60 after), for an error message about two long fingerprints.
-fn around_difference(a: &str, b: &str) -> (String, String) {
-    let at = a
-        .char_indices()
-        .zip(b.chars())
-        .find(|((_, x), y)| x != y)
-        .map_or(a.len().min(b.len()), |((i, _), _)| i);
-    let window = |s: &str| {
-        let start = s[..at.min(s.len())].char_indices().rev().nth(59).map_or(0, |(i, _)| i);
-        s[start..].chars().take(120).collect::<String>()
+        _ => None,
     };
-    (window(a), window(b))
+    Ok(TrainedWith {
+        controller_motor: record.controller_motor,
+        observe_body_state: record.env_settings.observe_body_state == Some(true),
+        controller_changed,
+    })
 }
 
 /// Checks, reading only, that `from` holds a finished run whose pure-RL agent was trained as
 /// `opts` would train it: the same options but for the hybrid's setup
-/// ([`ExperimentOptions::pure_fingerprint`]), a `summary.json`, and the agent's metrics and
+/// ([`ExperimentOptions::pure_identity`]), a `summary.json`, and the agent's metrics and
 /// checkpoint, the metrics reaching the summary's steps. Returns its summary.
 pub(crate) fn check_pure_source(
     from: &Path,
@@ -518,10 +372,22 @@ pub(crate) fn check_pure_source(
     };
     let record: ExperimentRecord =
         serde_json::from_str(&read("experiment.json")?).map_err(|e| invalid("experiment.json", e))?;
-    let (recorded, given) = (pure_part(&record.fingerprint), opts.pure_fingerprint());
-    if recorded != given {
-        let (recorded, given) = around_difference(&recorded, &given);
-        return Err(ExperimentError::PureRunDiffers { from: from.to_path_buf(), recorded, given });
+    let record = record.current(from)?;
+    if record.pure_identity != opts.pure_identity() {
+        let pure = |v: &serde_json::Value| {
+            let mut v = v.clone();
+            if let Some(o) = v.as_object_mut() {
+                for hybrid_side in ["residual", "hybrid_learner", "controller_motor"] {
+                    o.remove(hybrid_side);
+                }
+            }
+            v
+        };
+        let difference = crate::spec::first_difference(&pure(&record.options), &opts.pure_options())
+            .unwrap_or_else(|| {
+                format!("identity: recorded {}, given {}", record.pure_identity, opts.pure_identity())
+            });
+        return Err(ExperimentError::PureRunDiffers { from: from.to_path_buf(), difference });
     }
     let summary: ExperimentSummary =
         serde_json::from_str(&read("summary.json")?).map_err(|e| invalid("summary.json", e))?;
@@ -590,42 +456,49 @@ fn reuse_pure(from: &Path, opts: &ExperimentOptions) -> Result<Trained, Experime
 
 /// Checks, reading only, that `centaur compare --resume` may run `opts` in its directory
 /// (`opts.out`): nothing there, a run killed before it wrote its record, or a run of the
-/// same options (finished: kept; killed: run again). A run of other options, or a record
-/// that does not read, is refused ([`ExperimentError::ResumeDiffers`],
-/// [`ExperimentError::ResumeUnreadable`]): resuming would replace a run that is not this
-/// one's.
+/// same options (finished: kept; killed: run again). A run of other options, a record that
+/// does not read or one of an older Centaur is refused ([`ExperimentError::ResumeDiffers`],
+/// [`ExperimentError::ResumeUnreadable`], [`ExperimentError::OlderRecord`]): resuming would
+/// replace a run that is not this one's.
 pub fn check_resumable(opts: &ExperimentOptions) -> Result<(), ExperimentError> {
-    let given = opts.fingerprint();
-    match recorded_fingerprint(&opts.out)? {
-        Some(recorded) if recorded != given => {
-            let (recorded, given) = around_difference(&recorded, &given);
-            Err(ExperimentError::ResumeDiffers { dir: opts.out.clone(), recorded, given })
+    match recorded_identity(&opts.out)? {
+        Some(record) if record.identity != opts.identity() => {
+            let difference =
+                crate::spec::first_difference(&record.options, &opts.options()).unwrap_or_else(|| {
+                    format!("identity: recorded {}, given {}", record.identity, opts.identity())
+                });
+            Err(ExperimentError::ResumeDiffers { dir: opts.out.clone(), difference })
         }
         _ => Ok(()),
     }
 }
 
-/// The fingerprint recorded in `dir`'s `experiment.json`, `None` where there is none (or no
-/// `dir`), [`ExperimentError::ResumeUnreadable`] where the record does not read.
-fn recorded_fingerprint(dir: &Path) -> Result<Option<String>, ExperimentError> {
+/// The record in `dir`'s `experiment.json`, `None` where there is none (or no `dir`),
+/// [`ExperimentError::ResumeUnreadable`] where it does not read,
+/// [`ExperimentError::OlderRecord`] where an older Centaur wrote it.
+fn recorded_identity(dir: &Path) -> Result<Option<CurrentRecord>, ExperimentError> {
     let path = dir.join("experiment.json");
-    let text = match std::fs::read_to_string(&path) {
+    let text = match crate::rundir::read_text_bounded(&path, crate::spec::MAX_SPEC_BYTES) {
         Ok(text) => text,
-        Err(e) if matches!(e.kind(), std::io::ErrorKind::NotFound | std::io::ErrorKind::NotADirectory) => {
+        Err(crate::rundir::ReadError::Io(e))
+            if matches!(e.kind(), std::io::ErrorKind::NotFound | std::io::ErrorKind::NotADirectory) =>
+        {
             return Ok(None);
         }
-        Err(source) => return Err(ExperimentError::Io { path, source }),
+        Err(e) => {
+            return Err(ExperimentError::ResumeUnreadable { dir: dir.to_path_buf(), reason: e.to_string() });
+        }
     };
     let record: ExperimentRecord = serde_json::from_str(&text)
         .map_err(|e| ExperimentError::ResumeUnreadable { dir: dir.to_path_buf(), reason: e.to_string() })?;
-    Ok(Some(record.fingerprint))
+    Ok(Some(record.current(dir)?))
 }
 
 /// The result of a run already finished in `opts.out` with the same options (its
-/// `experiment.json` fingerprint, `summary.json` and both agents' `metrics.csv`), or `None`
+/// `experiment.json` identity, `summary.json` and both agents' `metrics.csv`), or `None`
 /// if the directory holds no such finished run. `centaur compare --resume` keeps these.
 pub fn finished_experiment(opts: &ExperimentOptions) -> Option<ExperimentResult> {
-    if recorded_fingerprint(&opts.out).ok()?? != opts.fingerprint() {
+    if recorded_identity(&opts.out).ok()??.identity != opts.identity() {
         return None;
     }
     let read = |f: &str| std::fs::read_to_string(opts.out.join(f)).ok();
@@ -864,13 +737,15 @@ mod tests {
     use super::*;
     use crate::registry::residual_config;
 
-    fn record(residual: Option<&ResidualConfig>, fingerprint: String) -> ExperimentRecord {
+    fn record(residual: Option<&ResidualConfig>, identity: String) -> ExperimentRecord {
         ExperimentRecord {
             env: "minitaur".into(),
             algo: "ppo".into(),
             steps: 10,
             seed: 0,
-            fingerprint,
+            identity: Some(identity.clone()),
+            pure_identity: Some(identity),
+            options: Some(serde_json::json!({})),
             residual: residual.cloned(),
             env_settings: EnvSettings::default(),
             pure_from: None,
@@ -935,10 +810,9 @@ mod tests {
     }
 
     /// A record holding the controller's preset is checked against today's: the same
-    /// passes, a changed gain is refused naming it, and a record without one (an older
-    /// record) is not checked for it.
+    /// passes quietly, a changed gain is named for a warning.
     #[test]
-    fn a_run_trained_on_another_controller_preset_is_refused() {
+    fn a_run_trained_on_another_controller_preset_is_named() {
         let dir = temp_dir("controller-changed");
         let trained = residual_config("minitaur").unwrap();
         let today = serde_json::to_value(controller_config("minitaur").unwrap()).unwrap();
@@ -947,15 +821,12 @@ mod tests {
             ..record(Some(&trained), "(not read)".into())
         };
         write_record(&dir, &with(Some(today.clone())));
-        check_trained_with(&dir, &trained).unwrap();
+        assert_eq!(check_trained_with(&dir, &trained).unwrap().controller_changed, None);
         let mut older = today.clone();
         older["wbc"]["w_posture"] = serde_json::json!(0.05);
         write_record(&dir, &with(Some(older)));
-        let err = check_trained_with(&dir, &trained).unwrap_err();
-        let ExperimentError::ControllerChanged { ref difference, .. } = err else { panic!("{err}") };
-        assert_eq!(difference, "wbc.w_posture: recorded 0.05, today 0.01");
-        write_record(&dir, &with(None));
-        check_trained_with(&dir, &trained).unwrap();
+        let changed = check_trained_with(&dir, &trained).unwrap().controller_changed;
+        assert_eq!(changed.as_deref(), Some("wbc.w_posture: recorded 0.05, given 0.01"));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
@@ -990,93 +861,38 @@ mod tests {
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
-    /// The motor the controller was told is read back for the studies: as recorded; in a
-    /// record from before it was, the one its `[env]` settings name, or else the
-    /// drawn motor, the default then. Setting it is no task change.
+    /// The motor the controller was told is read back for the studies as recorded.
     #[test]
     fn the_studies_learn_which_motor_the_controller_was_told() {
         let dir = temp_dir("controller-motor");
         let preset = residual_config("minitaur").unwrap();
-        let told = |record: ExperimentRecord| {
-            write_record(&dir, &record);
-            check_trained_with(&dir, &preset).unwrap().controller_motor
-        };
-        let now = record(Some(&preset), String::new());
-        assert_eq!(
-            told(ExperimentRecord { controller_motor: Some(MotorInverse::Nominal), ..now }),
-            Some(MotorInverse::Nominal)
-        );
-        let legacy = || ExperimentRecord { controller_motor: None, ..record(Some(&preset), String::new()) };
-        assert_eq!(told(legacy()), Some(MotorInverse::Drawn));
-        let (env_settings, _) =
-            crate::settings::split_run_toml("[env]\nmotor_inverse = \"nominal\"\n").unwrap();
-        assert_eq!(told(ExperimentRecord { env_settings, ..legacy() }), Some(MotorInverse::Nominal));
-        // A robot whose actions are torques has none.
-        let ant = ExperimentRecord { env: "ant".into(), residual: None, ..legacy() };
-        assert_eq!(ant.controller_motor(), None);
+        for motor in [MotorInverse::Nominal, MotorInverse::Drawn] {
+            let told =
+                ExperimentRecord { controller_motor: Some(motor), ..record(Some(&preset), String::new()) };
+            write_record(&dir, &told);
+            assert_eq!(check_trained_with(&dir, &preset).unwrap().controller_motor, Some(motor));
+        }
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
-    /// Records from before the setup was stored as data, in the exact text of two real runs:
-    /// the main example's (before `warmup_with_policy` and `rated_speed`, trained
-    /// at the trot's own 2.5 m/s) and a `centaur compare` seed's on an earlier preset (rated 3.0).
+    /// A record of an older Centaur (a `fingerprint` text, no identity, no setup as data)
+    /// is refused as such by every consumer: the studies, the resume check and
+    /// `--pure-from`.
     #[test]
-    fn records_from_before_the_setup_was_data_are_matched_by_their_text() {
-        const OLDEST: &str = "ResidualConfig { scale: [0.25], joint_residual: true, steering: Steering { speed: 1.0, yaw_rate: 0.0 }, exploration: Some(Exploration { residual: 0.3, steering: 0.5 }), include_reference: true, command: Command { forward_velocity: 2.0, lateral_velocity: 0.0, yaw_rate: 0.0, body_height: None, gait: Trot } }";
-        const RATED: &str = "ResidualConfig { scale: [0.25], joint_residual: true, steering: Steering { speed: 1.0, yaw_rate: 0.0 }, exploration: Some(Exploration { residual: 0.3, steering: 0.5 }), warmup_with_policy: false, include_reference: true, command: Command { forward_velocity: 2.0, lateral_velocity: 0.0, yaw_rate: 0.0, body_height: None, gait: Trot }, rated_speed: Some(3.0) }";
-        let dir = temp_dir("legacy-record");
-        // An earlier preset: steered ±1 m/s, rated 3.0.
-        let preset = ResidualConfig {
-            steering: crate::hybrid::Steering { speed: 1.0, ..crate::hybrid::Steering::OFF },
-            rated_speed: Some(3.0),
-            ..residual_config("minitaur").unwrap()
-        };
-        let at = |rated_speed| ResidualConfig { rated_speed, ..preset.clone() };
-        let legacy =
-            |residual: &str| record(None, format!("(\"minitaur\", Ppo(..), 4, 10, {residual}, None)"));
-
-        write_record(&dir, &legacy(OLDEST));
-        check_trained_with(&dir, &at(Some(2.5))).unwrap();
-        check_trained_with(&dir, &at(None)).unwrap();
-        let err = check_trained_with(&dir, &preset).unwrap_err();
-        let ExperimentError::SetupMismatch { trained, .. } = err else { panic!("{err}") };
-        assert_eq!(trained, OLDEST);
-        let warm = ResidualConfig { warmup_with_policy: true, ..at(None) };
-        assert!(matches!(check_trained_with(&dir, &warm), Err(ExperimentError::SetupMismatch { .. })));
-
-        write_record(&dir, &legacy(RATED));
-        check_trained_with(&dir, &preset).unwrap();
-        assert!(matches!(
-            check_trained_with(&dir, &at(Some(2.5))),
-            Err(ExperimentError::SetupMismatch { .. })
-        ));
-        let slower = ResidualConfig {
-            steering: crate::hybrid::Steering { speed: 0.5, ..crate::hybrid::Steering::OFF },
-            ..preset.clone()
-        };
-        assert!(matches!(check_trained_with(&dir, &slower), Err(ExperimentError::SetupMismatch { .. })));
-        // Parts newer than the old forms: a setup with one set was not trained there.
-        let newer = [
-            ResidualConfig { max_acceleration: Some(6.0), ..preset.clone() },
-            ResidualConfig { period_scale: Some(0.7), ..preset.clone() },
-            ResidualConfig {
-                steering: crate::hybrid::Steering { cadence: 0.5, ..preset.steering },
-                ..preset.clone()
-            },
-            ResidualConfig {
-                steering: crate::hybrid::Steering { swing: 0.5, ..preset.steering },
-                ..preset.clone()
-            },
-            ResidualConfig { swing_height: Some(0.03), ..preset.clone() },
-            ResidualConfig { mpc_period: Some(0.06), ..preset.clone() },
-            ResidualConfig { cheap_torques: true, ..preset.clone() },
-        ];
-        for r in &newer {
-            assert!(
-                matches!(check_trained_with(&dir, r), Err(ExperimentError::SetupMismatch { .. })),
-                "{r:?}"
-            );
-        }
+    fn a_record_of_an_older_centaur_is_named_as_such() {
+        let dir = temp_dir("older-record");
+        let older = r#"{"env": "minitaur", "algo": "ppo", "steps": 10, "seed": 0, "fingerprint": "(\"minitaur\", Ppo(..))"}"#;
+        std::fs::write(dir.join("experiment.json"), older).unwrap();
+        let preset = residual_config("minitaur").unwrap();
+        let older = |e: ExperimentError| matches!(e, ExperimentError::OlderRecord { .. });
+        assert!(older(check_trained_with(&dir, &preset).unwrap_err()));
+        assert!(older(recorded_hybrid(&dir).unwrap_err()));
+        let opts = ExperimentOptions { out: dir.clone(), ..options() };
+        assert!(older(check_resumable(&opts).unwrap_err()));
+        assert!(finished_experiment(&opts).is_none());
+        assert!(older(check_pure_source(&dir, &opts).unwrap_err()));
+        let e = check_trained_with(&dir, &preset).unwrap_err().to_string();
+        assert!(e.contains("recorded by an older Centaur"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
@@ -1090,15 +906,8 @@ mod tests {
         assert_eq!(back.residual, Some(preset));
     }
 
-    #[test]
-    fn the_pure_fingerprint_leaves_out_the_hybrids_setup_only() {
-        assert_eq!(
-            pure_part("(1, ResidualConfig { a: B { c: 1 }, d: 2 }, 3) with S"),
-            "(1, ResidualConfig { .. }, 3) with S"
-        );
-        assert_eq!(pure_part("(no setup)"), "(no setup)");
-        let preset = residual_config("minitaur").unwrap();
-        let opts = ExperimentOptions {
+    fn options() -> ExperimentOptions {
+        ExperimentOptions {
             env: "minitaur".into(),
             algo: crate::experiment::tuned_config("minitaur", centaur_rl::AlgoKind::Ppo),
             steps: 1000,
@@ -1107,95 +916,67 @@ mod tests {
             n_envs: 4,
             threads: 1,
             eval_episodes: 10,
-            residual: preset.clone(),
+            residual: residual_config("minitaur").unwrap(),
             record: false,
             eval_every: None,
             overwrite: false,
             env_settings: EnvSettings::default(),
             pure_from: None,
             hybrid_algo: None,
-        };
-        let other_hybrid = ExperimentOptions {
-            residual: ResidualConfig { rated_speed: Some(3.0), ..preset },
+        }
+    }
+
+    /// The identity changes with every option that decides results and with nothing else;
+    /// the pure identity leaves out the hybrid's side only (its setup, its own learner
+    /// settings, the motor its controller is told); a difference is named by its key.
+    #[test]
+    fn the_pure_identity_leaves_out_the_hybrids_side_only() {
+        let opts = options();
+        let not_results = ExperimentOptions {
             out: PathBuf::from("b"),
+            threads: 2,
+            record: true,
+            overwrite: true,
+            pure_from: Some(PathBuf::from("c")),
             ..opts.clone()
         };
-        assert_ne!(opts.fingerprint(), other_hybrid.fingerprint());
-        assert_eq!(opts.pure_fingerprint(), other_hybrid.pure_fingerprint());
-        // The hybrid's own hyperparameters are the hybrid's: the pure part leaves them out.
+        assert_eq!(opts.identity(), not_results.identity());
+        let other_hybrid = ExperimentOptions {
+            residual: ResidualConfig { rated_speed: Some(3.0), ..opts.residual.clone() },
+            ..opts.clone()
+        };
         let lr = centaur_rl::PpoConfig { learning_rate: 1e-3, ..Default::default() };
         let own_learner =
-            ExperimentOptions { hybrid_algo: Some(centaur_rl::AlgoConfig::Ppo(lr)), ..opts.clone() };
-        assert_ne!(opts.fingerprint(), own_learner.fingerprint());
-        assert_eq!(opts.pure_fingerprint(), own_learner.pure_fingerprint());
-        assert!(own_learner.fingerprint().ends_with(super::super::options::NOMINAL_MOTOR_MARK));
-        assert_eq!(own_learner.hybrid_learner().kind(), centaur_rl::AlgoKind::Ppo);
-        // PPO's critic burn-in is left out at its default, so runs made
-        // before it keep their fingerprint; set, it is the hybrid's and marks it.
-        assert!(!own_learner.fingerprint().contains("actor_burn_in_steps"));
-        assert!(own_learner.fingerprint().contains("critic_learning_rate: None, anneal_lr"));
-        let burn_in = centaur_rl::PpoConfig { actor_burn_in_steps: 2048, ..Default::default() };
-        let burnt =
-            ExperimentOptions { hybrid_algo: Some(centaur_rl::AlgoConfig::Ppo(burn_in)), ..opts.clone() };
-        assert!(
-            burnt.fingerprint().contains("critic_learning_rate: None, actor_burn_in_steps: 2048, anneal_lr")
-        );
-        assert_eq!(opts.pure_fingerprint(), burnt.pure_fingerprint());
-        for other_pure in [
+            ExperimentOptions { hybrid_algo: Some(centaur_rl::AlgoConfig::Ppo(lr.clone())), ..opts.clone() };
+        let told = |toml: &str| {
+            let (env_settings, _) = crate::settings::split_run_toml(toml).unwrap();
+            ExperimentOptions { env_settings, ..opts.clone() }
+        };
+        let drawn = told("[env]\nmotor_inverse = \"drawn\"\n");
+        // Today's default told explicitly is the default.
+        assert_eq!(told("[env]\nmotor_inverse = \"nominal\"\n").identity(), opts.identity());
+        for hybrid_side in [&other_hybrid, &own_learner, &drawn] {
+            assert_ne!(opts.identity(), hybrid_side.identity());
+            assert_eq!(opts.pure_identity(), hybrid_side.pure_identity());
+        }
+        let pure_sides = [
             ExperimentOptions { steps: 2000, ..opts.clone() },
             ExperimentOptions { seed: 1, ..opts.clone() },
             ExperimentOptions { n_envs: 8, ..opts.clone() },
             ExperimentOptions { eval_every: Some(500), ..opts.clone() },
-        ] {
-            assert_ne!(opts.pure_fingerprint(), other_pure.pure_fingerprint());
+            ExperimentOptions { eval_episodes: 11, ..opts.clone() },
+            ExperimentOptions { env: "minitaur-fast".into(), ..opts.clone() },
+            ExperimentOptions { algo: centaur_rl::AlgoConfig::Ppo(lr), ..opts.clone() },
+            told("[env]\nenergy_weight = 0.0\n"),
+        ];
+        for other in &pure_sides {
+            assert_ne!(opts.pure_identity(), other.pure_identity());
+            assert_ne!(opts.identity(), other.identity());
         }
-        // The Minitaur's default motor inverse (now the nominal one) marks the
-        // fingerprint: a run on the old default (no mark) is not kept as this one, but its
-        // pure-RL agent, which never uses the inverse, can be reused.
-        assert!(opts.fingerprint().ends_with(super::super::options::NOMINAL_MOTOR_MARK));
-        let before =
-            opts.fingerprint().strip_suffix(super::super::options::NOMINAL_MOTOR_MARK).unwrap().to_string();
-        assert_eq!(pure_part(&before), opts.pure_fingerprint());
-        // Told the drawn motor explicitly, a run has the fingerprint of a run before the
-        // switch (it is one); told the nominal motor explicitly, that of today's default.
-        let told = |toml: &str| {
-            let (env_settings, _) = crate::settings::split_run_toml(toml).unwrap();
-            ExperimentOptions { env_settings, ..opts.clone() }.fingerprint()
-        };
-        assert_eq!(told("[env]\nmotor_inverse = \"drawn\"\n"), before);
-        assert_eq!(told("[env]\nmotor_inverse = \"nominal\"\n"), opts.fingerprint());
-        let other = told("[env]\nmotor_inverse = \"drawn\"\nenergy_weight = 0.0\n");
-        assert!(
-            other.contains("energy_weight: Some(0.0)") && other.contains("motor_inverse: None"),
-            "{other}"
-        );
-        assert!(!other.contains("Drawn") && !other.contains("nominal motor"), "{other}");
-        let ant = ExperimentOptions { env: "ant".into(), ..opts.clone() };
-        assert!(!ant.fingerprint().contains("nominal motor"));
-    }
-
-    #[test]
-    fn a_difference_is_quoted_with_its_surroundings() {
-        let (a, b) = around_difference("(1, 2, 3)", "(1, 5, 3)");
-        assert_eq!((a.as_str(), b.as_str()), ("(1, 2, 3)", "(1, 5, 3)"));
-        // Long texts: from 60 characters before the difference, 120 in all, on character
-        // boundaries (the fingerprints hold "·" and "±").
-        let long = |c: char| format!("{}{c}{}", "±".repeat(100), "x".repeat(200));
-        let (a, b) = around_difference(&long('a'), &long('b'));
-        assert_eq!((a.chars().count(), b.chars().count()), (120, 120));
-        assert!(a.starts_with(&"±".repeat(60)) && a[("±".len() * 60)..].starts_with('a'), "{a}");
-        assert!(b.contains('b') && !b.contains('a'));
-        // One text a prefix of the other: the difference is where the shorter ends.
-        let (a, b) = around_difference("abc", "abcdef");
-        assert_eq!((a.as_str(), b.as_str()), ("abc", "abcdef"));
-    }
-
-    #[test]
-    fn the_residual_part_of_a_fingerprint_is_cut_at_its_closing_brace() {
-        assert_eq!(
-            residual_part("(1, ResidualConfig { a: B { c: 1 }, d: 2 }, 3)"),
-            "ResidualConfig { a: B { c: 1 }, d: 2 }"
-        );
-        assert_eq!(residual_part("(no setup)"), "(no setup)");
+        assert_eq!(pure_sides.len(), 8);
+        let difference = crate::spec::first_difference(&opts.options(), &other_hybrid.options()).unwrap();
+        assert_eq!(difference, "residual.rated_speed: recorded 3.5, given 3.0");
+        let difference = crate::spec::first_difference(&opts.options(), &drawn.options()).unwrap();
+        assert_eq!(difference, "controller_motor: recorded \"nominal\", given \"drawn\"");
     }
 }
