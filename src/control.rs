@@ -10,7 +10,7 @@ use centaur_envs::RobotEnv;
 use centaur_gym::{BoxSpace, EnvError, Rng};
 use centaur_mpc::{Command, ConfigError, Gait, LocomotionController, MpcExecution, MpcSolver};
 
-use crate::hybrid::{ActionMapping, HybridError, MAX_YAW_RATE};
+use crate::hybrid::{ActionMapping, ControllerOverrides, HybridError, MAX_YAW_RATE};
 use crate::registry::{
     RegistryError, controller_config, controller_motor, make_robot_env, make_robot_env_with,
 };
@@ -318,7 +318,14 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
                 .into(),
         ));
     }
-    crate::hybrid::check_period_scale(opts.period_scale)?;
+    let overrides = ControllerOverrides {
+        // A factor of 1 leaves the period as it is (on the stand too, which has none).
+        period_scale: (opts.period_scale != 1.0).then_some(opts.period_scale),
+        max_acceleration: opts.max_acceleration,
+        swing_height: opts.swing_height,
+        ..ControllerOverrides::none(opts.gait)
+    };
+    overrides.validate()?;
     if opts.gait == Gait::Stand && opts.period_scale != 1.0 {
         return Err(ControlError::Invalid(
             "a stand has no gait period to scale: command a walking gait with --period-scale".into(),
@@ -335,12 +342,6 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
         return Err(ControlError::Invalid(
             "a stand keeps every foot down: command a walking gait with --duty-shift".into(),
         ));
-    }
-    if let Some(a) = opts.max_acceleration {
-        crate::hybrid::check_max_acceleration(a)?;
-    }
-    if let Some(h) = opts.swing_height {
-        crate::hybrid::check_swing_height(h)?;
     }
     if let Some(p) = &opts.push {
         let magnitude = p.force.iter().map(|f| f * f).sum::<f64>().sqrt();
@@ -424,16 +425,9 @@ pub fn run_control(opts: &ControlOptions) -> Result<ControlSummary, ControlError
     for v in std::iter::once(opts.speed).chain(opts.speed_schedule.iter().map(|p| p.1)) {
         config.check_command(opts.gait, v, opts.yaw_rate)?;
     }
-    // The command's gait is offered here (checked above).
-    config.scale_period(opts.gait, opts.period_scale);
-    if let Some(a) = opts.max_acceleration {
-        config.max_acceleration = a;
-    }
-    let max_acceleration = config.max_acceleration;
-    if let Some(h) = opts.swing_height {
-        config.swing_height = h;
-    }
-    let swing_height = config.swing_height;
+    // The same overrides as a hybrid's `[controller]` table (the gait is offered: checked above).
+    overrides.apply(&mut config)?;
+    let (max_acceleration, swing_height) = (config.max_acceleration, config.swing_height);
     let mut ctrl = LocomotionController::new(env.model(), config)?;
     ctrl.set_gait_duty_shift(opts.duty_shift);
     let mut mapping = ActionMapping::new(env.as_ref(), &ctrl)?;

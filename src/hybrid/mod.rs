@@ -12,11 +12,17 @@
 //! Nothing here knows the simulator: a robot is a [`RobotEnv`] (simulated) or a
 //! [`crate::deploy::RobotInterface`] (anything that reports a state and takes actions).
 
+mod overrides;
+
+pub use overrides::{
+    ControllerOverrides, MAX_COMMAND_ACCELERATION, MAX_RATED_SPEED, MPC_PERIOD_RANGE, PERIOD_SCALE_RANGE,
+    SWING_HEIGHT_RANGE,
+};
+
 use centaur_dynamics::{Model, RobotState};
 use centaur_envs::{RobotEnv, Servo};
 use centaur_mpc::{
-    Command, ConfigError, ControlMode, ControllerConfig, ControllerStatus, Gait, JointCommand,
-    LocomotionController,
+    Command, ConfigError, ControllerConfig, ControllerStatus, Gait, JointCommand, LocomotionController,
 };
 
 /// What the hybrid's pieces refuse.
@@ -126,8 +132,7 @@ fn is_zero(x: &f64) -> bool {
 }
 
 /// Every field as `derive(Debug)` writes it, but `cadence`, `duty`, `swing` and `foothold`
-/// only where set: runs record this text in their fingerprint, and a run without them keeps
-/// the fingerprint it had before they existed.
+/// only where set: error messages name the setup as briefly as its data are recorded.
 impl std::fmt::Debug for Steering {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let Steering { speed, yaw_rate, cadence, duty, swing, foothold } = self;
@@ -443,10 +448,8 @@ pub struct ResidualConfig {
 
 /// Every field as `derive(Debug)` writes it, but `fade`, `exploration_ramp`, `bound_ramp`,
 /// `period_scale`, `max_acceleration`, `swing_height`, `mpc_period`, `cheap_torques` and
-/// `include_state` only where set: runs record this text in their fingerprint
-/// ([`crate::experiment::ExperimentOptions::fingerprint`]), and a run without them keeps
-/// the fingerprint it had before they existed (so `centaur compare --resume` and
-/// `--pure-from` still take it).
+/// `include_state` only where set: error messages name the setup as briefly as its data
+/// are recorded (runs record it as JSON, where these are left out at their defaults too).
 impl std::fmt::Debug for ResidualConfig {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let ResidualConfig {
@@ -621,21 +624,7 @@ impl ResidualConfig {
         if !self.joint_residual && self.steering.dim() == 0 {
             return Err(HybridError::NothingToLearn);
         }
-        if let Some(value) = self.rated_speed {
-            check_rated_speed(value)?;
-        }
-        if let Some(value) = self.period_scale {
-            check_period_scale(value)?;
-        }
-        if let Some(value) = self.max_acceleration {
-            check_max_acceleration(value)?;
-        }
-        if let Some(value) = self.swing_height {
-            check_swing_height(value)?;
-        }
-        if let Some(value) = self.mpc_period {
-            check_mpc_period(value)?;
-        }
+        self.controller_overrides().validate()?;
         if let Some(f) = &self.fade {
             f.validate()?;
         }
@@ -733,57 +722,23 @@ impl ResidualConfig {
     }
 
     fn apply_rating(&self, config: &mut ControllerConfig) -> Result<(), HybridError> {
-        if let Some(value) = self.rated_speed {
-            check_rated_speed(value)?;
-            let gait = self.offered_gait(config, "rated_speed", value, "no rating: the stand has none")?;
-            for o in config.gaits.iter_mut().filter(|o| o.gait == gait) {
-                o.max_speed = value;
-            }
-        }
-        if let Some(value) = self.period_scale {
-            check_period_scale(value)?;
-            let expected = "a gait that steps: the stand has no period";
-            let gait = self.offered_gait(config, "period_scale", value, expected)?;
-            config.scale_period(gait, value);
-        }
-        if let Some(value) = self.max_acceleration {
-            check_max_acceleration(value)?;
-            config.max_acceleration = value;
-        }
-        if let Some(value) = self.swing_height {
-            check_swing_height(value)?;
-            config.swing_height = value;
-        }
-        if let Some(value) = self.mpc_period {
-            check_mpc_period(value)?;
-            config.mpc_period = value;
-        }
-        if self.cheap_torques {
-            config.mode = ControlMode::Cheap;
-        }
-        Ok(())
+        self.controller_overrides().apply(config)
     }
 
-    /// The command's gait, for `part` (set to `value`) to change in `config`: one it offers,
-    /// not the stand (`expected` says why not).
-    fn offered_gait(
-        &self,
-        config: &ControllerConfig,
-        part: &'static str,
-        value: f64,
-        expected: &'static str,
-    ) -> Result<Gait, HybridError> {
-        let gait = self.command.gait;
-        if gait == Gait::Stand {
-            return Err(HybridError::BadSetting { part, value, expected });
+    /// The part of the setup that overrides the robot's controller preset, for the
+    /// command's gait.
+    pub fn controller_overrides(&self) -> ControllerOverrides {
+        ControllerOverrides {
+            gait: self.command.gait,
+            rated_speed: self.rated_speed,
+            period_scale: self.period_scale,
+            max_acceleration: self.max_acceleration,
+            swing_height: self.swing_height,
+            mpc_period: self.mpc_period,
+            cheap_torques: self.cheap_torques,
         }
-        config.offer(gait)?;
-        Ok(gait)
     }
 }
-
-/// The largest [`ResidualConfig::rated_speed`] accepted (m/s): far above any robot here.
-pub const MAX_RATED_SPEED: f64 = 20.0;
 
 /// The largest yaw rate (rad/s) a command or a yaw-rate steering span may ask for, here and
 /// in `centaur control`: one turn a second, far beyond every robot here (the presets turn
@@ -808,73 +763,6 @@ pub const MAX_FOOTHOLD: f64 = 0.1;
 /// units: at σ 10 nearly every sample already lands outside [−1, 1] and is clipped, and far
 /// larger ones (1e308) make the learner's first loss infinite.
 pub const MAX_EXPLORATION: f64 = 10.0;
-
-/// The range of [`ResidualConfig::period_scale`]: a quarter to four times the gait's period.
-pub const PERIOD_SCALE_RANGE: (f64, f64) = (0.25, 4.0);
-
-/// Refuses a period scale outside [`PERIOD_SCALE_RANGE`] (here and in `centaur control`).
-pub(crate) fn check_period_scale(value: f64) -> Result<(), HybridError> {
-    check_within("period_scale", value, PERIOD_SCALE_RANGE, "a factor in [0.25, 4]")
-}
-
-/// `value` of `part` finite and within `[low, high]`, or [`HybridError::BadSetting`] saying
-/// what is `expected`.
-fn check_within(
-    part: &'static str,
-    value: f64,
-    (low, high): (f64, f64),
-    expected: &'static str,
-) -> Result<(), HybridError> {
-    if value.is_finite() && (low..=high).contains(&value) {
-        Ok(())
-    } else {
-        Err(HybridError::BadSetting { part, value, expected })
-    }
-}
-
-/// The range of [`ResidualConfig::swing_height`] (m): 1 to 30 cm, a swing every legged
-/// robot here can make; a height in centimetres (7 for 0.07) is refused.
-pub const SWING_HEIGHT_RANGE: (f64, f64) = (0.01, 0.3);
-
-/// Refuses a swing height outside [`SWING_HEIGHT_RANGE`] (here and in `centaur control`).
-pub(crate) fn check_swing_height(value: f64) -> Result<(), HybridError> {
-    check_within("swing_height", value, SWING_HEIGHT_RANGE, "a height in [0.01, 0.3] m")
-}
-
-/// The range of [`ResidualConfig::mpc_period`] (s): from every 5 ms (faster than any
-/// robot here is controlled, so the MPC then runs every tick) to every 0.2 s (the presets'
-/// MPC horizons cover at least 0.3 s, so the plan in use never runs out between solves); a
-/// period in milliseconds (60 for 0.06) is refused.
-pub const MPC_PERIOD_RANGE: (f64, f64) = (0.005, 0.2);
-
-/// Refuses an MPC period outside [`MPC_PERIOD_RANGE`].
-pub(crate) fn check_mpc_period(value: f64) -> Result<(), HybridError> {
-    check_within("mpc_period", value, MPC_PERIOD_RANGE, "a period in [0.005, 0.2] s")
-}
-
-/// The largest [`ResidualConfig::max_acceleration`] accepted (m/s²): twice gravity, beyond
-/// what feet on the ground can push.
-pub const MAX_COMMAND_ACCELERATION: f64 = 20.0;
-
-pub(crate) fn check_max_acceleration(value: f64) -> Result<(), HybridError> {
-    if value.is_finite() && value > 0.0 && value <= MAX_COMMAND_ACCELERATION {
-        Ok(())
-    } else {
-        Err(HybridError::BadSetting {
-            part: "max_acceleration",
-            value,
-            expected: "an acceleration in (0, 20] m/s²",
-        })
-    }
-}
-
-fn check_rated_speed(value: f64) -> Result<(), HybridError> {
-    if value.is_finite() && value > 0.0 && value <= MAX_RATED_SPEED {
-        Ok(())
-    } else {
-        Err(HybridError::BadSetting { part: "rated_speed", value, expected: "a speed in (0, 20] m/s" })
-    }
-}
 
 /// The residual law, the steering of the command and the policy's observation layout,
 /// with the scale resolved per action entry. See the module docs.
@@ -1307,6 +1195,7 @@ impl ActionMapping {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use centaur_mpc::ControlMode;
 
     #[test]
     fn the_residual_law_clips_the_output_then_the_sum() {
@@ -1453,7 +1342,7 @@ mod tests {
                 "{bad}"
             );
         }
-        // Recorded (text and data) only where set: a run without it keeps its fingerprint.
+        // Written (text and data) only where set.
         assert_eq!(format!("{:?}", without.steering), "Steering { speed: 0.5, yaw_rate: 0.0 }");
         assert_eq!(format!("{:?}", config.steering), "Steering { speed: 0.5, yaw_rate: 0.0, cadence: 0.4 }");
         let json = serde_json::to_string(&without.steering).unwrap();
@@ -1671,8 +1560,7 @@ mod tests {
                 other => panic!("{start}, {end}: {other:?}"),
             }
         }
-        // Without a fade the record holds no `fade` key and the fingerprint's text is the one
-        // runs recorded before the fade existed (records from before read the same).
+        // Without a fade the record holds no `fade` key and the text none either.
         let text = serde_json::to_string(&ResidualConfig::default()).unwrap();
         assert!(!text.contains("fade"), "{text}");
         assert_eq!(
