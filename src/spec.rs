@@ -780,7 +780,8 @@ impl RunSpec {
         Self::from_table(table, &source_name)
     }
 
-    fn from_table(table: toml::Table, source_name: &str) -> Result<RunSpec, SpecError> {
+    /// A spec from its TOML table (`source_name` names it in errors).
+    pub fn from_table(table: toml::Table, source_name: &str) -> Result<RunSpec, SpecError> {
         // The schema first, so that a newer spec is named as such rather than by the first
         // key this Centaur does not know.
         match table.get("schema") {

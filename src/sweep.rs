@@ -32,6 +32,25 @@
 //! ctrl_cost_weight = 0.0    # with these [env] settings (in place of the run's)
 //! ```
 //!
+//! ## A sweep over a run spec
+//!
+//! A grid file may instead name a run spec ([`crate::spec`]) that every point starts from,
+//! `spec = "../configs/walker2d_ppo.toml"` (relative to the grid file), or `centaur sweep
+//! --spec FILE [--set key=value …]` gives it for every grid. The spec then holds the robot,
+//! the learner, the budget, the environments, the evaluation and every table (a hybrid's
+//! too: `robot = "minitaur-residual"`), so the grid file has none of `env`, `algo`, `steps`,
+//! `envs`, `eval_episodes`, `eval_every` or `[base]`, and its keys are the spec's table keys:
+//!
+//! ```toml
+//! spec = "../configs/minitaur_residual.toml"
+//! [grid]
+//! "learner.learning_rate" = [3e-4, 1e-4]
+//! "hybrid.residual_scale" = [0.3, 0.5]
+//! ```
+//!
+//! Each point's `config.toml` is then its whole spec (`centaur train --spec pNNN/config.toml`
+//! reruns one of its seeds), and every point is resolved and checked before anything runs.
+//!
 //! ## The output directory
 //!
 //! | file | content |
@@ -60,6 +79,7 @@ use crate::plot::{PlotError, PlotLabels, plot_curves};
 use crate::registry::EnvSource;
 use crate::rundir::write_atomic;
 use crate::settings::split_run_toml;
+use crate::spec::{Purpose, ResolvedSpec, RunSpec};
 use crate::stats::{Interval, iqm_with_ci};
 use crate::train::{
     DEFAULT_CHECKPOINT_EVERY, Summary, TrainError, TrainOptions, parse_run_config, read_config_file, resume,
@@ -73,11 +93,18 @@ pub const MAX_RUNS: usize = 100_000;
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Grid {
+    /// A run spec every point starts from (relative to the grid file); the fields it gives
+    /// are then filled from it (see the module docs).
+    #[serde(default)]
+    pub spec: Option<PathBuf>,
     /// Environment of every run.
+    #[serde(default)]
     pub env: String,
     /// Algorithm of every run.
+    #[serde(default)]
     pub algo: String,
     /// Environment steps per run.
+    #[serde(default)]
     pub steps: u64,
     /// Environments per run.
     #[serde(default = "one")]
@@ -120,8 +147,17 @@ pub struct Point {
     pub name: String,
     /// The values that make it a point (`key = value`, TOML).
     pub values: Vec<(String, String)>,
-    /// Its run file.
+    /// Its run file (over a spec: its whole spec).
     pub config: toml::Table,
+}
+
+/// A run spec given to a sweep on the command line (`centaur sweep --spec FILE --set …`).
+#[derive(Clone, Debug)]
+pub struct SpecSource {
+    /// The spec file.
+    pub path: PathBuf,
+    /// Its `--set key.path=value` overrides.
+    pub sets: Vec<String>,
 }
 
 /// What to sweep.
@@ -137,6 +173,8 @@ pub struct SweepOptions {
     pub jobs: usize,
     /// Replace a sweep of another grid already in `out`.
     pub overwrite: bool,
+    /// A run spec every point starts from, for a grid file that names none.
+    pub spec: Option<SpecSource>,
 }
 
 /// One point's results.
@@ -329,25 +367,110 @@ pub struct CheckedGrid {
     pub judge_files: Vec<(String, String)>,
     /// The runs' checkpoint period.
     pub checkpoint_every: u64,
+    /// Over a spec: each point's spec, resolved for `centaur train`.
+    pub specs: Option<Vec<ResolvedSpec>>,
+    /// Over a spec: its `seeds`, which `centaur sweep` runs when not given `--seeds`.
+    pub spec_seeds: Option<u64>,
+}
+
+/// The keys a grid file over a spec leaves to the spec.
+const GIVEN_BY_THE_SPEC: [&str; 7] = ["env", "algo", "steps", "envs", "eval_episodes", "eval_every", "base"];
+
+/// A grid file over a spec (the file's `spec`, or `given`; not both): the spec's table with
+/// its `--set` overrides as every point's base, and the grid's run fields filled from the
+/// spec resolved. `None` for a grid without one.
+fn spec_base(
+    path: &Path,
+    raw: &toml::Table,
+    grid: &mut Grid,
+    given: Option<&SpecSource>,
+) -> Result<Option<(toml::Table, ResolvedSpec)>, String> {
+    let (spec_path, sets) = match (&grid.spec, given) {
+        (Some(_), Some(g)) => {
+            return Err(format!(
+                "it names its spec, and --spec {} gives another: give one",
+                g.path.display()
+            ));
+        }
+        (Some(p), None) => (path.parent().unwrap_or(Path::new("")).join(p), &[][..]),
+        (None, Some(g)) => (g.path.clone(), &g.sets[..]),
+        (None, None) => {
+            for key in ["env", "algo", "steps"] {
+                if !raw.contains_key(key) {
+                    return Err(format!("missing field `{key}` (or name a run spec: `spec = \"FILE\"`)"));
+                }
+            }
+            return Ok(None);
+        }
+    };
+    if let Some(key) = GIVEN_BY_THE_SPEC.iter().find(|k| raw.contains_key(**k)) {
+        return Err(format!("`{key}` is given by the spec {}: set it there", spec_path.display()));
+    }
+    let keys = grid.grid.keys().chain(grid.points.iter().flat_map(|p| p.keys()));
+    if let Some(key) = keys.into_iter().find(|k| !k.contains('.')) {
+        return Err(format!(
+            "`{key}`: over a spec the grid's keys are its table keys (`learner.learning_rate`, `env.KEY`, `hybrid.residual_scale`, …); the robot, learner and budget are the spec's"
+        ));
+    }
+    let text = crate::rundir::read_text_bounded(&spec_path, crate::spec::MAX_SPEC_BYTES)
+        .map_err(|e| format!("spec {}: {e}", spec_path.display()))?;
+    let mut table: toml::Table =
+        toml::from_str(&text).map_err(|e| format!("spec {}: {e}", spec_path.display()))?;
+    for set in sets {
+        crate::spec::apply_set(&mut table, set).map_err(|e| e.to_string())?;
+    }
+    let resolved = RunSpec::from_table(table.clone(), &spec_path.display().to_string())
+        .and_then(|s| s.resolve(Purpose::Train))
+        .map_err(|e| e.to_string())?;
+    grid.env = resolved.robot.clone();
+    grid.algo = resolved.algo.clone();
+    grid.steps = resolved.steps;
+    grid.envs = resolved.envs;
+    grid.eval_episodes = resolved.eval_episodes;
+    grid.eval_every = resolved.eval_every;
+    grid.base = table.clone();
+    Ok(Some((table, resolved)))
 }
 
 /// Reads and checks the grid file at `path` without running anything (`centaur sweep
 /// --check`; [`run_sweep`] starts with it).
 pub fn check_grid(path: &Path) -> Result<CheckedGrid, SweepError> {
+    check_grid_with(path, None)
+}
+
+/// [`check_grid`] with a run spec given for a grid file that names none
+/// ([`SweepOptions::spec`]).
+pub fn check_grid_with(path: &Path, spec: Option<&SpecSource>) -> Result<CheckedGrid, SweepError> {
     let grid_err = |message: String| SweepError::Grid { path: path.to_path_buf(), message };
-    let text = read_config_file(path)?;
-    let grid: Grid = toml::from_str(&text).map_err(|e| grid_err(e.to_string()))?;
+    let mut text = read_config_file(path)?;
+    let raw: toml::Table = toml::from_str(&text).map_err(|e| grid_err(e.to_string()))?;
+    let mut grid: Grid = toml::from_str(&text).map_err(|e| grid_err(e.to_string()))?;
+    let base = spec_base(path, &raw, &mut grid, spec).map_err(grid_err)?;
     let kind =
         AlgoKind::from_name(&grid.algo).ok_or_else(|| grid_err(format!("unknown algo `{}`", grid.algo)))?;
     let points = points(&grid).map_err(grid_err)?;
     // Every point's settings are checked before anything runs.
     let source = EnvSource::read(&grid.env).and_then(|s| s.for_learner(kind)).map_err(TrainError::from)?;
     let texts: Vec<String> = points.iter().map(|p| toml::to_string(&p.config).unwrap_or_default()).collect();
+    let mut specs = Vec::new();
     for (p, t) in points.iter().zip(&texts) {
         let point_err = |e: &dyn std::fmt::Display| grid_err(format!("{} ({:?}): {e}", p.name, p.values));
+        if base.is_some() {
+            let resolved = RunSpec::from_table(p.config.clone(), &p.name)
+                .and_then(|s| s.resolve(Purpose::Train))
+                .map_err(|e| point_err(&e))?;
+            specs.push(resolved);
+            continue;
+        }
         let (config, settings) = parse_run_config(kind, t, Path::new(&p.name)).map_err(|e| point_err(&e))?;
         config.validate().map_err(|e| point_err(&e))?;
         source.clone().with_settings(settings).map_err(|e| point_err(&e))?;
+    }
+    // A sweep over a spec is that spec's: its record holds the spec resolved, so a rerun
+    // over an edited spec is another grid.
+    let spec_seeds = base.as_ref().map(|(_, resolved)| resolved.seeds);
+    if let Some((_, resolved)) = &base {
+        text.push_str(&format!("\n# over the spec, resolved: {}\n", resolved.canonical_json()));
     }
     let checkpoint_every = grid.checkpoint_every.unwrap_or(DEFAULT_CHECKPOINT_EVERY);
     if grid.eval_every > 0 && (checkpoint_every == 0 || !grid.eval_every.is_multiple_of(checkpoint_every)) {
@@ -369,7 +492,8 @@ pub fn check_grid(path: &Path) -> Result<CheckedGrid, SweepError> {
         source.clone().with_settings(settings).map_err(|e| grid_err(format!("judge `{name}`: {e}")))?;
         judge_files.push((name.clone(), text));
     }
-    Ok(CheckedGrid { text, grid, kind, points, texts, judge_files, checkpoint_every })
+    let specs = base.map(|_| specs);
+    Ok(CheckedGrid { text, grid, kind, points, texts, judge_files, checkpoint_every, specs, spec_seeds })
 }
 
 /// Runs (or resumes) the sweep; `report` sees each run as it finishes (point, seed, summary).
@@ -462,8 +586,8 @@ fn execute(
     if opts.seeds == 0 || opts.jobs == 0 {
         return Err(grid_err("--seeds and --jobs must be at least 1".into()));
     }
-    let CheckedGrid { text, grid, kind, points, texts, judge_files, checkpoint_every } =
-        check_grid(&opts.grid)?;
+    let CheckedGrid { text, grid, kind, points, texts, judge_files, checkpoint_every, specs, .. } =
+        check_grid_with(&opts.grid, opts.spec.as_ref())?;
     let runs = points.len().checked_mul(opts.seeds as usize).filter(|&n| n <= MAX_RUNS);
     let runs = runs.ok_or_else(|| {
         grid_err(format!("{} points × {} seeds exceed {MAX_RUNS} runs", points.len(), opts.seeds))
@@ -493,14 +617,14 @@ fn execute(
         }
     }
     let mut tasks = Vec::with_capacity(runs);
-    for (p, t) in points.iter().zip(&texts) {
+    for (i, (p, t)) in points.iter().zip(&texts).enumerate() {
         let dir = opts.out.join(&p.name);
         std::fs::create_dir_all(&dir).map_err(io(&dir))?;
         let config = dir.join("config.toml");
         write_atomic(&config, t).map_err(io(&config))?;
         tasks.extend(
             (0..opts.seeds)
-                .map(|seed| (p.name.clone(), seed, config.clone(), dir.join(format!("seed_{seed}")))),
+                .map(|seed| (p.name.clone(), seed, config.clone(), dir.join(format!("seed_{seed}")), i)),
         );
     }
     let judges_dir = opts.out.join("judges");
@@ -515,31 +639,34 @@ fn execute(
     }
     // Finished (and judged) runs are kept as they are.
     let before = tasks.len();
-    tasks.retain(|(_, _, _, dir)| !dir.join("summary.json").exists() || !judged(dir));
+    tasks.retain(|(_, _, _, dir, _)| !dir.join("summary.json").exists() || !judged(dir));
     let kept = before - tasks.len();
 
-    let run_one = |(_, seed, config, dir): &(String, u64, PathBuf, PathBuf)| -> Result<Summary, TrainError> {
+    type Task = (String, u64, PathBuf, PathBuf, usize);
+    let run_one = |(_, seed, config, dir, point): &Task| -> Result<Summary, TrainError> {
         if dir.join("run.json").exists() {
             return resume(dir, 1, &mut |_| {});
         }
+        // Over a spec, the point's spec resolved gives everything but the seed; else its run file.
+        let spec = specs.as_ref().map(|s| s[*point].clone());
         let opts = TrainOptions {
             env: grid.env.clone(),
             algo: kind,
             steps: grid.steps,
             seed: Some(*seed),
             out: dir.clone(),
-            config: Some(config.clone()),
+            config: spec.is_none().then(|| config.clone()),
             threads: 1,
             n_envs: grid.envs,
             eval_episodes: grid.eval_episodes,
             checkpoint_every,
             eval_every: grid.eval_every,
             overwrite: false,
-            spec: None,
+            spec,
         };
         train(&opts, &mut |_| {})
     };
-    let run_and_judge = |task: &(String, u64, PathBuf, PathBuf)| -> Result<Summary, SweepError> {
+    let run_and_judge = |task: &Task| -> Result<Summary, SweepError> {
         let run = |source| SweepError::Run { point: task.0.clone(), seed: task.1, source };
         let summary = run_one(task).map_err(run)?;
         for name in grid.judges.keys() {

@@ -1298,6 +1298,77 @@ fn a_run_directory_held_by_another_process_is_refused() {
     std::fs::remove_file(&config).unwrap();
 }
 
+/// `centaur sweep` over a run spec: the grid's keys are the spec's table keys, each point's
+/// `config.toml` is its whole spec and each run records it; the spec's seeds are run when
+/// `--seeds` is not given; a grid that also gives what the spec gives, a key outside the
+/// spec's tables, or two specs are refused before anything runs; `--spec` on the command
+/// line is the same as the file's `spec`.
+#[test]
+fn a_sweep_over_a_spec_varies_its_table_keys() {
+    let dir = out_dir("sweep-spec");
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = dir.join("spec.toml");
+    std::fs::write(
+        &spec,
+        "schema = 1\nrobot = \"pendulum\"\nalgo = \"ppo\"\nseeds = 1\nsteps = 1024\nenvs = 2\neval_every = 512\n\n[learner]\nbase = \"defaults\"\nn_steps = 128\nbatch_size = 128\nn_epochs = 1\nactor_hidden = [8]\ncritic_hidden = [8]\n",
+    )
+    .unwrap();
+    let grid = dir.join("grid.toml");
+    let grid_text = "checkpoint_every = 512\n[grid]\n\"learner.learning_rate\" = [3e-4, 1e-3]\n";
+    std::fs::write(&grid, format!("spec = \"spec.toml\"\n{grid_text}")).unwrap();
+    let out = dir.join("out");
+    let sweep = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_centaur")).arg("sweep").args(args).output().unwrap()
+    };
+    let (g, o) = (grid.to_str().unwrap(), out.to_str().unwrap());
+    let run = sweep(&["--jobs", "2", "--grid", g, "--out", o]);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("sweep.json")).unwrap()).unwrap();
+    let points = json["points"].as_array().unwrap();
+    assert_eq!(points.len(), 2);
+    assert_eq!(points[1]["values"]["learner.learning_rate"].as_str(), Some("0.001"));
+    for p in points {
+        assert_eq!(p["final_returns"].as_array().unwrap().len(), 1, "the spec's one seed");
+    }
+    let record: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("p001/seed_0/run.json")).unwrap()).unwrap();
+    assert_eq!(record["spec"]["learner"]["learning_rate"], 0.001);
+    assert_eq!(record["spec"]["learner"]["n_steps"], 128);
+    let point_spec = out.join("p001").join("config.toml");
+    let o2 = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
+        .args(["spec", "--train"])
+        .arg(&point_spec)
+        .output()
+        .unwrap();
+    let printed = String::from_utf8_lossy(&o2.stdout);
+    assert!(o2.status.success() && printed.contains("0.001"), "{o2:?}");
+    // The same grid with the spec on the command line, and an override: checked, listed.
+    let bare = dir.join("bare.toml");
+    std::fs::write(&bare, grid_text).unwrap();
+    let (b, sp) = (bare.to_str().unwrap(), spec.to_str().unwrap());
+    let check = sweep(&["--spec", sp, "--set", "seeds=4", "--grid", b, "--check"]);
+    let listed = String::from_utf8_lossy(&check.stdout);
+    assert!(check.status.success() && listed.contains("2 points × 4 seeds"), "{check:?}");
+    // Refused before anything runs, each naming why.
+    let refused = |text: &str, extra: &[&str], why: &str| {
+        std::fs::write(&bare, text).unwrap();
+        let o = sweep(&[extra, &["--grid", b, "--check"]].concat());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(why), "{text}: {err}");
+    };
+    refused(&format!("spec = \"spec.toml\"\nsteps = 64\n{grid_text}"), &[], "`steps` is given by the spec");
+    refused(
+        "spec = \"spec.toml\"\n[grid]\nlearning_rate = [1e-3]\n",
+        &[],
+        "the grid's keys are its table keys",
+    );
+    refused(&format!("spec = \"spec.toml\"\n{grid_text}"), &["--spec", sp], "give one");
+    refused("spec = \"spec.toml\"\n[grid]\n\"learner.learning_rat\" = [1e-3]\n", &[], "learning_rat");
+    refused("[grid]\nlearning_rate = [1e-3]\n", &[], "missing field `env`");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// `centaur sweep`: a 2 × 1 grid × 2 seeds on two jobs; one run directory per point and
 /// seed, the per-point IQM in sweep.json; a rerun keeps finished runs and resumes a killed
 /// one to the same figures; another grid in the same directory is refused.

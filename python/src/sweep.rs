@@ -16,7 +16,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 }
 
 fn options(grid: &str, seeds: u64, out: &str, jobs: usize, overwrite: bool) -> SweepOptions {
-    SweepOptions { grid: PathBuf::from(grid), seeds, out: PathBuf::from(out), jobs, overwrite }
+    SweepOptions { grid: PathBuf::from(grid), seeds, out: PathBuf::from(out), jobs, overwrite, spec: None }
 }
 
 /// The runs of the sweep of `grid` with `seeds` seeds: `[(point, seed)]`.

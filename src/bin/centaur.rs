@@ -70,9 +70,16 @@ struct SweepArgs {
     /// checked before the first runs.
     #[arg(long, num_args = 1.., required = true)]
     grid: Vec<PathBuf>,
-    /// Seeds per point (0..seeds).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=1000))]
-    seeds: u64,
+    /// Seeds per point (0..seeds) [default: the spec's `seeds` over a spec, else 3]
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    seeds: Option<u64>,
+    /// A run spec every point starts from, for grid files that name none (their keys are
+    /// then the spec's table keys, e.g. `"learner.learning_rate" = [3e-4, 1e-4]`)
+    #[arg(long)]
+    spec: Option<PathBuf>,
+    /// Override one key of the spec, e.g. `--set hybrid.residual_scale=0.4` (repeatable)
+    #[arg(long = "set", value_name = "KEY=VALUE", requires = "spec")]
+    sets: Vec<String>,
     /// Output directory; rerunning the same grid keeps finished runs and resumes the rest.
     #[arg(long, required_unless_present = "check")]
     out: Option<PathBuf>,
@@ -91,9 +98,10 @@ struct SweepArgs {
 /// `centaur sweep`.
 fn sweep(args: SweepArgs) -> ExitCode {
     // Every grid is checked (and its output named) before anything runs.
+    let spec = args.spec.clone().map(|path| centaur::sweep::SpecSource { path, sets: args.sets.clone() });
     let mut grids = Vec::with_capacity(args.grid.len());
     for path in &args.grid {
-        match centaur::sweep::check_grid(path) {
+        match centaur::sweep::check_grid_with(path, spec.as_ref()) {
             Ok(g) => grids.push((path.clone(), g)),
             Err(e) => {
                 eprintln!("error: {e}");
@@ -101,6 +109,7 @@ fn sweep(args: SweepArgs) -> ExitCode {
             }
         }
     }
+    let seeds_of = |g: &centaur::sweep::CheckedGrid| args.seeds.or(g.spec_seeds).unwrap_or(3);
     if args.check {
         for (path, g) in &grids {
             let judges: Vec<&String> = g.grid.judges.keys().collect();
@@ -111,7 +120,7 @@ fn sweep(args: SweepArgs) -> ExitCode {
                 g.grid.env,
                 g.grid.steps,
                 g.points.len(),
-                args.seeds,
+                seeds_of(g),
                 if judges.is_empty() { "none".to_string() } else { format!("{judges:?}") }
             );
             for p in &g.points {
@@ -131,12 +140,14 @@ fn sweep(args: SweepArgs) -> ExitCode {
     };
     let jobs = args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     for ((grid, checked), out) in grids.iter().zip(outs) {
+        let seeds = seeds_of(checked);
         let opts = centaur::sweep::SweepOptions {
             grid: grid.clone(),
-            seeds: args.seeds,
+            seeds,
             out,
             jobs,
             overwrite: args.overwrite,
+            spec: spec.clone(),
         };
         if grids.len() > 1 {
             println!("== {} → {}", opts.grid.display(), opts.out.display());
@@ -145,8 +156,8 @@ fn sweep(args: SweepArgs) -> ExitCode {
         println!(
             "{} points × {} seeds = {} runs of {} steps ({} on {}), {jobs} at a time → {}",
             checked.points.len(),
-            args.seeds,
-            checked.points.len() as u64 * args.seeds,
+            seeds,
+            checked.points.len() as u64 * seeds,
             checked.grid.steps,
             checked.grid.algo,
             checked.grid.env,

@@ -201,7 +201,7 @@ mod tests {
             ..ControllerOverrides::none(Gait::Trot)
         };
         all.apply(&mut c).unwrap();
-        let trot = |c: &ControllerConfig| c.offer(Gait::Trot).unwrap().clone();
+        let trot = |c: &ControllerConfig| *c.offer(Gait::Trot).unwrap();
         assert_eq!(trot(&c).max_speed, 4.5);
         assert_eq!(trot(&c).period_scale, trot(&preset).period_scale * 0.5);
         assert_eq!((c.max_acceleration, c.swing_height, c.mpc_period), (15.0, 0.05, 0.02));
