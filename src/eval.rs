@@ -98,6 +98,39 @@ fn changed(a: &EnvSettings, b: &EnvSettings) -> Vec<&'static str> {
     keys
 }
 
+/// The learner that wrote `checkpoint` (a hybrid is rebuilt with its residual preset where
+/// the checkpoint records no setup).
+fn checkpoint_learner(checkpoint: &Checkpoint, file: &Path) -> Result<AlgoKind, EvalError> {
+    AlgoKind::from_name(&checkpoint.algo).ok_or_else(|| {
+        EvalError::Refused(format!("{}: unknown algorithm `{}`", file.display(), checkpoint.algo))
+    })
+}
+
+/// The environment `checkpoint` (read from `file`) was trained on, from what it records and
+/// nothing else: its environment (a body file's too), the `[env]` settings, the learner and,
+/// for a hybrid, the whole setup it trained with (a spec's or a comparison's; the learner's
+/// preset for a checkpoint that records none). `centaur eval` checks today's build of it
+/// against the checkpoint's record; the Python package's `CentaurEnv.from_checkpoint`
+/// builds it. A checkpoint that names no environment, or whose record does not parse, is
+/// refused.
+pub fn trained_source(checkpoint: &Checkpoint, file: &Path) -> Result<EnvSource, EvalError> {
+    let env: String = checkpoint
+        .get_meta("env")
+        .map_err(|_| EvalError::Refused(format!("{} does not name its environment", file.display())))?;
+    let settings: EnvSettings = match checkpoint.has_meta("env_settings") {
+        true => checkpoint.get_meta("env_settings").map_err(RlError::from)?,
+        false => EnvSettings::default(),
+    };
+    let body: Option<String> = checkpoint.get_meta("body").ok();
+    let mut source = EnvSource::with_body(&env, body)
+        .for_learner(checkpoint_learner(checkpoint, file)?)?
+        .with_settings(settings)?;
+    if checkpoint.has_meta("residual") {
+        source = source.with_residual(checkpoint.get_meta("residual").map_err(RlError::from)?)?;
+    }
+    Ok(source)
+}
+
 /// Runs the evaluation and writes `eval.json`.
 pub fn run_eval(opts: &EvalOptions) -> Result<EvalReport, EvalError> {
     if opts.episodes == 0 || opts.episodes > 100_000 {
@@ -126,10 +159,7 @@ pub fn run_eval(opts: &EvalOptions) -> Result<EvalReport, EvalError> {
         None => trained.clone(),
     };
     let body: Option<String> = checkpoint.get_meta("body").ok();
-    // A hybrid is rebuilt with the residual preset of the learner that trained it.
-    let learner = AlgoKind::from_name(&checkpoint.algo).ok_or_else(|| {
-        EvalError::Refused(format!("{}: unknown algorithm `{}`", file.display(), checkpoint.algo))
-    })?;
+    let learner = checkpoint_learner(&checkpoint, &file)?;
     // A hybrid is rebuilt with the setup it recorded (a spec's or a comparison's), when
     // evaluated on the environment it was trained on; else with the learner's preset.
     // A recorded setup that does not parse is refused, not replaced by the preset.
@@ -145,12 +175,7 @@ pub fn run_eval(opts: &EvalOptions) -> Result<EvalReport, EvalError> {
         && Some(&env) == trained_env.as_ref()
         && !opts.allow_env_change
     {
-        let mut today =
-            EnvSource::with_body(&env, body.clone()).for_learner(learner)?.with_settings(trained.clone())?;
-        if let Some(residual) = recorded_residual.clone() {
-            today = today.with_residual(residual)?;
-        }
-        let today = today.make()?.config_text();
+        let today = trained_source(&checkpoint, &file)?.make()?.config_text();
         if let Some(difference) = today.and_then(|today| config_difference(&recorded, &today)) {
             return Err(EvalError::Refused(format!(
                 "{}: `{env}` is no longer the environment this policy was trained on (a preset or default changed since): {difference}; evaluate anyway with --allow-env-change",

@@ -1718,5 +1718,11 @@ fn a_spec_trained_hybrid_resumes_and_evaluates_from_its_record_alone() {
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(String::from_utf8_lossy(&o.stdout).contains("minitaur-residual"));
+    // The library builds that environment from the checkpoint alone (the Python package's
+    // `CentaurEnv.from_checkpoint`).
+    let file = whole.join("checkpoint");
+    let checkpoint = centaur_rl::Checkpoint::read(&file).unwrap();
+    let env = centaur::eval::trained_source(&checkpoint, &file).unwrap().make().unwrap();
+    assert_eq!((env.name(), env.action_space().dim()), ("minitaur-residual", 10));
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -107,7 +107,22 @@ class CentaurEnv(gymnasium.Env):
         name = _native_name(name, body)
         # Made by gymnasium.make: its TimeLimit wrapper keeps time.
         _length_option(name, options, _NO_LIMIT if gymnasium_time_limit else max_episode_steps)
-        self._env = _native.Env(name, _settings(options), learner)
+        self._adopt(_native.Env(name, _settings(options), learner))
+
+    @classmethod
+    def from_checkpoint(cls, path: str | os.PathLike) -> CentaurEnv:
+        """The environment a checkpoint (a run directory or its `checkpoint` file) was trained
+        on, rebuilt from what the checkpoint records alone: its environment, `[env]` settings
+        and, for a hybrid, the whole setup it trained with (a spec's or a comparison's), so
+        that `centaur.Policy.load(path)` acts in it as it was trained, with no option given.
+        The episode limit is the environment's own."""
+        env = cls.__new__(cls)
+        env.render_mode = None
+        env._adopt(_native.Env.from_checkpoint(os.fspath(path)))
+        return env
+
+    def _adopt(self, native: Any) -> None:
+        self._env = native
         self.name, self.observation_space, self.action_space, self.max_episode_steps, self.dt, self.reward_term_names = (
             _spaces(self._env.describe())
         )

@@ -1,12 +1,14 @@
 //! `Env` and `VecEnv`: one environment, and N stepped together in Rust threads.
 
+use std::path::Path;
 use std::sync::Mutex;
 use std::time::Instant;
 
+use centaur::eval::trained_source;
 use centaur::registry::{EnvSource, env_names};
 use centaur::settings::EnvSettings;
 use centaur_gym::{BoxSpace, Env as RustEnv, MAX_REWARD_TERMS, StepInfo, VecEnv as RustVecEnv, VecStep};
-use centaur_rl::AlgoKind;
+use centaur_rl::{AlgoKind, Checkpoint};
 use numpy::prelude::*;
 use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3};
 use pyo3::prelude::*;
@@ -83,6 +85,19 @@ impl Env {
     #[pyo3(signature = (name, settings=None, learner=None))]
     fn new(name: &str, settings: Option<&str>, learner: Option<&str>) -> PyResult<Env> {
         let env = source(name, settings, learner)?.make().map_err(error)?;
+        let obs = vec![0.0; env.observation_space().dim()];
+        Ok(Env { inner: Mutex::new(EnvState { env, obs }) })
+    }
+
+    /// The environment the checkpoint at `path` (a run directory or its `checkpoint` file)
+    /// was trained on, from what the checkpoint records alone: its environment, `[env]`
+    /// settings and, for a hybrid, the whole setup it trained with.
+    #[staticmethod]
+    fn from_checkpoint(path: &str) -> PyResult<Env> {
+        let path = Path::new(path);
+        let file = if path.is_dir() { path.join("checkpoint") } else { path.to_path_buf() };
+        let checkpoint = Checkpoint::read(&file).map_err(error)?;
+        let env = trained_source(&checkpoint, &file).map_err(error)?.make().map_err(error)?;
         let obs = vec![0.0; env.observation_space().dim()];
         Ok(Env { inner: Mutex::new(EnvState { env, obs }) })
     }

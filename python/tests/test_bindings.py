@@ -144,3 +144,27 @@ def test_policy_errors(tmp_path):
     corrupt.write_bytes((DATA / "policy_checkpoint").read_bytes()[:1000])
     with pytest.raises(centaur.CentaurError):
         centaur.Policy.load(str(corrupt))
+
+
+def test_a_checkpoint_rebuilds_the_env_it_was_trained_on():
+    # A hybrid trained from a spec with two steered parts (10 actions; the preset's has 9):
+    # its environment comes from the checkpoint alone, and its policy acts in it.
+    path = DATA / "hybrid_spec_checkpoint"
+    policy = centaur.Policy.load(str(path))
+    env = centaur.CentaurEnv.from_checkpoint(path)
+    assert env.name == "minitaur-residual"
+    assert env.action_space.shape == (policy.act_dim,) == (10,)
+    assert env.observation_space.shape == (policy.obs_dim,)
+    preset = centaur.CentaurEnv("minitaur-residual")
+    assert preset.action_space.shape == (9,)
+    obs, _ = env.reset(seed=0)
+    total, steps = 0.0, 0
+    for _ in range(50):
+        obs, reward, terminated, truncated, _ = env.step(policy.act(obs))
+        total, steps = total + reward, steps + 1
+        if terminated or truncated:
+            break
+    assert steps > 0 and np.isfinite(total)
+    # A checkpoint that names no environment is refused, saying so.
+    with pytest.raises(centaur.CentaurError, match="does not name its environment"):
+        centaur.CentaurEnv.from_checkpoint(DATA / "policy_checkpoint")
