@@ -8,7 +8,8 @@
 //!
 //! [`HybridStack::tick`] reproduces exactly what the hybrid saw and did during training
 //! ([`crate::residual::ResidualEnv`]): both hold the one [`Residual`] (the law and the
-//! observation layout) and tick the controller through [`ContactMap`] and
+//! observation layout), make the one step it defines ([`Residual::observe`], the policy,
+//! then [`Residual::act`]) and tick the controller through [`ContactMap`] and
 //! [`CommandTorques`]. Without a policy it runs the controller alone.
 
 use centaur_dynamics::{Model, RobotState};
@@ -186,29 +187,20 @@ impl HybridStack {
             None => self.command.copy_from_slice(&self.reference),
             Some(policy) => {
                 robot.sensors(&mut self.sensors);
-                let status = self.controller.status();
-                let state = self.residual.state_of(status);
-                self.residual.observation(
-                    &self.sensors,
-                    status.phase,
-                    &self.steered,
-                    &self.reference,
-                    &state,
-                    &mut self.obs,
-                );
+                let r = &self.residual;
+                r.observe(&self.controller, &self.sensors, &self.steered, &self.reference, &mut self.obs);
                 policy.act(&self.obs, &mut self.residual_out);
-                let space = robot.command_space();
-                let g = self.residual.authority(&self.controller, &self.steered);
-                self.residual.apply(
+                // The step ResidualEnv::step makes in training, at the full bound.
+                r.act(
+                    &mut self.controller,
+                    &self.config.command,
+                    &mut self.steered,
                     &self.reference,
                     &self.residual_out,
-                    g.residual,
-                    &space.low,
-                    &space.high,
+                    1.0,
+                    robot.command_space(),
                     &mut self.command,
                 );
-                self.steered = self.residual.steer(&self.config.command, &self.residual_out, g.steering);
-                self.residual.steer_gait(&mut self.controller, &self.residual_out, g.steering);
             }
         }
         &self.command

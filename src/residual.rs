@@ -190,9 +190,7 @@ impl ResidualEnv {
     }
 
     fn write_obs(&self, obs: &mut [f32]) {
-        let status = self.controller.status();
-        let state = self.residual.state_of(status);
-        self.residual.observation(&self.env_obs, status.phase, &self.command, &self.reference, &state, obs);
+        self.residual.observe(&self.controller, &self.env_obs, &self.command, &self.reference, obs);
     }
 }
 
@@ -268,21 +266,21 @@ impl Env for ResidualEnv {
     fn step(&mut self, action: &[f32], obs: &mut [f32]) -> Result<Step, EnvError> {
         check_action(&self.act_space, action)?;
         check_observation(&self.obs_space, obs)?;
-        let space = self.env.action_space();
         // The controller ticked on this state (`update_reference`): its CoM height is now's.
-        let g = self.residual.authority(&self.controller, &self.command);
-        let sq = self.residual.apply(
+        // The step HybridStack::tick makes too; the robot's step does not touch the
+        // controller, so the steering may come before it.
+        let sq = self.residual.act(
+            &mut self.controller,
+            &self.config.command,
+            &mut self.command,
             &self.reference,
             action,
-            g.residual * self.bound,
-            &space.low,
-            &space.high,
+            self.bound,
+            self.env.action_space(),
             &mut self.applied,
         );
         let mut step = self.env.step(&self.applied, &mut self.env_obs)?;
         step.info.reward_terms[RESIDUAL_TERM] = (sq / self.applied.len().max(1) as f64).sqrt();
-        self.command = self.residual.steer(&self.config.command, action, g.steering);
-        self.residual.steer_gait(&mut self.controller, action, g.steering);
         if !step.done() {
             self.update_reference();
         }

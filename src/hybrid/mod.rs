@@ -893,6 +893,49 @@ impl Residual {
         sq
     }
 
+    /// One step of the hybrid on the controller's `reference` action, the sequence training
+    /// ([`crate::residual::ResidualEnv`]) and deployment ([`crate::deploy::HybridStack`])
+    /// share: the policy's authority now ([`Residual::authority`], at the command it
+    /// steered last, `steered`), the law applied to its `output` within `bound` of the
+    /// scale (the rising bound's fraction in training, 1 deployed) into `applied`
+    /// ([`Residual::apply`]), then the command steered from `base` into `steered` and the
+    /// gait clock's rate steered, for the controller's next tick. Returns
+    /// [`Residual::apply`]'s squared correction.
+    #[allow(clippy::too_many_arguments)]
+    pub fn act(
+        &self,
+        controller: &mut LocomotionController,
+        base: &Command,
+        steered: &mut Command,
+        reference: &[f32],
+        output: &[f32],
+        bound: f32,
+        space: &centaur_gym::BoxSpace,
+        applied: &mut [f32],
+    ) -> f64 {
+        let g = self.authority(controller, steered);
+        let sq = self.apply(reference, output, g.residual * bound, &space.low, &space.high, applied);
+        *steered = self.steer(base, output, g.steering);
+        self.steer_gait(controller, output, g.steering);
+        sq
+    }
+
+    /// The policy's observation ([`Residual::observation`]) from the robot's `sensors`, the
+    /// controller's status (its phase and, where observed, its state), the command it
+    /// follows and its `reference` action.
+    pub fn observe(
+        &self,
+        controller: &LocomotionController,
+        sensors: &[f32],
+        command: &Command,
+        reference: &[f32],
+        obs: &mut [f32],
+    ) {
+        let status = controller.status();
+        let state = self.state_of(status);
+        self.observation(sensors, status.phase, command, reference, &state, obs);
+    }
+
     /// The command the policy's `output` steers `base` to, each steering entry scaled by
     /// the policy's `authority` over the steering ([`Residual::authority`]; 1 without a
     /// fade), `base` itself without steering, for a zero output or at no authority.
