@@ -4,11 +4,11 @@
 //! and iterations (`SOLVES`: the MPC per solve, the whole-body QP per tick):
 //! `cargo run --release --example control_probe -- ant trot 0.3 10 --every 10`.
 
-use centaur::control::parse_gait;
-use centaur::dynamics::nalgebra::Vector3;
-use centaur::hybrid::ActionMapping;
-use centaur::mpc::{Command, LocomotionController};
-use centaur::registry::{controller_config, make_robot_env};
+use centaur_lab::control::parse_gait;
+use centaur_lab::dynamics::nalgebra::Vector3;
+use centaur_lab::hybrid::ActionMapping;
+use centaur_lab::mpc::{Command, LocomotionController};
+use centaur_lab::registry::{controller_config, make_robot_env};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -52,8 +52,8 @@ fn main() {
             let (k, v) = kv.split_once('=').expect("key=value");
             let x: f64 = v.parse().unwrap_or(0.0);
             match k {
-                "cheap" => cfg.mode = centaur::mpc::ControlMode::Cheap,
-                "clarabel" => cfg.wbc.backend = centaur::mpc::QpBackend::Clarabel,
+                "cheap" => cfg.mode = centaur_lab::mpc::ControlMode::Cheap,
+                "clarabel" => cfg.wbc.backend = centaur_lab::mpc::QpBackend::Clarabel,
                 "limit_h" => cfg.wbc.joint_limit_horizon = x,
                 "limit_acc" => cfg.wbc.joint_limit_max_deceleration = x,
                 "cheap_kp" => cfg.cheap_swing_gains.0 = x,
@@ -122,7 +122,7 @@ fn main() {
                 "horizon" => cfg.mpc.horizon = x as usize,
                 "force_weight" => cfg.mpc.force_weight = x,
                 "mpc_tol" => cfg.mpc.tolerance = x,
-                "mpc_clarabel" if x != 0.0 => cfg.mpc.solver = centaur::mpc::MpcSolver::Clarabel,
+                "mpc_clarabel" if x != 0.0 => cfg.mpc.solver = centaur_lab::mpc::MpcSolver::Clarabel,
                 "raibert_kv" => cfg.raibert_kv = x,
                 "fh_com" => cfg.foothold_from_com = x != 0.0,
                 "fh_kp" => cfg.foothold_position_gain = x,
@@ -137,12 +137,12 @@ fn main() {
                 "duty" => cfg
                     .gaits
                     .iter_mut()
-                    .filter(|o| o.gait != centaur::mpc::Gait::Stand)
+                    .filter(|o| o.gait != centaur_lab::mpc::Gait::Stand)
                     .for_each(|o| o.duty_factor = Some(x)),
                 "offer_w_ang" => cfg
                     .gaits
                     .iter_mut()
-                    .filter(|o| o.gait != centaur::mpc::Gait::Stand)
+                    .filter(|o| o.gait != centaur_lab::mpc::Gait::Stand)
                     .for_each(|o| o.body_angular_weight = Some(x)),
                 "unrated" => cfg.offer_every_gait(),
                 "mu" => {
@@ -156,7 +156,7 @@ fn main() {
                 _ if k.starts_with("offer_q") => {
                     let idx: usize = k["offer_q".len()..].parse().expect("offer_qN");
                     let base = cfg.mpc.state_weights;
-                    for o in cfg.gaits.iter_mut().filter(|o| o.gait != centaur::mpc::Gait::Stand) {
+                    for o in cfg.gaits.iter_mut().filter(|o| o.gait != centaur_lab::mpc::Gait::Stand) {
                         o.mpc_state_weights.get_or_insert(base)[idx] = x;
                     }
                 }
@@ -194,7 +194,7 @@ fn main() {
         (v[0], v[1], v[2], v[3])
     });
     let noise_frac: f64 = flag("--action-noise").and_then(|s| s.parse().ok()).unwrap_or(0.0);
-    let mut noise = centaur::gym::Rng::seed_from_u64(seed ^ 0x006e_6f69_7365);
+    let mut noise = centaur_lab::gym::Rng::seed_from_u64(seed ^ 0x006e_6f69_7365);
     let dt = env.dt();
     let mut t = 0.0;
     let mut x0 = env.robot_state().q[0];
@@ -227,7 +227,7 @@ fn main() {
         };
         mapping.action(env.as_mut(), cmd, &mut action);
         if noise_frac > 0.0 {
-            centaur::control::perturb_action(&mut action, env.action_space(), noise_frac, &mut noise);
+            centaur_lab::control::perturb_action(&mut action, env.action_space(), noise_frac, &mut noise);
         }
         if let Some((amp, lift, period, sign)) = cpg {
             // Open-loop joint-space trot for the Ant (simulator check): diagonal pairs,

@@ -6,7 +6,7 @@
 //! cargo run --release --example residual_ppo_minitaur        # produces the checkpoint
 //! cargo run --release --example embed_controller -- [--checkpoint PATH] [--seconds 10] [--controller-only] [--realtime] [--background-mpc]
 //! ```
-//! The "robot" here is the simulated Minitaur behind [`centaur::deploy::RobotInterface`];
+//! The "robot" here is the simulated Minitaur behind [`centaur_lab::deploy::RobotInterface`];
 //! on hardware the same loop would read the estimator and sensors and write the motor
 //! drivers. `--realtime` sleeps to hold the 100 Hz period as a robot loop would.
 //! `--background-mpc` solves the MPC on the controller's worker thread
@@ -24,12 +24,12 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use centaur::deploy::{HybridStack, Simulated};
-use centaur::envs::minitaur::MotorInverse;
-use centaur::experiment::{check_trained_with, recorded_hybrid};
-use centaur::hybrid::ResidualConfig;
-use centaur::registry::{controller_config, make_robot_env_with, residual_config};
-use centaur::settings::EnvSettings;
+use centaur_lab::deploy::{HybridStack, Simulated};
+use centaur_lab::envs::minitaur::MotorInverse;
+use centaur_lab::experiment::{check_trained_with, recorded_hybrid};
+use centaur_lab::hybrid::ResidualConfig;
+use centaur_lab::registry::{controller_config, make_robot_env_with, residual_config};
+use centaur_lab::settings::EnvSettings;
 use centaur_mpc::MpcExecution;
 use centaur_rl::Policy;
 use centaur_test_support::{CountingAllocator, thread_allocations};

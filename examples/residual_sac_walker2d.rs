@@ -16,7 +16,7 @@
 
 use std::process::ExitCode;
 
-use centaur::cli::{ExampleArgs, ExampleDefaults, run_example};
+use centaur_lab::cli::{ExampleArgs, ExampleDefaults, run_example};
 use centaur_rl::AlgoKind;
 use clap::Parser;
 

@@ -216,7 +216,7 @@ impl Env for ResidualEnv {
     /// checkpoint evaluated on a controller whose preset changed since is refused, naming
     /// the first difference (older records hold no `controller` and are not checked
     /// for it). Runs of `centaur compare` also check the residual setup they were trained
-    /// with ([`crate::experiment::check_trained_with`]).
+    /// with (`centaur_lab::experiment::check_trained_with`).
     fn config_text(&self) -> Option<String> {
         let robot: serde_json::Value = serde_json::from_str(&self.env.config_text()?).ok()?;
         let controller = serde_json::to_value(self.controller.config()).ok()?;

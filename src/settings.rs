@@ -80,7 +80,7 @@ pub struct EnvSettings {
     /// drawn at reset, the earlier default; [`centaur_envs::minitaur::MotorInverse`]).
     /// Changes the hybrid's reference action, so it is a task key, not a training-only one
     /// (the studies that rerun a trained hybrid tell its controller the same motor,
-    /// [`crate::experiment::TrainedWith`]).
+    /// `centaur_lab::experiment::TrainedWith`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub motor_inverse: Option<MotorInverse>,
     /// Minitaur: control latency (s), 0 to [`centaur_envs::minitaur::MAX_LATENCY`].
@@ -134,7 +134,7 @@ pub struct EnvSettings {
 /// trained with them runs in the robot's preset environment as it is (the robustness study
 /// and `embed_controller` take such runs, and runs with `motor_inverse`, whose motor they
 /// tell the controller too, or `observe_body_state`, whose observation they give the
-/// policies too, [`crate::experiment::TrainedWith`]; any other key is refused there).
+/// policies too, `centaur_lab::experiment::TrainedWith`; any other key is refused there).
 pub const TRAINING_ONLY: [&str; 2] = ["motor_strength", "pushes"];
 
 impl EnvSettings {

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use centaur::train::{Summary, TrainError, TrainOptions, resume, train};
+use centaur_lab::train::{Summary, TrainError, TrainOptions, resume, train};
 use centaur_rl::{AlgoKind, MetricsCsv, Policy};
 
 fn out_dir(name: &str) -> PathBuf {
@@ -238,7 +238,7 @@ fn evaluations_come_due_where_the_rollout_does_not_divide_the_interval() {
         spec: None,
     };
     let summary = train(&opts, &mut |_| {}).unwrap();
-    let evals = centaur::train::read_evaluations(&out.join("evaluations.csv")).unwrap();
+    let evals = centaur_lab::train::read_evaluations(&out.join("evaluations.csv")).unwrap();
     // Rollouts of 2 × 256 = 512 steps: the segments end at 4,096, 8,192 and 12,288.
     let steps: Vec<u64> = evals.iter().map(|e| e.step).collect();
     assert_eq!(steps, [4_096, 8_192, 12_288]);
@@ -314,7 +314,8 @@ fn a_killed_run_resumes_to_the_uninterrupted_result() {
     let episodes = |d: &std::path::Path| std::fs::read_to_string(d.join("episodes.csv")).unwrap();
     assert_eq!(episodes(&killed), episodes(&whole), "the episode logs differ after resume");
     // The evaluations every 8,192 steps (the last is the final one), equal after resume.
-    let evals = |d: &std::path::Path| centaur::train::read_evaluations(&d.join("evaluations.csv")).unwrap();
+    let evals =
+        |d: &std::path::Path| centaur_lab::train::read_evaluations(&d.join("evaluations.csv")).unwrap();
     let steps: Vec<u64> = evals(&whole).iter().map(|e| e.step).collect();
     assert_eq!(steps, [8192, 16384, 24576, 32768, 40960]);
     assert_eq!(evals(&killed), evals(&whole), "the evaluations differ after resume");
@@ -442,7 +443,7 @@ fn a_changed_environment_is_not_taken_for_the_one_trained_on() {
     let opts =
         TrainOptions { checkpoint_every: 256, ..pendulum_run(AlgoKind::Ppo, 512, out.clone(), &config) };
     train(&opts, &mut |_| {}).unwrap();
-    let record = centaur::train::read_run_record(&out).unwrap();
+    let record = centaur_lab::train::read_run_record(&out).unwrap();
     let built = record.env_config.clone().unwrap();
     assert_eq!(built, r#"{"g": 10.0, "max_episode_steps": 50}"#);
     let ckpt_path = out.join("checkpoint");
@@ -543,8 +544,8 @@ fn a_hybrid_trained_from_the_command_line_starts_as_the_controller() {
 fn eval_one_episode(
     out: &Path,
     allow_env_change: bool,
-) -> Result<centaur::eval::EvalReport, centaur::eval::EvalError> {
-    centaur::eval::run_eval(&centaur::eval::EvalOptions {
+) -> Result<centaur_lab::eval::EvalReport, centaur_lab::eval::EvalError> {
+    centaur_lab::eval::run_eval(&centaur_lab::eval::EvalOptions {
         checkpoint: out.to_path_buf(),
         config: None,
         env: None,
@@ -577,7 +578,7 @@ fn a_hybrid_is_trained_and_evaluated_on_its_learners_preset() {
             ..pendulum_run(algo, 0, out.clone(), &config)
         };
         train(&opts, &mut |_| {}).unwrap();
-        let record = centaur::train::read_run_record(&out).unwrap();
+        let record = centaur_lab::train::read_run_record(&out).unwrap();
         let built: serde_json::Value = serde_json::from_str(record.env_config.as_deref().unwrap()).unwrap();
         assert_eq!(built["residual"]["scale"], serde_json::json!([scale]), "{}", algo.name());
         assert_eq!(built["residual"].get("bound_ramp").is_some(), ramp, "{}", algo.name());
@@ -949,7 +950,7 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
     // `centaur eval` behind a fade: the hybrid's own file, the fade in it; refused for pure RL
     // (not a hybrid) and for a fade that ends before it starts.
     let eval_fade = |agent: &str, env: &str, start: f64, end: f64| {
-        centaur::eval::run_eval(&centaur::eval::EvalOptions {
+        centaur_lab::eval::run_eval(&centaur_lab::eval::EvalOptions {
             checkpoint: seed_0.join(agent),
             config: None,
             env: Some(env.into()),
@@ -958,7 +959,7 @@ fn compare_writes_the_across_seed_summary_and_every_seed_run() {
             record: None,
             out: None,
             allow_env_change: false,
-            fade: Some(centaur::hybrid::Fade { start, end }),
+            fade: Some(centaur_lab::hybrid::Fade { start, end }),
         })
     };
     let report = eval_fade("hybrid", "minitaur-residual", 0.12, 0.24).unwrap();
@@ -1069,7 +1070,7 @@ fn compare_gives_the_same_figures_on_one_thread_and_on_two() {
 
 #[test]
 fn modular_robots_train_from_a_body_file_and_compare_refuses_them_at_once() {
-    let body = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/modular/snake.json");
+    let body = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/modular/snake.json");
     let out = out_dir("modular_compare");
     let start = std::time::Instant::now();
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_centaur"))
@@ -1102,9 +1103,9 @@ fn modular_robots_train_from_a_body_file_and_compare_refuses_them_at_once() {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let policy = centaur::rl::Policy::load(&out.join("checkpoint")).unwrap();
+    let policy = centaur_lab::rl::Policy::load(&out.join("checkpoint")).unwrap();
     assert_eq!(policy.act_dim(), 4);
-    let checkpoint = centaur::rl::Checkpoint::read(&out.join("checkpoint")).unwrap();
+    let checkpoint = centaur_lab::rl::Checkpoint::read(&out.join("checkpoint")).unwrap();
     let stored: String = checkpoint.get_meta("body").unwrap();
     assert_eq!(stored, std::fs::read_to_string(body).unwrap(), "the checkpoint keeps the body");
 }
@@ -1179,16 +1180,16 @@ fn the_env_table_of_a_run_file_configures_the_environment() {
     assert!(rows.iter().any(|m| m.episodes > 0));
     assert!(rows.iter().filter(|m| m.episodes > 0).all(|m| m.episode_length_mean <= 20.0), "{rows:?}");
     let ckpt = centaur_rl::Checkpoint::read(&out.join("checkpoint")).unwrap();
-    let settings: centaur::settings::EnvSettings = ckpt.get_meta("env_settings").unwrap();
+    let settings: centaur_lab::settings::EnvSettings = ckpt.get_meta("env_settings").unwrap();
     assert_eq!((settings.max_episode_steps, settings.healthy_reward), (Some(20), Some(0.0)));
-    let record = centaur::train::read_run_record(&out).unwrap();
+    let record = centaur_lab::train::read_run_record(&out).unwrap();
     assert_eq!(record.env_settings, settings);
 
     // `centaur eval`: as trained by default; a run file's [env] judges it in another
     // configuration (the seed study's no-penalty / full-penalty judgement); another env
     // whose spaces do not fit is refused.
     let eval = |config: Option<PathBuf>, env: Option<&str>, record: Option<PathBuf>| {
-        centaur::eval::run_eval(&centaur::eval::EvalOptions {
+        centaur_lab::eval::run_eval(&centaur_lab::eval::EvalOptions {
             checkpoint: out.clone(),
             config,
             env: env.map(str::to_string),
@@ -1246,7 +1247,7 @@ fn the_env_table_of_a_run_file_configures_the_environment() {
 /// process that held it (the SIGKILL test resumes at once after a kill).
 #[test]
 fn a_run_directory_held_by_another_process_is_refused() {
-    use centaur::rundir::lock_dir;
+    use centaur_lab::rundir::lock_dir;
     let out = out_dir("held");
     let config = out_dir("held.toml");
     std::fs::write(&config, "n_steps = 128\nbatch_size = 64\nactor_hidden = [8]\ncritic_hidden = [8]\n")
@@ -1269,7 +1270,7 @@ fn a_run_directory_held_by_another_process_is_refused() {
     let held = loop {
         match lock_dir(&out) {
             Ok(held) => break held,
-            Err(centaur::rundir::Claim::Busy) if started.elapsed().as_secs() < 2 => {
+            Err(centaur_lab::rundir::Claim::Busy) if started.elapsed().as_secs() < 2 => {
                 std::thread::sleep(std::time::Duration::from_millis(5))
             }
             Err(other) => panic!("the run's lock was not released: {other:?}"),
@@ -1330,6 +1331,11 @@ fn a_sweep_over_a_spec_varies_its_table_keys() {
     assert_eq!(points[1]["values"]["learner.learning_rate"].as_str(), Some("0.001"));
     for p in points {
         assert_eq!(p["final_returns"].as_array().unwrap().len(), 1, "the spec's one seed");
+    }
+    // The generated results page: the grid with the spec resolved, the table, every seed.
+    let page = std::fs::read_to_string(out.join("results.md")).unwrap();
+    for part in ["Generated by `centaur sweep`", "over the spec, resolved", "| p001 |", "Host: "] {
+        assert!(page.contains(part), "{part}: {page}");
     }
     let record: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("p001/seed_0/run.json")).unwrap()).unwrap();
@@ -1469,7 +1475,7 @@ fn a_sweep_judges_every_final_policy() {
     }
     assert_eq!(p["judged"]["costly"]["episodes"].as_u64(), Some(20));
     // Each run evaluated its checkpoint every 128 steps, the final one last.
-    let evals = centaur::train::read_evaluations(&out.join("p000/seed_1/evaluations.csv")).unwrap();
+    let evals = centaur_lab::train::read_evaluations(&out.join("p000/seed_1/evaluations.csv")).unwrap();
     assert_eq!(evals.iter().map(|e| e.step).collect::<Vec<_>>(), [128, 256]);
     // A judgement lost (killed while judging) is redone alone, to the same figure.
     let lost = out.join("p000/seed_0/judge_costly.json");
@@ -1492,7 +1498,7 @@ fn a_sweep_judges_every_final_policy() {
 /// settings fit their robots (checked without running, as `centaur sweep --check` does).
 #[test]
 fn every_study_grid_checks() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("studies");
+    let dir = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).join("studies");
     let mut files: Vec<_> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -1501,7 +1507,7 @@ fn every_study_grid_checks() {
     files.sort();
     assert!(files.len() >= 15, "{files:?}");
     for f in &files {
-        let g = centaur::sweep::check_grid(f).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+        let g = centaur_lab::sweep::check_grid(f).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
         assert!(!g.points.is_empty());
         let name = f.file_name().unwrap().to_string_lossy();
         if name.starts_with("c_") {
@@ -1593,13 +1599,13 @@ fn a_study_of_several_grids_runs_with_one_command() {
 /// burn-in) are what the README says.
 #[test]
 fn the_shipped_run_files_parse() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
+    let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).join("configs");
     let mut seen = 0;
     for entry in std::fs::read_dir(&dir).unwrap() {
         let path = entry.unwrap().path();
         let text = std::fs::read_to_string(&path).unwrap();
         if text.lines().any(|l| l.starts_with("schema")) {
-            // A run spec, not a run file: `centaur::spec`'s tests resolve every one.
+            // A run spec, not a run file: `centaur_lab::spec`'s tests resolve every one.
             continue;
         }
         let name = path.file_stem().unwrap().to_str().unwrap().to_string();
@@ -1608,7 +1614,7 @@ fn the_shipped_run_files_parse() {
             "ppo" => AlgoKind::Ppo,
             other => panic!("{name}: a run file for {other}, not checked here"),
         };
-        let (config, settings) = centaur::train::parse_run_config(kind, &text, &path).unwrap();
+        let (config, settings) = centaur_lab::train::parse_run_config(kind, &text, &path).unwrap();
         if name.contains("hybrid") {
             assert!(settings.is_empty(), "{name}: an [env] table");
             let centaur_rl::AlgoConfig::Ppo(p) = config else { panic!("{name}") };
@@ -1648,9 +1654,9 @@ fn a_spec_trained_hybrid_resumes_and_evaluates_from_its_record_alone() {
          [controller]\nspeed = 3.0\nrated_speed = 4.5\n",
     )
     .unwrap();
-    let resolved = centaur::spec::RunSpec::read(&spec_path, &[])
+    let resolved = centaur_lab::spec::RunSpec::read(&spec_path, &[])
         .unwrap()
-        .resolve(centaur::spec::Purpose::Train)
+        .resolve(centaur_lab::spec::Purpose::Train)
         .unwrap();
     assert_eq!(resolved.hybrid.as_ref().map(|h| h.steering.dim()), Some(2));
     let whole = dir.join("whole");
@@ -1670,7 +1676,7 @@ fn a_spec_trained_hybrid_resumes_and_evaluates_from_its_record_alone() {
         spec: Some(resolved.clone()),
     };
     train(&opts, &mut |_| {}).unwrap();
-    let recorded: centaur::spec::SpecRecord =
+    let recorded: centaur_lab::spec::SpecRecord =
         serde_json::from_str(&std::fs::read_to_string(whole.join("spec.json")).unwrap()).unwrap();
     assert_eq!(recorded.spec, resolved);
 
@@ -1722,7 +1728,7 @@ fn a_spec_trained_hybrid_resumes_and_evaluates_from_its_record_alone() {
     // `CentaurEnv.from_checkpoint`).
     let file = whole.join("checkpoint");
     let checkpoint = centaur_rl::Checkpoint::read(&file).unwrap();
-    let env = centaur::eval::trained_source(&checkpoint, &file).unwrap().make().unwrap();
+    let env = centaur_lab::eval::trained_source(&checkpoint, &file).unwrap().make().unwrap();
     assert_eq!((env.name(), env.action_space().dim()), ("minitaur-residual", 10));
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -5,7 +5,7 @@
 
 use std::process::Command as Process;
 
-use centaur::control::{ControlError, ControlOptions, ControlSummary, Push, run_control};
+use centaur_lab::control::{ControlError, ControlOptions, ControlSummary, Push, run_control};
 use centaur_mpc::Gait;
 
 fn run(env: &str, gait: Gait, speed: f64, measure_from: f64, push: Option<Push>) -> ControlSummary {
@@ -739,5 +739,5 @@ fn control_refuses_options_it_would_ignore_or_that_break_the_run() {
     }
     // 10 kN for 0.1 s throws the 4.8 kg Minitaur at ≈ 200 m/s: reported, not summarised.
     let err = run_control(&ControlOptions { push: push(0.5, 10_000.0, 0.1), ..base.clone() }).unwrap_err();
-    assert!(matches!(err, centaur::control::ControlError::Diverged { .. }), "{err}");
+    assert!(matches!(err, centaur_lab::control::ControlError::Diverged { .. }), "{err}");
 }

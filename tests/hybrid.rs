@@ -1,12 +1,12 @@
 //! The residual (hybrid) environment and the MCAP recordings.
 
-use centaur::hybrid::{ActionMapping, Authority, Fade, HybridError, Residual, ResidualConfig};
-use centaur::recording::{CommandFrame, Frame, Recorder, TOPICS};
-use centaur::registry::{
+use centaur_gym::{Env, EnvError, Rng};
+use centaur_lab::hybrid::{ActionMapping, Authority, Fade, HybridError, Residual, ResidualConfig};
+use centaur_lab::recording::{CommandFrame, Frame, Recorder, TOPICS};
+use centaur_lab::registry::{
     RegistryError, controller_config, make_residual_env, make_robot_env, residual_config,
 };
-use centaur::residual::RESIDUAL_TERM;
-use centaur_gym::{Env, EnvError, Rng};
+use centaur_lab::residual::RESIDUAL_TERM;
 use centaur_mpc::{Command, ConfigError, Gait, LocomotionController};
 
 /// Observations and rewards (as bits) of the controller alone for `steps` steps.
@@ -34,7 +34,7 @@ fn controller_alone(env_name: &str, command: Command, steps: usize) -> Vec<u64> 
 
 /// Robot observations and rewards (as bits) of `env` under a zero policy output for
 /// `steps` steps from reset seed 3 (the same trace as [`controller_alone`]).
-fn zero_output_trace(env: &mut centaur::residual::ResidualEnv, steps: usize) -> Vec<u64> {
+fn zero_output_trace(env: &mut centaur_lab::residual::ResidualEnv, steps: usize) -> Vec<u64> {
     let zero = vec![0.0f32; env.action_space().dim()];
     let n_env = env.inner().observation_space().dim();
     trace(env, &zero, n_env, steps, |s| assert_eq!(s.info.reward_terms[RESIDUAL_TERM], 0.0))
@@ -44,7 +44,7 @@ fn zero_output_trace(env: &mut centaur::residual::ResidualEnv, steps: usize) -> 
 /// step's observation and reward while `action` is held for `steps` steps (or to the end of
 /// the episode); `check` sees every step.
 fn trace(
-    env: &mut centaur::residual::ResidualEnv,
+    env: &mut centaur_lab::residual::ResidualEnv,
     action: &[f32],
     n_obs: usize,
     steps: usize,
@@ -88,7 +88,7 @@ fn walker_walk() -> ResidualConfig {
 /// evaluation); the applied action is the reference plus that residual.
 #[test]
 fn a_rising_bound_follows_the_training_samples_the_env_is_told() {
-    use centaur::hybrid::BoundRamp;
+    use centaur_lab::hybrid::BoundRamp;
     let (scale, ramp) = (0.2, BoundRamp { from: 0.04, samples: 1000 });
     let config = ResidualConfig { scale: vec![scale], bound_ramp: Some(ramp), ..walker_walk() };
     let action = vec![0.5f32; make_residual_env("walker2d", config.clone()).unwrap().action_space().dim()];
@@ -119,8 +119,8 @@ fn a_rising_bound_follows_the_training_samples_the_env_is_told() {
 /// action entry is the cadence.
 #[test]
 fn cadence_steering_runs_the_gait_clock_faster_or_slower() {
-    use centaur::hybrid::Steering;
-    use centaur::mpc::GAIT_RATE_SLEW;
+    use centaur_lab::hybrid::Steering;
+    use centaur_lab::mpc::GAIT_RATE_SLEW;
     let cadence = 0.5;
     let config = ResidualConfig { steering: Steering { cadence, ..Steering::OFF }, ..walker_walk() };
     let run = |config: &ResidualConfig, c: Option<f32>, steps: usize| {
@@ -161,7 +161,7 @@ fn cadence_steering_runs_the_gait_clock_faster_or_slower() {
 /// robot's path without a fall. Returns what `read` says of the controller at zero output,
 /// after the 1.5 s at `c`, and after a reset.
 fn steer_last_entry(
-    steering: centaur::hybrid::Steering,
+    steering: centaur_lab::hybrid::Steering,
     c: f32,
     read: fn(&LocomotionController) -> f64,
 ) -> (f64, f64, f64) {
@@ -189,8 +189,8 @@ fn steer_last_entry(
 /// a reset hands the next episode the gaits' own fractions.
 #[test]
 fn duty_steering_shifts_the_stance_fractions() {
-    use centaur::hybrid::Steering;
-    use centaur::mpc::DUTY_SHIFT_SLEW;
+    use centaur_lab::hybrid::Steering;
+    use centaur_lab::mpc::DUTY_SHIFT_SLEW;
     let steering = Steering { duty: 0.2, ..residual_config("minitaur").unwrap().steering };
     // 150 steps of 10 ms: far more than the 0.2 s the slew takes.
     const { assert!(0.2 / DUTY_SHIFT_SLEW < 1.0) };
@@ -203,7 +203,7 @@ fn duty_steering_shifts_the_stance_fractions() {
 /// 1 − span (0.5 here), and a reset goes back to the controller's own height.
 #[test]
 fn swing_steering_scales_the_swing_apex() {
-    use centaur::hybrid::Steering;
+    use centaur_lab::hybrid::Steering;
     let steering = Steering { swing: 0.5, ..residual_config("minitaur").unwrap().steering };
     let scales = steer_last_entry(steering, -1.0, LocomotionController::swing_height_scale);
     assert_eq!(scales, (1.0, 0.5, 1.0));
@@ -214,7 +214,7 @@ fn swing_steering_scales_the_swing_apex() {
 /// and a reset goes back to the controller's own footholds.
 #[test]
 fn foothold_steering_moves_the_footholds() {
-    use centaur::hybrid::Steering;
+    use centaur_lab::hybrid::Steering;
     let steering = Steering { foothold: 0.05, ..residual_config("minitaur").unwrap().steering };
     let (zero, steered, reset) = steer_last_entry(steering, 1.0, LocomotionController::foothold_offset);
     assert_eq!((zero, reset), (0.0, 0.0));
@@ -285,7 +285,7 @@ fn the_observation_carries_phase_command_and_reference() {
 
 #[test]
 fn the_observation_can_carry_the_controllers_body_state() {
-    use centaur::hybrid::{OBSERVED_STATE_DIM, observed_state};
+    use centaur_lab::hybrid::{OBSERVED_STATE_DIM, observed_state};
     let config = ResidualConfig { include_state: true, ..residual_config("minitaur").unwrap() };
     let mut env = make_residual_env("minitaur", config).unwrap();
     let n_env = env.inner().observation_space().dim();
@@ -349,7 +349,7 @@ fn bad_residuals_and_configs_are_refused() {
     // refused by the field's name before it writes anything (it left empty seed folders).
     let out = std::env::temp_dir().join(format!("centaur-bad-compare-{}", std::process::id()));
     let algo = centaur_rl::AlgoConfig::Ppo(centaur_rl::PpoConfig { gamma: 2.0, ..Default::default() });
-    let opts = centaur::compare::CompareOptions {
+    let opts = centaur_lab::compare::CompareOptions {
         env: "minitaur".into(),
         algo,
         seeds: 1,
@@ -369,7 +369,7 @@ fn bad_residuals_and_configs_are_refused() {
         spec: None,
         command: None,
     };
-    let err = centaur::compare::run_compare(&opts, &mut |_, _, _| {}).unwrap_err();
+    let err = centaur_lab::compare::run_compare(&opts, &mut |_, _, _| {}).unwrap_err();
     assert!(err.to_string().contains("gamma"), "{err}");
     assert!(!out.exists(), "a refused comparison left {}", out.display());
     // So are the hybrid's own hyperparameters, when bad or another algorithm's.
@@ -377,12 +377,12 @@ fn bad_residuals_and_configs_are_refused() {
     let bad_hybrid = centaur_rl::AlgoConfig::Ppo(centaur_rl::PpoConfig { gamma: 2.0, ..ppo.clone() });
     let sac = centaur_rl::AlgoConfig::Sac(Default::default());
     for (hybrid, says) in [(bad_hybrid, "gamma"), (sac, "the hybrid's hyperparameters are sac's")] {
-        let opts = centaur::compare::CompareOptions {
+        let opts = centaur_lab::compare::CompareOptions {
             algo: centaur_rl::AlgoConfig::Ppo(ppo.clone()),
             hybrid_algo: Some(hybrid),
             ..opts.clone()
         };
-        let err = centaur::compare::run_compare(&opts, &mut |_, _, _| {}).unwrap_err();
+        let err = centaur_lab::compare::run_compare(&opts, &mut |_, _, _| {}).unwrap_err();
         assert!(err.to_string().contains(says), "{err}");
         assert!(!out.exists(), "a refused comparison left {}", out.display());
     }
@@ -492,8 +492,8 @@ fn mcap_recordings_have_foxglove_schemas_and_one_message_per_step() {
 
 #[test]
 fn the_deployed_stack_acts_exactly_like_the_residual_env_it_was_trained_in() {
-    use centaur::deploy::{HybridStack, Simulated};
     use centaur_gym::VecEnv;
+    use centaur_lab::deploy::{HybridStack, Simulated};
     use centaur_rl::{Algorithm, Ppo, PpoConfig};
     let config = residual_config("minitaur").unwrap();
     // The robot observations, as bits, of 60 steps of the residual env and of the plain env
@@ -554,7 +554,7 @@ fn the_deployed_stack_acts_exactly_like_the_residual_env_it_was_trained_in() {
     // footholds on a faster clock and a lower swing, the stack runs the controller's gait as
     // the env does.
     let clocked = ResidualConfig {
-        steering: centaur::hybrid::Steering {
+        steering: centaur_lab::hybrid::Steering {
             cadence: 0.5,
             duty: 0.2,
             swing: 0.5,
@@ -735,8 +735,8 @@ fn steering_the_speed_up_makes_the_robot_run_faster() {
 /// first rollout, before any update, with the preset's exploration) score at least 80 % of
 /// the controller alone on the same reset seeds.
 fn assert_explores_gently(robot: &str, n_steps: usize, min_controller: f64) {
-    use centaur::residual::start_as_controller;
     use centaur_gym::VecEnv;
+    use centaur_lab::residual::start_as_controller;
     use centaur_rl::{AlgoKind, Algorithm, Ppo, PpoConfig};
     use std::ops::ControlFlow;
     let config = residual_config(robot).unwrap();
@@ -809,8 +809,8 @@ fn an_untrained_humanoid_hybrid_explores_gently() {
 /// (1,000 steps, no gradient step), with the preset's residual setup and
 /// `warmup_with_policy` as given.
 fn td3_warmup_return(warmup_with_policy: bool) -> f64 {
-    use centaur::residual::start_as_controller;
     use centaur_gym::VecEnv;
+    use centaur_lab::residual::start_as_controller;
     use centaur_rl::{AlgoKind, Algorithm, Td3, Td3Config};
     use std::ops::ControlFlow;
     let config = ResidualConfig { warmup_with_policy, ..residual_config("ant").unwrap() };
@@ -850,8 +850,12 @@ fn an_off_policy_hybrid_can_warm_up_on_its_controller() {
     let env = Box::new(make_residual_env("ant", config.clone()).unwrap()) as Box<dyn Env>;
     let venv = VecEnv::new(vec![env], 1).unwrap();
     let mut ppo = Ppo::for_env(PpoConfig::default(), &venv).unwrap();
-    let err =
-        centaur::residual::start_as_controller(&mut ppo, AlgoKind::Ppo, &config, venv.action_space().dim())
-            .unwrap_err();
+    let err = centaur_lab::residual::start_as_controller(
+        &mut ppo,
+        AlgoKind::Ppo,
+        &config,
+        venv.action_space().dim(),
+    )
+    .unwrap_err();
     assert!(err.to_string().contains("warm-up"), "{err}");
 }

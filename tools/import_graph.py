@@ -22,6 +22,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 CRATES = {  # crate dir -> crate name as used in paths
     ".": "centaur",
+    "lab": "centaur_lab",
     "dynamics": "centaur_dynamics",
     "gym": "centaur_gym",
     "mpc": "centaur_mpc",

@@ -4,10 +4,10 @@ use std::path::Path;
 use std::sync::Mutex;
 use std::time::Instant;
 
-use centaur::eval::trained_source;
 use centaur::registry::{EnvSource, env_names};
 use centaur::settings::EnvSettings;
 use centaur_gym::{BoxSpace, Env as RustEnv, MAX_REWARD_TERMS, StepInfo, VecEnv as RustVecEnv, VecStep};
+use centaur_lab::eval::trained_source;
 use centaur_rl::{AlgoKind, Checkpoint};
 use numpy::prelude::*;
 use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3};

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use centaur::sweep::{SweepOptions, markdown, run_sweep, run_sweep_runs, sweep_runs};
+use centaur_lab::sweep::{SweepOptions, markdown, run_sweep, run_sweep_runs, sweep_runs};
 use pyo3::prelude::*;
 
 use crate::error;

@@ -12,8 +12,10 @@
 //! Nothing here knows the simulator: a robot is a [`RobotEnv`] (simulated) or a
 //! [`crate::deploy::RobotInterface`] (anything that reports a state and takes actions).
 
+mod error;
 mod overrides;
 
+pub use error::HybridError;
 pub use overrides::{
     ControllerOverrides, MAX_COMMAND_ACCELERATION, MAX_RATED_SPEED, MPC_PERIOD_RANGE, PERIOD_SCALE_RANGE,
     SWING_HEIGHT_RANGE,
@@ -21,66 +23,7 @@ pub use overrides::{
 
 use centaur_dynamics::{Model, RobotState};
 use centaur_envs::{RobotEnv, Servo};
-use centaur_mpc::{
-    Command, ConfigError, ControllerConfig, ControllerStatus, Gait, JointCommand, LocomotionController,
-};
-
-/// What the hybrid's pieces refuse.
-#[derive(Debug, thiserror::Error)]
-pub enum HybridError {
-    /// A robot actuator whose joint the controller does not drive.
-    #[error("the controller does not drive the robot's actuated joint '{joint}'")]
-    NotDriven {
-        /// The joint.
-        joint: String,
-    },
-    /// An actuated joint with more than one coordinate (a `(cos θ, sin θ)` pair).
-    #[error(
-        "the actuated joint '{joint}' is not a one-coordinate joint (load the URDF with angles: the default UrdfOptions)"
-    )]
-    NotOneCoordinate {
-        /// The joint.
-        joint: String,
-    },
-    /// A residual scale of the wrong length.
-    #[error("the residual scale has {entries} entries; give 1 or the action dimension {action_dim}")]
-    ScaleLength {
-        /// Entries given.
-        entries: usize,
-        /// The action dimension.
-        action_dim: usize,
-    },
-    /// A residual scale that is negative or not finite.
-    #[error("residual scale {value:?} is not a finite, non-negative number")]
-    BadScale {
-        /// The value.
-        value: f64,
-    },
-    /// A policy whose dimensions do not fit the robot and residual setup.
-    #[error("the policy maps {} observations to {} actions; this robot and residual setup need {} → {}", policy.0, policy.1, needed.0, needed.1)]
-    PolicyShape {
-        /// The policy's observation and action dimensions.
-        policy: (usize, usize),
-        /// What the robot and residual need.
-        needed: (usize, usize),
-    },
-    /// A steering span or exploration σ out of range.
-    #[error("{part} = {value:?}: expected {expected}")]
-    BadSetting {
-        /// Which setting.
-        part: &'static str,
-        /// The value.
-        value: f64,
-        /// What it must be.
-        expected: &'static str,
-    },
-    /// Neither a joint residual nor any steering: the policy would have no action.
-    #[error("the hybrid's policy has nothing to act on: turn on the joint residual or a steering span")]
-    NothingToLearn,
-    /// The controller's configuration.
-    #[error("controller: {0}")]
-    Controller(#[from] ConfigError),
-}
+use centaur_mpc::{Command, ControllerConfig, ControllerStatus, Gait, JointCommand, LocomotionController};
 
 /// How the policy may steer the controller's command. Each non-zero span adds one entry
 /// `c ∈ [−1, 1]` to the policy's action, after the joint residual, in this order (speed,
@@ -283,7 +226,7 @@ impl BoundRamp {
 /// 3 m/s, above the controller's own 2.5 m/s trot) felled it more often than it saved it
 /// (README, "Robustness": the measured alternatives). The fade is a filter on top of a
 /// trained policy: a run may be evaluated with or without it
-/// ([`crate::experiment::check_trained_with`] ignores it).
+/// (`centaur_lab::experiment::check_trained_with` ignores it).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Fade {
@@ -1238,7 +1181,7 @@ impl ActionMapping {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use centaur_mpc::ControlMode;
+    use centaur_mpc::{ConfigError, ControlMode};
 
     #[test]
     fn the_residual_law_clips_the_output_then_the_sum() {

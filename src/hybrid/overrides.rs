@@ -4,7 +4,7 @@
 
 use centaur_mpc::{ControlMode, ControllerConfig, Gait};
 
-use super::HybridError;
+use super::error::HybridError;
 
 /// The controller settings a run overrides over its robot's preset. Each `None` (or
 /// `false`) keeps the preset's value; a set one is checked against its range first.

@@ -1222,7 +1222,7 @@ mod tests {
 
     #[test]
     fn every_spec_in_configs_resolves() {
-        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
+        let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).join("configs");
         let mut resolved = 0;
         for entry in std::fs::read_dir(&dir).unwrap() {
             let path = entry.unwrap().path();

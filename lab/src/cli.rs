@@ -1,6 +1,6 @@
 //! The command line of the examples and the `centaur` binary: arguments, progress bars and
-//! the printed tables. Behind the default feature `cli` (clap, indicatif), so that robot
-//! software embedding the controller ([`crate::deploy`]) compiles neither.
+//! the printed tables (clap, indicatif: the lab's, so that robot software linking the
+//! `centaur` library compiles neither).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -569,7 +569,8 @@ mod tests {
         ];
         let preset = crate::registry::residual_config_for("minitaur", AlgoKind::Ppo).unwrap();
         let by_flags = parse_hybrid(preset, &flags).unwrap();
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/minitaur_hybrid_bars.toml");
+        let path =
+            Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).join("configs/minitaur_hybrid_bars.toml");
         let spec = RunSpec::read(&path, &[]).unwrap().resolve(Purpose::Compare).unwrap();
         assert_eq!(spec.hybrid.as_ref(), Some(&by_flags));
         assert_eq!(spec.learner_config(), tuned_config("minitaur", AlgoKind::Ppo));
@@ -621,7 +622,8 @@ mod tests {
                 .run
                 .options(&defaults)
         };
-        let spec = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/residual_ppo_minitaur.toml");
+        let spec =
+            Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).join("configs/residual_ppo_minitaur.toml");
         let plain = options(&[]).unwrap();
         let by_spec = options(&["--spec", spec.to_str().unwrap()]).unwrap();
         assert_eq!(by_spec.identity(), plain.identity());
@@ -629,7 +631,7 @@ mod tests {
             (by_spec.residual.clone(), by_spec.eval_every, by_spec.n_envs),
             (plain.residual.clone(), None, 4)
         );
-        let ant = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/ant_ppo_hybrid.toml");
+        let ant = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).join("configs/ant_ppo_hybrid.toml");
         let e = options(&["--spec", ant.to_str().unwrap()]).unwrap_err();
         assert!(e.contains("this example runs ppo on minitaur"), "{e}");
     }
@@ -639,7 +641,7 @@ mod tests {
     #[test]
     fn run_files_resolve_as_the_learners_they_parsed_to() {
         use crate::spec::{Purpose, RunSpec, run_file_tables};
-        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
+        let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).join("configs");
         let mut compared = 0;
         for entry in std::fs::read_dir(&dir).unwrap() {
             let path = entry.unwrap().path();

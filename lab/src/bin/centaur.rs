@@ -5,14 +5,16 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use centaur::cli::{HybridArgs, TrainingProgress, positive_count, progress_style};
-use centaur::compare::{CompareOptions, run_compare};
-use centaur::control::{ControlOptions, Push, check_out_dir, run_control, write_summary};
-use centaur::experiment::Phase;
-use centaur::experiment::{Condition, RobustnessOptions, recorded_hybrid, robustness_table, run_robustness};
-use centaur::spec::{Purpose, RunSpec, SCHEMA_VERSION, run_file_tables};
-use centaur::train::{TrainOptions, read_config_file, read_run_record, resume, train};
 use centaur_envs::minitaur::MotorInverse;
+use centaur_lab::cli::{HybridArgs, TrainingProgress, positive_count, progress_style};
+use centaur_lab::compare::{CompareOptions, run_compare};
+use centaur_lab::control::{ControlOptions, Push, check_out_dir, run_control, write_summary};
+use centaur_lab::experiment::Phase;
+use centaur_lab::experiment::{
+    Condition, RobustnessOptions, recorded_hybrid, robustness_table, run_robustness,
+};
+use centaur_lab::spec::{Purpose, RunSpec, SCHEMA_VERSION, run_file_tables};
+use centaur_lab::train::{TrainOptions, read_config_file, read_run_record, resume, train};
 use centaur_mpc::{Gait, MpcSolver};
 use centaur_rl::AlgoKind;
 use clap::{Args, Parser, Subcommand};
@@ -65,7 +67,7 @@ enum Command {
 /// Arguments of `centaur sweep`.
 #[derive(Args)]
 struct SweepArgs {
-    /// The grid file (see `centaur::sweep` or the README); several (a study's files, e.g.
+    /// The grid file (see `centaur_lab::sweep` or the README); several (a study's files, e.g.
     /// `--grid studies/d_*.toml`) run one after another, each into `OUT/<file stem>`, all
     /// checked before the first runs.
     #[arg(long, num_args = 1.., required = true)]
@@ -98,10 +100,10 @@ struct SweepArgs {
 /// `centaur sweep`.
 fn sweep(args: SweepArgs) -> ExitCode {
     // Every grid is checked (and its output named) before anything runs.
-    let spec = args.spec.clone().map(|path| centaur::sweep::SpecSource { path, sets: args.sets.clone() });
+    let spec = args.spec.clone().map(|path| centaur_lab::sweep::SpecSource { path, sets: args.sets.clone() });
     let mut grids = Vec::with_capacity(args.grid.len());
     for path in &args.grid {
-        match centaur::sweep::check_grid_with(path, spec.as_ref()) {
+        match centaur_lab::sweep::check_grid_with(path, spec.as_ref()) {
             Ok(g) => grids.push((path.clone(), g)),
             Err(e) => {
                 eprintln!("error: {e}");
@@ -109,7 +111,7 @@ fn sweep(args: SweepArgs) -> ExitCode {
             }
         }
     }
-    let seeds_of = |g: &centaur::sweep::CheckedGrid| args.seeds.or(g.spec_seeds).unwrap_or(3);
+    let seeds_of = |g: &centaur_lab::sweep::CheckedGrid| args.seeds.or(g.spec_seeds).unwrap_or(3);
     if args.check {
         for (path, g) in &grids {
             let judges: Vec<&String> = g.grid.judges.keys().collect();
@@ -131,7 +133,7 @@ fn sweep(args: SweepArgs) -> ExitCode {
         return ExitCode::SUCCESS;
     }
     let out = args.out.expect("clap requires --out without --check");
-    let outs = match centaur::sweep::study_dirs(&grids, &out, args.overwrite) {
+    let outs = match centaur_lab::sweep::study_dirs(&grids, &out, args.overwrite) {
         Ok(outs) => outs,
         Err(e) => {
             eprintln!("error: {e}");
@@ -141,7 +143,7 @@ fn sweep(args: SweepArgs) -> ExitCode {
     let jobs = args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     for ((grid, checked), out) in grids.iter().zip(outs) {
         let seeds = seeds_of(checked);
-        let opts = centaur::sweep::SweepOptions {
+        let opts = centaur_lab::sweep::SweepOptions {
             grid: grid.clone(),
             seeds,
             out,
@@ -164,20 +166,20 @@ fn sweep(args: SweepArgs) -> ExitCode {
             opts.out.display()
         );
         let done = std::sync::atomic::AtomicUsize::new(0);
-        let report = |point: &str, seed: u64, s: &centaur::train::Summary| {
+        let report = |point: &str, seed: u64, s: &centaur_lab::train::Summary| {
             let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             println!(
                 "[{k}] {point} seed {seed}: final return {:.2} ({} steps, {:.0} s)",
                 s.final_return_mean, s.steps, s.wall_seconds
             );
         };
-        match centaur::sweep::run_sweep(&opts, &report) {
+        match centaur_lab::sweep::run_sweep(&opts, &report) {
             Ok(summary) => {
                 if summary.kept_runs > 0 {
                     println!("kept {} runs finished before", summary.kept_runs);
                 }
                 println!();
-                print!("{}", centaur::sweep::markdown(&summary));
+                print!("{}", centaur_lab::sweep::markdown(&summary));
                 println!("\nwrote {}\n", opts.out.join("sweep.json").display());
             }
             Err(e) => {
@@ -228,7 +230,7 @@ struct EvalArgs {
 
 /// `centaur eval`.
 fn eval(args: EvalArgs) -> ExitCode {
-    let opts = centaur::eval::EvalOptions {
+    let opts = centaur_lab::eval::EvalOptions {
         checkpoint: args.checkpoint,
         config: args.config,
         env: args.env,
@@ -237,11 +239,11 @@ fn eval(args: EvalArgs) -> ExitCode {
         record: args.record,
         out: args.out,
         allow_env_change: args.allow_env_change,
-        fade: args.fade.as_deref().map(|f| centaur::hybrid::Fade { start: f[0], end: f[1] }),
+        fade: args.fade.as_deref().map(|f| centaur_lab::hybrid::Fade { start: f[0], end: f[1] }),
     };
-    match centaur::eval::run_eval(&opts) {
+    match centaur_lab::eval::run_eval(&opts) {
         Ok(report) => {
-            print!("{}", centaur::eval::markdown(&report));
+            print!("{}", centaur_lab::eval::markdown(&report));
             ExitCode::SUCCESS
         }
         Err(e) => {
@@ -254,7 +256,7 @@ fn eval(args: EvalArgs) -> ExitCode {
 /// Arguments of `centaur train`.
 #[derive(Args)]
 struct TrainArgs {
-    /// A run spec (TOML; see `centaur::spec`) giving the environment (`robot`; the hybrid is
+    /// A run spec (TOML; see `centaur_lab::spec`) giving the environment (`robot`; the hybrid is
     /// `<robot>-residual`, with its `[hybrid]`, `[controller]` and `[exploration]`), the learner
     /// and its `[learner]` settings, the budget and `[env]`; --steps, --envs, --eval-episodes and
     /// --eval-every override it, --env, --algo and --config go in it
@@ -294,7 +296,7 @@ struct TrainArgs {
     eval_episodes: Option<usize>,
     /// Environment steps between checkpoints (0: only at the end); each checkpoint starts
     /// fresh episodes so that a resumed run continues exactly.
-    #[arg(long, allow_negative_numbers = true, default_value_t = centaur::train::DEFAULT_CHECKPOINT_EVERY)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = centaur_lab::train::DEFAULT_CHECKPOINT_EVERY)]
     checkpoint_every: u64,
     /// Environment steps between deterministic evaluations of the checkpoint, written to
     /// evaluations.csv (0: only the final one); a multiple of --checkpoint-every [default:
@@ -414,7 +416,7 @@ fn robustness(args: RobustnessArgs) -> ExitCode {
             );
             let path = args.run.join(name);
             let text = serde_json::to_string_pretty(&rows).expect("rows serialise");
-            if let Err(e) = centaur::rundir::write_atomic(&path, &(text + "\n")) {
+            if let Err(e) = centaur_lab::rundir::write_atomic(&path, &(text + "\n")) {
                 eprintln!("error: {}: {e}", path.display());
                 return ExitCode::FAILURE;
             }
@@ -440,7 +442,7 @@ struct ControlArgs {
     /// pronk to 2.0; ant: stand, trot to 1.2, walk to 0.3; walker2d: stand, walk to 1.0;
     /// humanoid: stand (by stepping in place), walk to 0.5) and refuses the others with an
     /// error naming what it offers.
-    #[arg(long, value_parser = centaur::cli::gait_name, default_value = "trot")]
+    #[arg(long, value_parser = centaur_lab::cli::gait_name, default_value = "trot")]
     gait: Gait,
     /// Commanded forward speed (m/s).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
@@ -540,7 +542,7 @@ fn parse_speed_schedule(s: &str) -> Result<SpeedSchedule, String> {
 
 #[derive(Args)]
 struct CompareArgs {
-    /// A run spec (TOML; see `centaur::spec`): robot, learner, seeds, budget, `[env]`,
+    /// A run spec (TOML; see `centaur_lab::spec`): robot, learner, seeds, budget, `[env]`,
     /// `[learner]`, `[hybrid_learner]`, `[hybrid]`, `[controller]`, `[exploration]`. The flags below
     /// that it also sets override it; --env, --algo, --config and --hybrid-config go in it
     #[arg(long, value_name = "FILE", conflicts_with_all = ["env", "algo", "config", "hybrid_config"])]
@@ -656,12 +658,14 @@ fn compare_spec(args: &CompareArgs) -> Result<RunSpec, String> {
 
 /// The robot and the hybrid's setup of `centaur robustness`: the run's recorded ones with
 /// the flags over them (a change to what the policy was trained with is warned about).
-fn robustness_setup(args: &RobustnessArgs) -> Result<(String, centaur::hybrid::ResidualConfig), String> {
+fn robustness_setup(args: &RobustnessArgs) -> Result<(String, centaur_lab::hybrid::ResidualConfig), String> {
     let (recorded_env, recorded) = recorded_hybrid(&args.run).map_err(|e| e.to_string())?;
     let env = args.env.clone().unwrap_or(recorded_env);
     let residual = args.hybrid.tables().apply(recorded.clone()).map_err(|e| e.to_string())?;
-    let without_fade =
-        |r: &centaur::hybrid::ResidualConfig| centaur::hybrid::ResidualConfig { fade: None, ..r.clone() };
+    let without_fade = |r: &centaur_lab::hybrid::ResidualConfig| centaur_lab::hybrid::ResidualConfig {
+        fade: None,
+        ..r.clone()
+    };
     if without_fade(&residual) != without_fade(&recorded) {
         eprintln!(
             "warning: {} trained its hybrid with {recorded:?}; evaluating it with {residual:?}, as the flags ask",
