@@ -13,10 +13,9 @@ use crate::experiment::{
 use crate::hybrid::{Fade, ResidualConfig};
 use crate::mpc::Gait;
 use crate::spec::{
-    ControllerTable, ExplorationTable, HybridTableFields, HybridTables, Parts, Purpose, RampTable, RunSpec,
-    SCHEMA_VERSION, SteeringTable, Torques, run_file_tables,
+    ControllerTable, CountFlags, ExplorationTable, HybridTableFields, HybridTables, Parts, Purpose,
+    RampTable, RunSpec, SteeringTable, Torques,
 };
-use crate::train::read_config_file;
 
 /// The progress-bar style of the examples and the command line.
 pub fn progress_style() -> indicatif::ProgressStyle {
@@ -411,7 +410,7 @@ impl ExampleArgs {
     /// The experiment these arguments describe, with `defaults` filling in what they leave
     /// out. Fails (with a message) only when the `--config` file cannot be read.
     pub fn options(&self, defaults: &ExampleDefaults<'_>) -> Result<ExperimentOptions, String> {
-        let mut spec = match &self.spec {
+        let spec = match &self.spec {
             Some(path) => {
                 let spec = RunSpec::read(path, &self.sets).map_err(|e| e.to_string())?;
                 if spec.robot != defaults.env || spec.algo != defaults.algo.name() {
@@ -426,30 +425,25 @@ impl ExampleArgs {
                 }
                 spec
             }
-            None => {
-                let mut spec = RunSpec {
-                    schema: SCHEMA_VERSION,
-                    robot: defaults.env.to_string(),
-                    algo: defaults.algo.name().to_string(),
-                    steps: defaults.steps,
-                    envs: Some(defaults.envs as u64),
-                    // An example evaluates at the end only.
-                    eval_every: Some(0),
-                    ..RunSpec::default()
-                };
-                if let Some(path) = &self.config {
-                    let text = read_config_file(path).map_err(|e| e.to_string())?;
-                    let (settings, learner) =
-                        run_file_tables(&text, &path.display().to_string()).map_err(|e| e.to_string())?;
-                    spec.env = settings;
-                    spec.learner = Some(learner);
-                }
-                spec
-            }
+            None => RunSpec {
+                envs: Some(defaults.envs as u64),
+                // An example evaluates at the end only.
+                eval_every: Some(0),
+                ..RunSpec::from_flags(
+                    defaults.env,
+                    defaults.algo,
+                    defaults.steps,
+                    self.config.as_deref(),
+                    None,
+                )?
+            },
         };
-        spec.steps = self.steps.unwrap_or(spec.steps);
-        spec.envs = self.envs.map(|n| n as u64).or(spec.envs);
-        spec.eval_episodes = Some(self.eval_episodes as u64);
+        let spec = spec.with_counts(CountFlags {
+            steps: self.steps,
+            envs: self.envs.map(|n| n as u64),
+            eval_episodes: Some(self.eval_episodes as u64),
+            ..CountFlags::default()
+        });
         let resolved =
             spec.resolve_with(Purpose::Compare, &self.hybrid.tables()).map_err(|e| e.to_string())?;
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());

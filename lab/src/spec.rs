@@ -968,6 +968,73 @@ impl RunSpec {
     }
 }
 
+/// The counts a command's flags give over a spec's (`None`: the spec's).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CountFlags {
+    /// `--seeds`.
+    pub seeds: Option<u64>,
+    /// `--steps`.
+    pub steps: Option<u64>,
+    /// `--envs`.
+    pub envs: Option<u64>,
+    /// `--eval-episodes`.
+    pub eval_episodes: Option<u64>,
+    /// `--eval-every`.
+    pub eval_every: Option<u64>,
+}
+
+impl RunSpec {
+    /// The spec a command runs without `--spec`: `robot`, `algo` and `steps` from its flags,
+    /// a run file's `[env]` and learner keys (`--config`, see [`run_file_tables`]) and the
+    /// hybrid's own learner keys (`--hybrid-config`, which may hold no `[env]`: the settings
+    /// are every agent's).
+    pub fn from_flags(
+        robot: &str,
+        algo: AlgoKind,
+        steps: u64,
+        config: Option<&Path>,
+        hybrid_config: Option<&Path>,
+    ) -> Result<RunSpec, String> {
+        let tables = |path: &Path| {
+            let text = crate::train::read_config_file(path).map_err(|e| e.to_string())?;
+            run_file_tables(&text, &path.display().to_string()).map_err(|e| e.to_string())
+        };
+        let mut spec = RunSpec {
+            schema: SCHEMA_VERSION,
+            robot: robot.to_string(),
+            algo: algo.name().to_string(),
+            steps,
+            ..RunSpec::default()
+        };
+        if let Some(path) = config {
+            let (settings, learner) = tables(path)?;
+            spec.env = settings;
+            spec.learner = Some(learner);
+        }
+        if let Some(path) = hybrid_config {
+            let (settings, learner) = tables(path)?;
+            if !settings.is_empty() {
+                return Err(format!(
+                    "{}: --hybrid-config takes the hybrid's hyperparameters only; the robot's [env] settings go in --config, for all three agents",
+                    path.display()
+                ));
+            }
+            spec.hybrid_learner = Some(learner);
+        }
+        Ok(spec)
+    }
+
+    /// The spec with the counts the flags give over its own.
+    pub fn with_counts(mut self, flags: CountFlags) -> RunSpec {
+        self.seeds = flags.seeds.or(self.seeds);
+        self.steps = flags.steps.unwrap_or(self.steps);
+        self.envs = flags.envs.or(self.envs);
+        self.eval_episodes = flags.eval_episodes.or(self.eval_episodes);
+        self.eval_every = flags.eval_every.or(self.eval_every);
+        self
+    }
+}
+
 /// A run file (`--config FILE`: the learner's keys over its defaults, an optional `[env]`)
 /// as a spec's `[env]` settings and `[learner]` table (`base = "defaults"`), so that a
 /// command given a run file resolves as the same spec.

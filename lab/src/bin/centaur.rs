@@ -13,8 +13,8 @@ use centaur_lab::experiment::Phase;
 use centaur_lab::experiment::{
     Condition, RobustnessOptions, recorded_hybrid, robustness_table, run_robustness,
 };
-use centaur_lab::spec::{Purpose, RunSpec, SCHEMA_VERSION, run_file_tables};
-use centaur_lab::train::{TrainOptions, read_config_file, read_run_record, resume, train};
+use centaur_lab::spec::{CountFlags, Purpose, RunSpec};
+use centaur_lab::train::{TrainOptions, read_run_record, resume, train};
 use centaur_mpc::{Gait, MpcSolver};
 use centaur_rl::AlgoKind;
 use clap::{Args, Parser, Subcommand};
@@ -335,11 +335,13 @@ fn train_options(args: &TrainArgs, out: PathBuf) -> Result<TrainOptions, String>
             spec: None,
         });
     };
-    let mut spec = RunSpec::read(path, &args.sets).map_err(|e| e.to_string())?;
-    spec.steps = args.steps.unwrap_or(spec.steps);
-    spec.envs = args.envs.map(|n| n as u64).or(spec.envs);
-    spec.eval_episodes = args.eval_episodes.map(|n| n as u64).or(spec.eval_episodes);
-    spec.eval_every = args.eval_every.or(spec.eval_every);
+    let spec = RunSpec::read(path, &args.sets).map_err(|e| e.to_string())?.with_counts(CountFlags {
+        seeds: None,
+        steps: args.steps,
+        envs: args.envs.map(|n| n as u64),
+        eval_episodes: args.eval_episodes.map(|n| n as u64),
+        eval_every: args.eval_every,
+    });
     let resolved = spec.resolve(Purpose::Train).map_err(|e| e.to_string())?;
     Ok(TrainOptions {
         env: resolved.robot.clone(),
@@ -615,45 +617,23 @@ struct CompareArgs {
 /// flags themselves (`--config` as a `[learner]` over the defaults and its `[env]`), with
 /// `--seeds`, `--steps`, `--envs`, `--eval-episodes` and `--eval-every` over either.
 fn compare_spec(args: &CompareArgs) -> Result<RunSpec, String> {
-    let mut spec = match &args.spec {
+    let spec = match &args.spec {
         Some(path) => RunSpec::read(path, &args.sets).map_err(|e| e.to_string())?,
-        None => {
-            let algo = args.algo.expect("clap requires --algo without --spec");
-            let mut spec = RunSpec {
-                schema: SCHEMA_VERSION,
-                robot: args.env.clone().expect("clap requires --env without --spec"),
-                algo: algo.name().to_string(),
-                steps: args.steps.expect("clap requires --steps without --spec"),
-                ..RunSpec::default()
-            };
-            if let Some(path) = &args.config {
-                let text = read_config_file(path).map_err(|e| e.to_string())?;
-                let (settings, learner) =
-                    run_file_tables(&text, &path.display().to_string()).map_err(|e| e.to_string())?;
-                spec.env = settings;
-                spec.learner = Some(learner);
-            }
-            if let Some(path) = &args.hybrid_config {
-                let text = read_config_file(path).map_err(|e| e.to_string())?;
-                let (settings, learner) =
-                    run_file_tables(&text, &path.display().to_string()).map_err(|e| e.to_string())?;
-                if !settings.is_empty() {
-                    return Err(format!(
-                        "{}: --hybrid-config takes the hybrid's hyperparameters only; the robot's [env] settings go in --config, for all three agents",
-                        path.display()
-                    ));
-                }
-                spec.hybrid_learner = Some(learner);
-            }
-            spec
-        }
+        None => RunSpec::from_flags(
+            args.env.as_deref().expect("clap requires --env without --spec"),
+            args.algo.expect("clap requires --algo without --spec"),
+            args.steps.expect("clap requires --steps without --spec"),
+            args.config.as_deref(),
+            args.hybrid_config.as_deref(),
+        )?,
     };
-    spec.seeds = args.seeds.or(spec.seeds);
-    spec.steps = args.steps.unwrap_or(spec.steps);
-    spec.envs = args.envs.or(spec.envs);
-    spec.eval_episodes = args.eval_episodes.or(spec.eval_episodes);
-    spec.eval_every = args.eval_every.or(spec.eval_every);
-    Ok(spec)
+    Ok(spec.with_counts(CountFlags {
+        seeds: args.seeds,
+        steps: args.steps,
+        envs: args.envs,
+        eval_episodes: args.eval_episodes,
+        eval_every: args.eval_every,
+    }))
 }
 
 /// The robot and the hybrid's setup of `centaur robustness`: the run's recorded ones with
