@@ -995,8 +995,12 @@ impl RunSpec {
         config: Option<&Path>,
         hybrid_config: Option<&Path>,
     ) -> Result<RunSpec, String> {
+        // Read as `centaur train` reads a run file (the same bound, the same messages).
         let tables = |path: &Path| {
-            let text = crate::train::read_config_file(path).map_err(|e| e.to_string())?;
+            let text = crate::rundir::read_text_bounded(path, MAX_SPEC_BYTES).map_err(|e| match e {
+                crate::rundir::ReadError::Io(source) => format!("{}: {source}", path.display()),
+                other => format!("config {}: {other}", path.display()),
+            })?;
             run_file_tables(&text, &path.display().to_string()).map_err(|e| e.to_string())
         };
         let mut spec = RunSpec {
