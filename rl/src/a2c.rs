@@ -5,7 +5,7 @@
 //!
 //! ```text
 //! R_t = r_t + γ r_{t+1} + … + γ^{k−1} r_{t+k−1} + γ^k V(s_{t+k})   (cut at episode ends)
-//! Â_t = R_t − V(s_t)
+//! Â_t = R_t − V(s_t)      (gae_lambda = 1; below 1, GAE(γ, λ) over the rollout, as SB3)
 //! L   = −mean[Â_t log π(a_t|s_t)] + c_v mean[(V(s_t) − R_t)²] − c_e H[π]
 //! ```
 //!
@@ -20,7 +20,7 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::algorithm::{Algorithm, ExplorationFloor};
-use crate::buffer::{RolloutBuffer, n_step_returns};
+use crate::buffer::{RolloutBuffer, gae, n_step_returns};
 use crate::checkpoint::Checkpoint;
 use crate::distributions::{gaussian_entropy, gaussian_log_prob, gaussian_log_prob_grad};
 use crate::error::{RlError, check, check_critic_lr, check_loss_terms, check_norm_clips};
@@ -59,6 +59,9 @@ pub struct A2cConfig {
     pub optimizer_eps: f64,
     /// Discount γ (default: 0.99).
     pub gamma: f64,
+    /// GAE's λ (Schulman et al. 2016) over each rollout; 1 gives the n-step returns above,
+    /// SB3's default (default: 1.0).
+    pub gae_lambda: f64,
     /// Normalise advantages over the batch (default: false).
     pub norm_adv: bool,
     /// Entropy coefficient `c_e` (default: 0.0).
@@ -107,6 +110,7 @@ impl Default for A2cConfig {
             rmsprop_alpha: 0.99,
             optimizer_eps: 1e-5,
             gamma: 0.99,
+            gae_lambda: 1.0,
             norm_adv: false,
             ent_coef: 0.0,
             vf_coef: 0.5,
@@ -156,6 +160,7 @@ impl A2cConfig {
             "must be positive",
         )?;
         check((0.0..=1.0).contains(&self.gamma), A, "gamma", self.gamma, "must be in [0, 1]")?;
+        check((0.0..=1.0).contains(&self.gae_lambda), A, "gae_lambda", self.gae_lambda, "must be in [0, 1]")?;
         check_loss_terms(A, self.ent_coef, self.vf_coef, self.max_grad_norm)?;
         check_norm_clips(A, self.clip_obs, self.clip_reward)?;
         check(
@@ -352,9 +357,23 @@ impl A2c {
         )
     }
 
-    /// n-step returns and advantages `R − V` of the stored rollout.
+    /// n-step returns and advantages `R − V` of the stored rollout (GAE below λ = 1).
     fn compute_advantages(&mut self) {
         let r = &mut self.rollout;
+        if self.config.gae_lambda < 1.0 {
+            gae(
+                &r.rewards,
+                &r.values,
+                &r.ends,
+                &r.final_values,
+                &self.work.collector.last_values,
+                self.config.gamma as f32,
+                self.config.gae_lambda as f32,
+                &mut r.advantages,
+                &mut r.returns,
+            );
+            return;
+        }
         n_step_returns(
             &r.rewards,
             &r.ends,
@@ -646,5 +665,40 @@ impl PolicyValue for Nets<'_> {
     }
     fn value(&mut self, obs: &[f32], n: usize) -> &[f32] {
         self.critic.forward(self.critic_buf, obs, n)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use centaur_gym::Env;
+    use centaur_gym::pendulum::Pendulum;
+
+    /// At λ = 1 the advantages are the n-step returns less the values; below 1 they are
+    /// GAE(γ, λ) of the same rollout, as [`gae`] computes it, and differ.
+    #[test]
+    fn a_gae_lambda_below_one_gives_gae_advantages() {
+        let mut env =
+            VecEnv::new((0..2).map(|_| Box::new(Pendulum::new()) as Box<dyn Env>).collect(), 1).unwrap();
+        let mut a2c = A2c::for_env(A2cConfig { n_steps: 16, ..A2cConfig::default() }, &env).unwrap();
+        let settings = a2c.rollout_settings();
+        a2c.work.collector.start(&mut env, &settings, &mut a2c.obs_rms, 0).unwrap();
+        a2c.collect_rollout(&mut env, &mut EpisodeWindow::default()).unwrap();
+        a2c.compute_advantages();
+        let r = &a2c.rollout;
+        let n_step: Vec<f32> = (0..r.len()).map(|k| r.returns[k] - r.values[k]).collect();
+        assert_eq!(r.advantages, n_step);
+        a2c.config.gae_lambda = 0.9;
+        a2c.compute_advantages();
+        let r = &a2c.rollout;
+        let (mut advantages, mut returns) = (vec![0.0; r.len()], vec![0.0; r.len()]);
+        let last = &a2c.work.collector.last_values;
+        gae(&r.rewards, &r.values, &r.ends, &r.final_values, last, 0.99, 0.9, &mut advantages, &mut returns);
+        assert_eq!((&r.advantages, &r.returns), (&advantages, &returns));
+        assert_ne!(r.advantages, n_step);
+        assert_eq!(r.len(), 32);
+        // Out of [0, 1]: refused, naming the key.
+        let bad = A2cConfig { gae_lambda: 1.5, ..A2cConfig::default() }.validate().unwrap_err();
+        assert!(bad.to_string().contains("gae_lambda"), "{bad}");
     }
 }
